@@ -1,0 +1,74 @@
+"""``thermoswarm <verb>``: simulate, bench, analyze, track, evaluate, reproduce.
+
+The CLI is thin: each verb parses its options, calls one library function and prints.
+Verbs live in modules of this package and are imported only when invoked, so that
+``thermoswarm --help`` and ``--version`` answer at once (no Numba, no PyTorch).
+
+Every :class:`~thermoswarm.errors.ThermoswarmError` raised below a verb is printed as
+``error: <one line>`` on stderr with exit status 2; click's own usage errors also exit 2.
+"""
+
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import sys
+
+import click
+
+from thermoswarm import __version__
+from thermoswarm.errors import ThermoswarmError
+
+# verb -> "module:attribute"; a verb whose module is absent is not listed.
+_COMMANDS: dict[str, str] = {
+    "simulate": "thermoswarm.cli.simulate:simulate",
+    "scenarios": "thermoswarm.cli.simulate:scenarios",
+    "bench": "thermoswarm.cli.bench:bench",
+    "analyze": "thermoswarm.cli.analyze:analyze",
+    "track": "thermoswarm.cli.track:track",
+    "evaluate": "thermoswarm.cli.track:evaluate",
+    "reproduce": "thermoswarm.cli.reproduce:reproduce",
+    "sweep": "thermoswarm.cli.sweep:sweep",
+}
+
+
+class LazyGroup(click.Group):
+    """A group whose sub-commands are imported on first use."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        names = [
+            name
+            for name, target in _COMMANDS.items()
+            if importlib.util.find_spec(target.split(":")[0]) is not None
+        ]
+        return sorted(set(names) | set(super().list_commands(ctx)))
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name in _COMMANDS:
+            module, attr = _COMMANDS[name].split(":")
+            if importlib.util.find_spec(module) is None:
+                return None
+            return getattr(importlib.import_module(module), attr)
+        return super().get_command(ctx, name)
+
+    def invoke(self, ctx: click.Context):  # type: ignore[override]
+        try:
+            return super().invoke(ctx)
+        except ThermoswarmError as exc:
+            click.echo(f"error: {exc}", err=True)
+            ctx.exit(exc.exit_code)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, "--version", prog_name="thermoswarm")
+def cli() -> None:
+    """Maximum-entropy swarms: simulate robots, analyse trajectories, track ants."""
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console-script entry point."""
+    try:
+        cli.main(args=argv, prog_name="thermoswarm", standalone_mode=True)
+    except KeyboardInterrupt:  # pragma: no cover - interactive
+        click.echo("interrupted", err=True)
+        sys.exit(130)

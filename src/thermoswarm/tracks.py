@@ -1,0 +1,201 @@
+"""The one trajectory format: an :class:`xarray.Dataset` in the ``movement`` poses schema.
+
+Every source -- the simulator, the video tracker, the importers of other tools --
+produces this, and the analysis reads only this.
+
+Schema
+------
+``position``   (time, space, keypoints, individuals), float, millimetres
+``confidence`` (time, keypoints, individuals), float in [0, 1] or NaN; optional
+coordinates    ``time`` (seconds when ``attrs["time_unit"] == "seconds"``, else frame
+               numbers), ``space = ["x", "y"]``, ``keypoints`` (names, default
+               ``["centroid"]``), ``individuals`` (names, default ``id_0, id_1, ...``)
+attributes     ``ds_type = "poses"``, ``source_software``, ``time_unit``
+               (``"seconds"`` or ``"frames"``), ``space_unit = "mm"``, ``fps`` (only when
+               the sampling is regular and known), ``source_file`` (when read from one)
+
+Missing samples are NaN positions.  Further variables (a robot's phase or
+temperature, region labels) may be added with dimensions drawn from the above.
+The dimension order and names match ``movement`` (``movement.validators.datasets``),
+so a dataset can be handed to ``movement``'s functions and back.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from thermoswarm.errors import InputError
+
+DIMS = ("time", "space", "keypoints", "individuals")
+CONF_DIMS = ("time", "keypoints", "individuals")
+
+__all__ = [
+    "DIMS",
+    "CONF_DIMS",
+    "make_tracks",
+    "validate_tracks",
+    "times_seconds",
+    "centroid",
+]
+
+
+def make_tracks(
+    position: np.ndarray,
+    *,
+    time: np.ndarray | None = None,
+    fps: float | None = None,
+    individuals: Sequence[str] | None = None,
+    keypoints: Sequence[str] | None = None,
+    confidence: np.ndarray | None = None,
+    source_software: str = "thermoswarm",
+    source_file: str | None = None,
+    attrs: dict[str, Any] | None = None,
+) -> xr.Dataset:
+    """Build a trajectory dataset.
+
+    Parameters
+    ----------
+    position
+        Array ``(time, 2, keypoints, individuals)`` in mm, or ``(time, 2, individuals)``
+        for a single keypoint (the centroid).
+    time
+        Sample times in **seconds**, strictly increasing.  If omitted, ``fps`` gives
+        ``time = arange(n) / fps``; if both are omitted the time coordinate holds frame
+        numbers and ``time_unit`` is ``"frames"`` (the analysis will ask for an fps).
+    fps
+        Frames per second of regular sampling.  Stored as an attribute.
+    individuals, keypoints
+        Names; defaults ``id_0, id_1, ...`` and ``centroid`` / ``keypoint_i``.
+    confidence
+        Array ``(time, keypoints, individuals)`` or ``(time, individuals)``.
+    source_software, source_file, attrs
+        Provenance and further attributes.
+    """
+    position = np.asarray(position)
+    if position.ndim == 3:
+        position = position[:, :, None, :]
+    if position.ndim != 4 or position.shape[1] != 2:
+        raise InputError(
+            f"position must have shape (time, 2, keypoints, individuals), got {position.shape}"
+        )
+    if not np.issubdtype(position.dtype, np.floating):
+        position = position.astype(np.float64)
+    n_t, _, n_k, n_i = position.shape
+    if individuals is None:
+        individuals = [f"id_{i}" for i in range(n_i)]
+    if keypoints is None:
+        keypoints = ["centroid"] if n_k == 1 else [f"keypoint_{k}" for k in range(n_k)]
+    individuals = [str(x) for x in individuals]
+    keypoints = [str(x) for x in keypoints]
+    if len(individuals) != n_i or len(set(individuals)) != n_i:
+        raise InputError(f"need {n_i} unique individual names, got {len(set(individuals))}")
+    if len(keypoints) != n_k or len(set(keypoints)) != n_k:
+        raise InputError(f"need {n_k} unique keypoint names, got {len(set(keypoints))}")
+    if fps is not None and not (np.isfinite(fps) and fps > 0):
+        raise InputError(f"fps must be a positive number, got {fps!r}")
+    if time is not None:
+        t = np.asarray(time, dtype=np.float64)
+        time_unit = "seconds"
+    elif fps is not None:
+        t = np.arange(n_t, dtype=np.float64) / float(fps)
+        time_unit = "seconds"
+    else:
+        t = np.arange(n_t, dtype=np.float64)
+        time_unit = "frames"
+    if t.shape != (n_t,):
+        raise InputError(f"time must have {n_t} entries, got shape {t.shape}")
+    data_vars: dict[str, Any] = {"position": (DIMS, position)}
+    if confidence is not None:
+        confidence = np.asarray(confidence, dtype=np.float32)
+        if confidence.ndim == 2:
+            confidence = confidence[:, None, :]
+        if confidence.shape != (n_t, n_k, n_i):
+            raise InputError(
+                f"confidence must have shape {(n_t, n_k, n_i)}, got {confidence.shape}"
+            )
+        data_vars["confidence"] = (CONF_DIMS, confidence)
+    all_attrs: dict[str, Any] = {
+        "ds_type": "poses",
+        "source_software": source_software,
+        "time_unit": time_unit,
+        "space_unit": "mm",
+    }
+    if fps is not None:
+        all_attrs["fps"] = float(fps)
+    if source_file is not None:
+        all_attrs["source_file"] = str(source_file)
+    if attrs:
+        all_attrs.update({k: v for k, v in attrs.items() if v is not None})
+    return xr.Dataset(
+        data_vars,
+        coords={"time": t, "space": ["x", "y"], "keypoints": keypoints, "individuals": individuals},
+        attrs=all_attrs,
+    )
+
+
+def validate_tracks(ds: Any, *, source: str | None = None) -> xr.Dataset:
+    """Check that ``ds`` follows the trajectory format; return it unchanged.
+
+    Raises :class:`InputError` with a one-line message naming ``source`` (a file name)
+    and the first problem found.
+    """
+    where = f"{source}: " if source else ""
+    if not isinstance(ds, xr.Dataset):
+        raise InputError(f"{where}expected an xarray Dataset, got {type(ds).__name__}")
+    if "position" not in ds:
+        raise InputError(f"{where}no 'position' variable (expected the movement poses schema)")
+    pos = ds["position"]
+    if pos.dims != DIMS:
+        raise InputError(f"{where}'position' must have dims {DIMS}, got {pos.dims}")
+    if ds.sizes["space"] != 2:
+        raise InputError(f"{where}'space' must have 2 entries (x, y), got {ds.sizes['space']}")
+    if "confidence" in ds and ds["confidence"].dims != CONF_DIMS:
+        raise InputError(
+            f"{where}'confidence' must have dims {CONF_DIMS}, got {ds['confidence'].dims}"
+        )
+    unit = ds.attrs.get("space_unit", "mm")
+    if unit != "mm":
+        raise InputError(f"{where}positions must be in mm, got space_unit={unit!r}")
+    tu = ds.attrs.get("time_unit", "seconds")
+    if tu not in ("seconds", "frames"):
+        raise InputError(f"{where}time_unit must be 'seconds' or 'frames', got {tu!r}")
+    return ds
+
+
+def times_seconds(ds: xr.Dataset, fps: float | None = None) -> np.ndarray:
+    """Sample times in seconds.
+
+    Uses the time coordinate when it is in seconds; otherwise frame numbers divided by
+    ``fps`` (the argument, else ``ds.attrs["fps"]``).  Raises :class:`InputError` when the
+    dataset has frame numbers only and no frame rate is known.
+    """
+    t = np.asarray(ds["time"].values, dtype=np.float64)
+    if ds.attrs.get("time_unit", "seconds") == "seconds" and fps is None:
+        return t
+    rate = fps if fps is not None else ds.attrs.get("fps")
+    if rate is None:
+        src = ds.attrs.get("source_file", "the input")
+        raise InputError(f"{src} has frame numbers but no frame rate; pass --fps")
+    if not (np.isfinite(rate) and rate > 0):
+        raise InputError(f"fps must be a positive number, got {rate!r}")
+    if ds.attrs.get("time_unit", "seconds") == "seconds":
+        # The time coordinate is already in seconds; an explicit fps only fills gaps.
+        return t
+    return t / float(rate)
+
+
+def centroid(ds: xr.Dataset) -> xr.DataArray:
+    """Position ``(time, space, individuals)`` of each individual's reference point.
+
+    The keypoint named ``centroid`` (or ``body``) when present, otherwise the mean of the
+    keypoints that are present at each time.
+    """
+    kps = [str(k) for k in ds["keypoints"].values]
+    for name in ("centroid", "body", "thorax"):
+        if name in kps:
+            return ds["position"].sel(keypoints=name, drop=True)
+    return ds["position"].mean("keypoints", skipna=True)
