@@ -24,16 +24,18 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from thermoswarm.maxent import speed_law, wrap_angle
+from thermoswarm.maxent import speed_law
 
 __all__ = ["Observation", "Action", "Policy", "BoltzmannUniform"]
 
 
-@dataclass(frozen=True)
 class Observation:
     """What the robots that start a control period know.
 
-    All arrays have one entry per acting robot, in the engine's current order.
+    All arrays have one entry per acting robot, in the engine's current order.  Fields
+    are gathered from the engine state only when a policy reads them (a policy that
+    needs only ``zero_heading`` costs nothing for the rest), so construct observations
+    with keyword arguments: each value may be an array or a zero-argument callable.
 
     Attributes
     ----------
@@ -61,16 +63,28 @@ class Observation:
         Control period (s).
     """
 
-    time: float
-    index: np.ndarray
-    ids: np.ndarray
-    position: np.ndarray
-    heading: np.ndarray
-    speed: np.ndarray
-    zero_heading: np.ndarray
-    light: np.ndarray
-    group: np.ndarray
-    tau: float
+    _FIELDS = ("ids", "position", "heading", "speed", "zero_heading", "light", "group")
+
+    def __init__(self, *, time: float, index: np.ndarray, tau: float, **fields) -> None:
+        unknown = set(fields) - set(self._FIELDS)
+        if unknown:
+            raise TypeError(f"unknown observation fields {sorted(unknown)}")
+        self.time = float(time)
+        self.index = np.asarray(index)
+        self.tau = float(tau)
+        self._src = fields
+
+    def __getattr__(self, name: str):
+        if name in Observation._FIELDS:
+            try:
+                value = self._src[name]
+            except KeyError:
+                raise AttributeError(f"observation has no {name!r}") from None
+            if callable(value):
+                value = value()
+            self.__dict__[name] = value  # cache: later reads skip __getattr__
+            return value
+        raise AttributeError(name)
 
     @property
     def n(self) -> int:
@@ -123,4 +137,5 @@ class BoltzmannUniform:
     def act(self, obs: Observation, rng: np.random.Generator) -> Action:
         v = speed_law(self.speed_law, self.kT).sample(rng, obs.n)
         theta = rng.uniform(-self.half_width, self.half_width, obs.n)
-        return Action(heading=wrap_angle(obs.zero_heading + theta), speed=v)
+        # headings need not be wrapped: the engine uses cos/sin, recordings wrap
+        return Action(heading=obs.zero_heading + theta, speed=v)

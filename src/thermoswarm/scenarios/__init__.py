@@ -1,0 +1,42 @@
+"""The paper's experiments as ready scenarios, registered by name.
+
+``thermoswarm simulate NAME`` runs one; ``thermoswarm scenarios`` lists them.  Each
+scenario is one module of this package; the registry imports a module only when its
+scenario is asked for.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+from thermoswarm.errors import ConfigError
+from thermoswarm.scenarios.base import Scenario
+
+# name -> module that defines and registers it
+_MODULES: dict[str, str] = {
+    "box": "thermoswarm.scenarios.box",
+}
+_REGISTRY: dict[str, type[Scenario]] = {}
+
+
+def register(cls: type[Scenario]) -> type[Scenario]:
+    """Class decorator: make a scenario available by its ``name``."""
+    _REGISTRY[cls.name] = cls
+    return cls
+
+
+def names() -> list[str]:
+    """Names of all scenarios."""
+    return sorted(set(_MODULES) | set(_REGISTRY))
+
+
+def get(name: str) -> type[Scenario]:
+    """The scenario class called ``name``; a ConfigError lists the known names."""
+    if name not in _REGISTRY and name in _MODULES:
+        importlib.import_module(_MODULES[name])
+    if name not in _REGISTRY:
+        raise ConfigError(f"unknown scenario {name!r}; expected one of: {', '.join(names())}")
+    return _REGISTRY[name]
+
+
+__all__ = ["Scenario", "register", "names", "get"]

@@ -1,0 +1,153 @@
+"""What every scenario has: parameter sections, the setup it builds, and its hooks.
+
+A scenario is one file in this package: a frozen ``Params`` dataclass with the paper's
+defaults (validated in ``__post_init__`` with :func:`thermoswarm.config.check`), and a
+:class:`Scenario` subclass registered by name with :func:`thermoswarm.scenarios.register`.
+The generic runner (:mod:`thermoswarm.scenarios.runner`) builds it, steps the engine,
+records frames, calls the hooks and writes the outputs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+import xarray as xr
+
+from thermoswarm.config import check
+from thermoswarm.policy import Policy
+from thermoswarm.sim.engine import EngineParams, Sensing, Simulator, SwarmState
+from thermoswarm.sim.world import World
+
+__all__ = ["Numerics", "Recording", "Setup", "Scenario", "wrap"]
+
+
+@dataclass(frozen=True)
+class Numerics:
+    """The ``[engine]`` section: numerical settings (see :class:`EngineParams`)."""
+
+    dt: float = 0.1
+    iterations: int = 2
+    max_iterations: int = 50
+    overlap_tol: float = 0.005
+    relax: float = 1.0
+    skin: float = 0.1
+    cell_size: float | None = None
+    desync: bool = True
+
+    def engine(self, *, tau: float, radius: float, mode: str = "overdamped",
+               drag: float = 1.0) -> EngineParams:
+        return EngineParams(dt=self.dt, tau=tau, radius=radius, mode=mode,  # type: ignore[arg-type]
+                            iterations=self.iterations, max_iterations=self.max_iterations,
+                            overlap_tol=self.overlap_tol, relax=self.relax, drag=drag,
+                            skin=self.skin, cell_size=self.cell_size, desync=self.desync)
+
+
+@dataclass(frozen=True)
+class Recording:
+    """The ``[record]`` section.
+
+    Attributes
+    ----------
+    interval : float
+        Simulated seconds between recorded frames (a multiple of ``engine.dt``).
+    block : int
+        Frames per committed block: a killed run loses at most this many frames.
+    dtype : {"f8", "f4"}
+        Position precision in the Zarr store.
+    netcdf : bool
+        Also export ``tracks.nc`` at the end.
+    """
+
+    interval: float = 1.0
+    block: int = 50
+    dtype: Literal["f8", "f4"] = "f8"
+    netcdf: bool = True
+
+    def __post_init__(self) -> None:
+        check(self.interval > 0 and math.isfinite(self.interval), "record.interval",
+              "a positive number of seconds", self.interval)
+        check(1 <= self.block <= 100_000, "record.block", "an integer in [1, 100000]",
+              self.block)
+
+
+@dataclass
+class Setup:
+    """What a scenario builds: the world, the engine, the policy and the initial swarm."""
+
+    world: World
+    engine: EngineParams
+    policy: Policy | None
+    positions: np.ndarray
+    sensing: Sensing | None = None
+    group: np.ndarray | None = None
+    headings: np.ndarray | None = None
+    velocities: np.ndarray | None = None
+    info: dict[str, Any] = field(default_factory=dict)
+
+    def simulator(self) -> Simulator:
+        return Simulator(self.world, self.engine, self.policy, self.sensing)
+
+
+def wrap(a: np.ndarray) -> np.ndarray:
+    """Angles into [-pi, pi)."""
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+class Scenario:
+    """Base class: override :meth:`build`, optionally the hooks.
+
+    Hooks run in the runner's loop; every piece of state they keep must live in the
+    accumulator dict ``acc`` (NumPy arrays), which is saved in checkpoints, so that a
+    resumed run gives the same metrics as an uninterrupted one.
+    """
+
+    name: ClassVar[str]
+    description: ClassVar[str] = ""
+    Params: ClassVar[type]
+
+    def __init__(self, params: Any) -> None:
+        self.params = params
+
+    # -- what to build
+    def build(self, rng: np.random.Generator) -> Setup:
+        raise NotImplementedError
+
+    @property
+    def duration(self) -> float:
+        return float(self.params.duration)
+
+    @property
+    def recording(self) -> Recording:
+        return self.params.record
+
+    # -- per-frame variables besides position: name -> (dims, shape without time, dtype)
+    def extras(self, setup: Setup) -> dict[str, tuple[tuple[str, ...], tuple[int, ...], str]]:
+        n = setup.positions.shape[0]
+        return {"heading": (("time", "individuals"), (n,), "f4"),
+                "speed": (("time", "individuals"), (n,), "f4")}
+
+    def extra_coords(self, setup: Setup) -> dict[str, list[str]]:
+        return {}
+
+    def frame(self, sim: Simulator, state: SwarmState, acc: dict[str, np.ndarray]
+              ) -> dict[str, np.ndarray]:
+        """Per-frame extras in id order."""
+        if sim.params.mode == "inertial":
+            v = state.by_id(state.vel)
+            return {"heading": np.arctan2(v[:, 1], v[:, 0]), "speed": np.hypot(v[:, 0], v[:, 1])}
+        return {"heading": wrap(state.by_id(state.heading)), "speed": state.by_id(state.speed)}
+
+    # -- online accumulation (every step)
+    def init_acc(self, setup: Setup, sim: Simulator, state: SwarmState) -> dict[str, np.ndarray]:
+        return {}
+
+    def observe(self, sim: Simulator, state: SwarmState, acc: dict[str, np.ndarray]) -> None:
+        pass
+
+    # -- the end
+    def metrics(self, setup: Setup, acc: dict[str, np.ndarray], tracks: xr.Dataset,
+                sim: Simulator, state: SwarmState) -> dict[str, Any]:
+        return {}

@@ -1,0 +1,234 @@
+"""Run a scenario into a directory, resumably.
+
+``run(config, DIR)`` writes
+
+- ``DIR/config.toml``  the fully resolved config (scenario, seed, every parameter);
+- ``DIR/tracks.zarr``  frames streamed during the run (see :mod:`thermoswarm.sim.recorder`);
+- ``DIR/metrics.json`` the scenario's metrics, plus a ``performance`` section;
+- ``DIR/tracks.nc``    the trajectories in the exchange format (netCDF).
+
+Everything is validated before anything is written: a bad key or value, a swarm that
+cannot be placed, or a missing parent directory raises a one-line
+:class:`~thermoswarm.errors.ThermoswarmError` and leaves no files behind.
+``resume(DIR)`` continues a killed run from its last committed block; the result is
+identical to an uninterrupted run with the same seed.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from thermoswarm import __version__
+from thermoswarm.config import (
+    apply_overrides,
+    dumps_toml,
+    from_mapping,
+    load_toml,
+    parse_overrides,
+    to_dict,
+)
+from thermoswarm.errors import ConfigError, InputError, OutputError
+from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
+from thermoswarm.scenarios import get
+from thermoswarm.scenarios.base import Scenario, Setup
+from thermoswarm.sim.engine import Simulator, SwarmState
+from thermoswarm.sim.recorder import ZarrRecorder, load_checkpoint, read_marker
+
+__all__ = ["RunConfig", "resolve", "run", "resume", "open_run_tracks", "build"]
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """A scenario name, its validated parameters and the seed."""
+
+    scenario: str
+    params: Any
+    seed: int = 0
+
+    def to_toml(self) -> str:
+        return dumps_toml({"scenario": self.scenario, "seed": self.seed,
+                           **to_dict(self.params)})
+
+
+def resolve(scenario: str | None = None, *, config_file: str | Path | None = None,
+            overrides: tuple[str, ...] | list[str] = (), seed: int | None = None) -> RunConfig:
+    """Merge a TOML file, ``--set`` overrides and ``--seed`` into a validated RunConfig."""
+    data: dict[str, Any] = dict(load_toml(config_file)) if config_file else {}
+    file_name = data.pop("scenario", None)
+    file_seed = data.pop("seed", None)
+    over = parse_overrides(overrides)
+    over_seed = over.pop("seed", None)
+    over.pop("scenario", None)
+    name = scenario or file_name
+    if name is None:
+        raise ConfigError("no scenario given (pass SCENARIO or set scenario = ... in the config)")
+    if scenario and file_name and scenario != file_name:
+        raise ConfigError(f"{config_file}: scenario = {file_name!r} but {scenario!r} was asked")
+    cls = get(str(name))
+    source = " and ".join(s for s in (str(config_file) if config_file else "",
+                                      "--set" if overrides else "") if s) or None
+    params = from_mapping(cls.Params, apply_overrides(data, over), source=source)
+    s = seed if seed is not None else over_seed if over_seed is not None else file_seed
+    s = 0 if s is None else s
+    if isinstance(s, bool) or not isinstance(s, int) or s < 0:
+        raise ConfigError(f"seed must be a non-negative integer, got {s!r}")
+    return RunConfig(str(name), params, int(s))
+
+
+def build(cfg: RunConfig) -> tuple[Scenario, Setup, Simulator, SwarmState]:
+    """Build the scenario and the initial state (all draws from the seed's generator)."""
+    scen = get(cfg.scenario)(cfg.params)
+    rng = np.random.default_rng(cfg.seed)
+    setup = scen.build(rng)
+    sim = setup.simulator()
+    state = sim.init(setup.positions, rng, headings=setup.headings, group=setup.group,
+                     velocities=setup.velocities)
+    return scen, setup, sim, state
+
+
+def _steps(scen: Scenario, sim: Simulator) -> tuple[int, int]:
+    dt = sim.params.dt
+    total = int(math.floor(scen.duration / dt + 1e-9))
+    every = scen.recording.interval / dt
+    if abs(every - round(every)) > 1e-6 * max(1.0, every) or round(every) < 1:
+        raise ConfigError(f"record.interval must be a multiple of engine.dt = {dt}, "
+                          f"got {scen.recording.interval}")
+    if total < 1:
+        raise ConfigError(f"duration must be at least one time step ({dt} s)")
+    return total, int(round(every))
+
+
+def _checkpoint(cfg: RunConfig, state: SwarmState, acc: dict[str, np.ndarray]) -> dict[str, Any]:
+    out: dict[str, Any] = dict(state.to_arrays())
+    out.update({f"acc:{k}": v for k, v in acc.items()})
+    out["json:rng"] = state.rng.bit_generator.state
+    out["json:meta"] = {"scenario": cfg.scenario, "seed": cfg.seed, "step": state.step}
+    return out
+
+
+def _restore(ck: dict[str, Any]) -> tuple[SwarmState, dict[str, np.ndarray]]:
+    bitgen = np.random.PCG64()
+    bitgen.state = ck["json:rng"]
+    state = SwarmState.from_arrays(ck, np.random.Generator(bitgen))
+    acc = {k[4:]: np.array(v) for k, v in ck.items() if k.startswith("acc:")}
+    return state, acc
+
+
+def open_run_tracks(store: str | Path) -> xr.Dataset:
+    """The committed frames of a run's Zarr store as a loaded trajectory dataset."""
+    store = Path(store)
+    marker = read_marker(store)
+    n = int(marker.get("committed_frames", 0))
+    ds = xr.open_zarr(store, consolidated=False)
+    ds = ds.isel(time=slice(0, n)).load()
+    for k in ("committed_frames", "checkpoint_file", "checkpoint_step", "complete"):
+        ds.attrs.pop(k, None)
+    return ds
+
+
+def _check_out_dir(out: Path, *, resume: bool) -> None:
+    parent = out.absolute().parent
+    if not parent.is_dir():
+        raise OutputError(f"output directory's parent {str(parent)!r} does not exist")
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"output path {str(out)!r} exists and is not a directory")
+    if not resume and (out / "tracks.zarr").exists():
+        raise OutputError(f"{out} already holds a run; use --resume {out} or another --out")
+
+
+def run(cfg: RunConfig, out_dir: str | Path, *, progress: bool | None = None) -> dict[str, Any]:
+    """Run ``cfg`` into ``out_dir`` (see the module docstring); returns the metrics."""
+    out = Path(out_dir)
+    _check_out_dir(out, resume=False)
+    scen, setup, sim, state = build(cfg)  # may raise ConfigError: nothing written yet
+    total, every = _steps(scen, sim)
+    out.mkdir(exist_ok=True)
+    atomic_write_text(out / "config.toml", cfg.to_toml())
+    acc = scen.init_acc(setup, sim, state)
+    return _loop(cfg, scen, setup, sim, state, acc, out, total, every, progress, fresh=True)
+
+
+def resume(out_dir: str | Path, *, progress: bool | None = None) -> dict[str, Any]:
+    """Continue the run in ``out_dir`` from its last committed block."""
+    out = Path(out_dir)
+    if not (out / "config.toml").is_file() or not (out / "tracks.zarr").is_dir():
+        raise InputError(f"{out}: no run to resume (config.toml or tracks.zarr missing)")
+    cfg = resolve(config_file=out / "config.toml")
+    marker = read_marker(out / "tracks.zarr")
+    if marker.get("complete"):
+        metrics_path = out / "metrics.json"
+        if metrics_path.is_file():
+            import json
+
+            return json.loads(metrics_path.read_text())
+    scen, setup, sim, state0 = build(cfg)
+    total, every = _steps(scen, sim)
+    ck_file = marker.get("checkpoint_file")
+    if ck_file:
+        ck = load_checkpoint(out / ck_file)
+        state, acc = _restore(ck)
+    else:  # killed before the first block: start again
+        state, acc = state0, scen.init_acc(setup, sim, state0)
+        shutil.rmtree(out / "tracks.zarr")
+        return _loop(cfg, scen, setup, sim, state, acc, out, total, every, progress,
+                     fresh=True)
+    return _loop(cfg, scen, setup, sim, state, acc, out, total, every, progress, fresh=False)
+
+
+def _loop(cfg: RunConfig, scen: Scenario, setup: Setup, sim: Simulator, state: SwarmState,
+          acc: dict[str, np.ndarray], out: Path, total: int, every: int,
+          progress: bool | None, *, fresh: bool) -> dict[str, Any]:
+    from tqdm import tqdm
+
+    n_frames = total // every + 1
+    store = out / "tracks.zarr"
+    fps = 1.0 / (every * sim.params.dt)
+    attrs = {"fps": fps, "scenario": cfg.scenario, "seed": cfg.seed,
+             "thermoswarm_version": __version__, "config": cfg.to_toml(),
+             "dt": sim.params.dt, "tau": sim.params.tau, "radius": sim.params.radius}
+    rec = ZarrRecorder(store, n=state.n, n_frames=n_frames, block=scen.recording.block,
+                       extras=scen.extras(setup), extra_coords=scen.extra_coords(setup),
+                       attrs=attrs, dtype=scen.recording.dtype, resume=not fresh)
+    if fresh:
+        rec.add(state.time, state.by_id(state.pos), scen.frame(sim, state, acc))
+        if rec.pending == rec.block:
+            rec.flush(_checkpoint(cfg, state, acc), step=state.step)
+    t0 = time.perf_counter()
+    start_step = state.step
+    with tqdm(total=total, initial=state.step, disable=None if progress is None else not progress,
+              unit="step", mininterval=0.5, leave=False) as bar:
+        while state.step < total:
+            sim.step(state)
+            scen.observe(sim, state, acc)
+            if state.step % every == 0:
+                if rec.add(state.time, state.by_id(state.pos), scen.frame(sim, state, acc)):
+                    rec.flush(_checkpoint(cfg, state, acc), step=state.step)
+            bar.update(1)
+    wall = time.perf_counter() - t0
+    rec.flush(_checkpoint(cfg, state, acc), step=state.step)
+    tracks = open_run_tracks(store)
+    metrics = scen.metrics(setup, acc, tracks, sim, state)
+    steps_run = state.step - start_step
+    metrics["performance"] = {
+        "wall_seconds": wall, "steps": steps_run,
+        "robot_steps_per_second": state.n * steps_run / wall if wall > 0 else None,
+        "simulated_robot_seconds_per_second":
+            state.n * steps_run * sim.params.dt / wall if wall > 0 else None,
+    }
+    atomic_write_json(out / "metrics.json", metrics)
+    if scen.recording.netcdf:
+        with atomic_path(out / "tracks.nc", suffix=".nc") as tmp:
+            tracks.to_netcdf(tmp, engine="h5netcdf")
+    ck = rec.group.attrs.get("checkpoint_file")
+    rec.set_attrs(complete=True)
+    if ck:
+        (out / ck).unlink(missing_ok=True)
+    return metrics
