@@ -131,7 +131,8 @@ def _convert(value: Any, tp: Any, key: str) -> Any:
         if origin is tuple and args and args[-1] is not Ellipsis:
             if len(items) != len(args):
                 raise ConfigError(f"{key} must be a list of {len(args)} items, got {value!r}")
-            return tuple(_convert(v, a, f"{key}[{i}]") for i, (v, a) in enumerate(zip(items, args)))
+            pairs = enumerate(zip(items, args, strict=True))
+            return tuple(_convert(v, a, f"{key}[{i}]") for i, (v, a) in pairs)
         inner = args[0] if args else Any
         return tuple(_convert(v, inner, f"{key}[{i}]") for i, v in enumerate(items))
     if dataclasses.is_dataclass(tp):

@@ -4,16 +4,13 @@ Maximising the entropy ``-sum p ln p`` under a fixed mean energy ``<x> = E`` giv
 ``p(x) = exp(-x / E) / E`` with ``E = kT`` (Jaynes 1957).  The paper applies this one
 law to different variables:
 
-==========================  ===============================================  =====
-variable                    law                                              class
-==========================  ===============================================  =====
-energy ``E = v^2 / 2``      exponential, mean ``kT``                         :class:`EnergyLaw`
-speed ``v = sqrt(2E / m)``  Rayleigh = 2D Maxwell-Boltzmann                  :class:`SpeedLaw`
-ant energy                  two-component exponential mixture                :class:`EnergyMixture`
-steering-angle rate         signed exponential (Laplace), ``kT_theta(v)``    :class:`SteeringLaw`
-heading                     uniform, or normal around a goal direction       :class:`UniformHeading`,
-                                                                             :class:`NormalHeading`
-==========================  ===============================================  =====
+- energy ``E = v^2 / 2``: exponential with mean ``kT`` (:class:`EnergyLaw`);
+- speed ``v = sqrt(2E / m)``: Rayleigh, the 2D Maxwell-Boltzmann law (:class:`SpeedLaw`);
+- ant energy: a two-component exponential mixture (:class:`EnergyMixture`);
+- steering-angle rate: signed exponential (Laplace) with temperature ``kT_theta(v)``
+  (:class:`SteeringLaw`, :class:`DecayingTemperature`);
+- heading: uniform, or normal around a goal direction (:class:`UniformHeading`,
+  :class:`NormalHeading`).
 
 Decisions (PAPER_NOTES section 6): the paper's speed density
 ``(1/kT) exp(-v^2 / 2kT)`` is not normalised; we sample the *energy* from the
@@ -302,8 +299,12 @@ class SteeringLaw:
     def mean_abs(self, speed: ArrayLike = 0.0) -> ArrayLike:
         return self.temperature(speed)
 
-    def sample(self, rng: np.random.Generator, speed: ArrayLike = 0.0,
-               size: int | tuple[int, ...] | None = None):
+    def sample(
+        self,
+        rng: np.random.Generator,
+        speed: ArrayLike = 0.0,
+        size: int | tuple[int, ...] | None = None,
+    ):
         T = self.temperature(speed)
         if size is None:
             size = np.shape(T) if np.ndim(T) else None
@@ -357,7 +358,9 @@ class NormalHeading:
     def pdf(self, a: ArrayLike) -> ArrayLike:
         """Wrapped-normal density (sum over enough images of the circle)."""
         a = wrap_angle(np.asarray(a, dtype=float) - self.mean_angle)
-        k = np.arange(-(int(3 * self.sigma / (2 * np.pi)) + 2), int(3 * self.sigma / (2 * np.pi)) + 3)
+        k = np.arange(
+            -(int(3 * self.sigma / (2 * np.pi)) + 2), int(3 * self.sigma / (2 * np.pi)) + 3
+        )
         terms = stats.norm.pdf(a[..., None] + 2 * np.pi * k, scale=self.sigma)
         return terms.sum(axis=-1)
 

@@ -132,7 +132,12 @@ def make_tracks(
         all_attrs.update({k: v for k, v in attrs.items() if v is not None})
     return xr.Dataset(
         data_vars,
-        coords={"time": t, "space": ["x", "y"], "keypoints": keypoints, "individuals": individuals},
+        coords={
+            "time": t,
+            "space": ["x", "y"],
+            "keypoints": keypoints,
+            "individuals": individuals,
+        },
         attrs=all_attrs,
     )
 

@@ -13,16 +13,28 @@ from thermoswarm.errors import ConfigError
 @click.command()
 @click.argument("scenario", required=False)
 @click.option("--out", "out", type=click.Path(path_type=Path), help="Output directory.")
-@click.option("--config", "config_file", type=click.Path(path_type=Path),
-              help="TOML file of parameters.")
-@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
-              help="Override a parameter (repeatable; dotted keys for sections, "
-                   "e.g. --set n=500 --set engine.dt=0.05).")
+@click.option(
+    "--config", "config_file", type=click.Path(path_type=Path), help="TOML file of parameters."
+)
+@click.option(
+    "--set",
+    "overrides",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="Override a parameter (repeatable; dotted keys for sections, "
+    "e.g. --set n=500 --set engine.dt=0.05).",
+)
 @click.option("--seed", type=int, default=None, help="Random seed (default 0).")
-@click.option("--resume", "resume_dir", type=click.Path(path_type=Path), default=None,
-              help="Continue the killed run in this directory.")
-@click.option("--progress/--no-progress", default=None,
-              help="Progress bar (default: only on a terminal).")
+@click.option(
+    "--resume",
+    "resume_dir",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Continue the killed run in this directory.",
+)
+@click.option(
+    "--progress/--no-progress", default=None, help="Progress bar (default: only on a terminal)."
+)
 def simulate(scenario, out, config_file, overrides, seed, resume_dir, progress):
     """Run SCENARIO (see `thermoswarm scenarios`) and write DIR/tracks.zarr, tracks.nc,
     metrics.json and config.toml."""
@@ -42,8 +54,15 @@ def simulate(scenario, out, config_file, overrides, seed, resume_dir, progress):
         metrics = runner.run(cfg, out, progress=progress)
         target = out
     perf = metrics.get("performance", {})
-    click.echo(json.dumps({"out": str(target), "metrics": str(Path(target) / "metrics.json"),
-                           "robot_steps_per_second": perf.get("robot_steps_per_second")}))
+    click.echo(
+        json.dumps(
+            {
+                "out": str(target),
+                "metrics": str(Path(target) / "metrics.json"),
+                "robot_steps_per_second": perf.get("robot_steps_per_second"),
+            }
+        )
+    )
 
 
 @click.command()

@@ -37,12 +37,23 @@ class Numerics:
     cell_size: float | None = None
     desync: bool = True
 
-    def engine(self, *, tau: float, radius: float, mode: str = "overdamped",
-               drag: float = 1.0) -> EngineParams:
-        return EngineParams(dt=self.dt, tau=tau, radius=radius, mode=mode,  # type: ignore[arg-type]
-                            iterations=self.iterations, max_iterations=self.max_iterations,
-                            overlap_tol=self.overlap_tol, relax=self.relax, drag=drag,
-                            skin=self.skin, cell_size=self.cell_size, desync=self.desync)
+    def engine(
+        self, *, tau: float, radius: float, mode: str = "overdamped", drag: float = 1.0
+    ) -> EngineParams:
+        return EngineParams(
+            dt=self.dt,
+            tau=tau,
+            radius=radius,
+            mode=mode,  # type: ignore[arg-type]
+            iterations=self.iterations,
+            max_iterations=self.max_iterations,
+            overlap_tol=self.overlap_tol,
+            relax=self.relax,
+            drag=drag,
+            skin=self.skin,
+            cell_size=self.cell_size,
+            desync=self.desync,
+        )
 
 
 @dataclass(frozen=True)
@@ -67,10 +78,13 @@ class Recording:
     netcdf: bool = True
 
     def __post_init__(self) -> None:
-        check(self.interval > 0 and math.isfinite(self.interval), "record.interval",
-              "a positive number of seconds", self.interval)
-        check(1 <= self.block <= 100_000, "record.block", "an integer in [1, 100000]",
-              self.block)
+        check(
+            self.interval > 0 and math.isfinite(self.interval),
+            "record.interval",
+            "a positive number of seconds",
+            self.interval,
+        )
+        check(1 <= self.block <= 100_000, "record.block", "an integer in [1, 100000]", self.block)
 
 
 @dataclass
@@ -126,14 +140,17 @@ class Scenario:
     # -- per-frame variables besides position: name -> (dims, shape without time, dtype)
     def extras(self, setup: Setup) -> dict[str, tuple[tuple[str, ...], tuple[int, ...], str]]:
         n = setup.positions.shape[0]
-        return {"heading": (("time", "individuals"), (n,), "f4"),
-                "speed": (("time", "individuals"), (n,), "f4")}
+        return {
+            "heading": (("time", "individuals"), (n,), "f4"),
+            "speed": (("time", "individuals"), (n,), "f4"),
+        }
 
     def extra_coords(self, setup: Setup) -> dict[str, list[str]]:
         return {}
 
-    def frame(self, sim: Simulator, state: SwarmState, acc: dict[str, np.ndarray]
-              ) -> dict[str, np.ndarray]:
+    def frame(
+        self, sim: Simulator, state: SwarmState, acc: dict[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
         """Per-frame extras in id order."""
         if sim.params.mode == "inertial":
             v = state.by_id(state.vel)
@@ -148,6 +165,12 @@ class Scenario:
         pass
 
     # -- the end
-    def metrics(self, setup: Setup, acc: dict[str, np.ndarray], tracks: xr.Dataset,
-                sim: Simulator, state: SwarmState) -> dict[str, Any]:
+    def metrics(
+        self,
+        setup: Setup,
+        acc: dict[str, np.ndarray],
+        tracks: xr.Dataset,
+        sim: Simulator,
+        state: SwarmState,
+    ) -> dict[str, Any]:
         return {}

@@ -73,12 +73,21 @@ class BoxParams:
 
     def __post_init__(self) -> None:
         check(self.n >= 1, "n", "a positive integer (number of robots)", self.n)
-        check(0 < self.packing_fraction < 0.9, "packing_fraction", "in (0, 0.9)",
-              self.packing_fraction)
-        check(self.duration > 0 and math.isfinite(self.duration), "duration",
-              "a positive number of seconds", self.duration)
-        check(self.kT > 0 and math.isfinite(self.kT), "kT", "a positive number (mm^2/s^2)",
-              self.kT)
+        check(
+            0 < self.packing_fraction < 0.9,
+            "packing_fraction",
+            "in (0, 0.9)",
+            self.packing_fraction,
+        )
+        check(
+            self.duration > 0 and math.isfinite(self.duration),
+            "duration",
+            "a positive number of seconds",
+            self.duration,
+        )
+        check(
+            self.kT > 0 and math.isfinite(self.kT), "kT", "a positive number (mm^2/s^2)", self.kT
+        )
         check(self.tau > 0, "tau", "a positive number of seconds", self.tau)
         check(self.diameter > 0, "diameter", "a positive number (mm)", self.diameter)
 
@@ -108,15 +117,27 @@ class Box(Scenario):
             velocities = np.column_stack([speed * np.cos(th), speed * np.sin(th)])
         else:
             policy = BoltzmannUniform(kT=p.kT, speed_law=p.speed_law)
-        return Setup(world=world, engine=engine, policy=policy, positions=pos,
-                     velocities=velocities, info={"side": L})
+        return Setup(
+            world=world,
+            engine=engine,
+            policy=policy,
+            positions=pos,
+            velocities=velocities,
+            info={"side": L},
+        )
 
     def init_acc(self, setup: Setup, sim: Simulator, state: SwarmState) -> dict[str, np.ndarray]:
         e0 = 0.5 * float(np.sum(state.vel**2)) if self.params.mode == "inertial" else 0.0
         return {"energy0": np.array(e0)}
 
-    def metrics(self, setup: Setup, acc: dict[str, np.ndarray], tracks: xr.Dataset,
-                sim: Simulator, state: SwarmState) -> dict[str, Any]:
+    def metrics(
+        self,
+        setup: Setup,
+        acc: dict[str, np.ndarray],
+        tracks: xr.Dataset,
+        sim: Simulator,
+        state: SwarmState,
+    ) -> dict[str, Any]:
         p: BoxParams = self.params
         r = p.diameter / 2
         L = setup.info["side"]
@@ -124,8 +145,13 @@ class Box(Scenario):
         outside = int(np.sum((state.pos < r - tol) | (state.pos > L - r + tol)))
         speed = tracks["speed"].values.astype(np.float64)
         out: dict[str, Any] = {
-            "n": p.n, "packing_fraction": p.packing_fraction, "side": L, "kT": p.kT,
-            "tau": p.tau, "mode": p.mode, "duration": p.duration,
+            "n": p.n,
+            "packing_fraction": p.packing_fraction,
+            "side": L,
+            "kT": p.kT,
+            "tau": p.tau,
+            "mode": p.mode,
+            "duration": p.duration,
             "kT_measured": float(np.nanmean(speed**2) / 2),
             "final_max_overlap_fraction": sim.max_overlap(state) / p.diameter,
             "robots_outside": outside,
@@ -139,19 +165,27 @@ class Box(Scenario):
             e0 = float(acc["energy0"])
             v = np.hypot(state.vel[:, 0], state.vel[:, 1])
             ks = stats.kstest(v, SpeedLaw(e1 / p.n).cdf)
-            out.update({
-                "energy_initial": e0, "energy_final": e1,
-                "energy_relative_drift": abs(e1 - e0) / e0,
-                "collisions_per_particle": 2.0 * float(state.counters[0]) / p.n,
-                "wall_collisions_per_particle": float(state.counters[1]) / p.n,
-                "speed_ks": {"statistic": float(ks.statistic), "p_value": float(ks.pvalue),
-                             "n": p.n, "law": "Rayleigh with kT = mean energy per particle"},
-            })
+            out.update(
+                {
+                    "energy_initial": e0,
+                    "energy_final": e1,
+                    "energy_relative_drift": abs(e1 - e0) / e0,
+                    "collisions_per_particle": 2.0 * float(state.counters[0]) / p.n,
+                    "wall_collisions_per_particle": float(state.counters[1]) / p.n,
+                    "speed_ks": {
+                        "statistic": float(ks.statistic),
+                        "p_value": float(ks.pvalue),
+                        "n": p.n,
+                        "law": "Rayleigh with kT = mean energy per particle",
+                    },
+                }
+            )
         return out
 
 
-def diffusion_from_tracks(tracks: xr.Dataset, tau: float, kT: float,
-                          lag_periods: int = 4) -> dict[str, float]:
+def diffusion_from_tracks(
+    tracks: xr.Dataset, tau: float, kT: float, lag_periods: int = 4
+) -> dict[str, float]:
     """Diffusion coefficient (mm^2/s) from non-overlapping displacement windows.
 
     For a walker that holds a velocity for ``tau`` and then redraws it with a uniform
@@ -169,12 +203,22 @@ def diffusion_from_tracks(tracks: xr.Dataset, tau: float, kT: float,
     gap = max(1, int(math.ceil(tau / dt_frame)))
     T = k * dt_frame
     if pos.shape[0] <= k:
-        return {"D": float("nan"), "se": float("nan"), "theory": kT * tau / 2, "window": T,
-                "n_windows": 0}
+        return {
+            "D": float("nan"),
+            "se": float("nan"),
+            "theory": kT * tau / 2,
+            "window": T,
+            "n_windows": 0,
+        }
     starts = np.arange(0, pos.shape[0] - k, k + gap)
     dr = pos[starts + k] - pos[starts]  # (windows, space, individuals)
     sq = (dr**2).sum(axis=1).ravel()
     v2 = 2.0 * kT
     est = (sq + v2 * tau**2 / 3) / (4 * T)
-    return {"D": float(est.mean()), "se": float(est.std(ddof=1) / math.sqrt(est.size)),
-            "theory": kT * tau / 2, "window": T, "n_windows": int(est.size)}
+    return {
+        "D": float(est.mean()),
+        "se": float(est.std(ddof=1) / math.sqrt(est.size)),
+        "theory": kT * tau / 2,
+        "window": T,
+        "n_windows": int(est.size),
+    }

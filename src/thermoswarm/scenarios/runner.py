@@ -54,12 +54,16 @@ class RunConfig:
     seed: int = 0
 
     def to_toml(self) -> str:
-        return dumps_toml({"scenario": self.scenario, "seed": self.seed,
-                           **to_dict(self.params)})
+        return dumps_toml({"scenario": self.scenario, "seed": self.seed, **to_dict(self.params)})
 
 
-def resolve(scenario: str | None = None, *, config_file: str | Path | None = None,
-            overrides: tuple[str, ...] | list[str] = (), seed: int | None = None) -> RunConfig:
+def resolve(
+    scenario: str | None = None,
+    *,
+    config_file: str | Path | None = None,
+    overrides: tuple[str, ...] | list[str] = (),
+    seed: int | None = None,
+) -> RunConfig:
     """Merge a TOML file, ``--set`` overrides and ``--seed`` into a validated RunConfig."""
     data: dict[str, Any] = dict(load_toml(config_file)) if config_file else {}
     file_name = data.pop("scenario", None)
@@ -73,8 +77,12 @@ def resolve(scenario: str | None = None, *, config_file: str | Path | None = Non
     if scenario and file_name and scenario != file_name:
         raise ConfigError(f"{config_file}: scenario = {file_name!r} but {scenario!r} was asked")
     cls = get(str(name))
-    source = " and ".join(s for s in (str(config_file) if config_file else "",
-                                      "--set" if overrides else "") if s) or None
+    source = (
+        " and ".join(
+            s for s in (str(config_file) if config_file else "", "--set" if overrides else "") if s
+        )
+        or None
+    )
     params = from_mapping(cls.Params, apply_overrides(data, over), source=source)
     s = seed if seed is not None else over_seed if over_seed is not None else file_seed
     s = 0 if s is None else s
@@ -89,8 +97,13 @@ def build(cfg: RunConfig) -> tuple[Scenario, Setup, Simulator, SwarmState]:
     rng = np.random.default_rng(cfg.seed)
     setup = scen.build(rng)
     sim = setup.simulator()
-    state = sim.init(setup.positions, rng, headings=setup.headings, group=setup.group,
-                     velocities=setup.velocities)
+    state = sim.init(
+        setup.positions,
+        rng,
+        headings=setup.headings,
+        group=setup.group,
+        velocities=setup.velocities,
+    )
     return scen, setup, sim, state
 
 
@@ -99,8 +112,10 @@ def _steps(scen: Scenario, sim: Simulator) -> tuple[int, int]:
     total = int(math.floor(scen.duration / dt + 1e-9))
     every = scen.recording.interval / dt
     if abs(every - round(every)) > 1e-6 * max(1.0, every) or round(every) < 1:
-        raise ConfigError(f"record.interval must be a multiple of engine.dt = {dt}, "
-                          f"got {scen.recording.interval}")
+        raise ConfigError(
+            f"record.interval must be a multiple of engine.dt = {dt}, "
+            f"got {scen.recording.interval}"
+        )
     if total < 1:
         raise ConfigError(f"duration must be at least one time step ({dt} s)")
     return total, int(round(every))
@@ -178,33 +193,64 @@ def resume(out_dir: str | Path, *, progress: bool | None = None) -> dict[str, An
     else:  # killed before the first block: start again
         state, acc = state0, scen.init_acc(setup, sim, state0)
         shutil.rmtree(out / "tracks.zarr")
-        return _loop(cfg, scen, setup, sim, state, acc, out, total, every, progress,
-                     fresh=True)
+        return _loop(cfg, scen, setup, sim, state, acc, out, total, every, progress, fresh=True)
     return _loop(cfg, scen, setup, sim, state, acc, out, total, every, progress, fresh=False)
 
 
-def _loop(cfg: RunConfig, scen: Scenario, setup: Setup, sim: Simulator, state: SwarmState,
-          acc: dict[str, np.ndarray], out: Path, total: int, every: int,
-          progress: bool | None, *, fresh: bool) -> dict[str, Any]:
+def _loop(
+    cfg: RunConfig,
+    scen: Scenario,
+    setup: Setup,
+    sim: Simulator,
+    state: SwarmState,
+    acc: dict[str, np.ndarray],
+    out: Path,
+    total: int,
+    every: int,
+    progress: bool | None,
+    *,
+    fresh: bool,
+) -> dict[str, Any]:
     from tqdm import tqdm
 
     n_frames = total // every + 1
     store = out / "tracks.zarr"
     fps = 1.0 / (every * sim.params.dt)
-    attrs = {"fps": fps, "scenario": cfg.scenario, "seed": cfg.seed,
-             "thermoswarm_version": __version__, "config": cfg.to_toml(),
-             "dt": sim.params.dt, "tau": sim.params.tau, "radius": sim.params.radius}
-    rec = ZarrRecorder(store, n=state.n, n_frames=n_frames, block=scen.recording.block,
-                       extras=scen.extras(setup), extra_coords=scen.extra_coords(setup),
-                       attrs=attrs, dtype=scen.recording.dtype, resume=not fresh)
+    attrs = {
+        "fps": fps,
+        "scenario": cfg.scenario,
+        "seed": cfg.seed,
+        "thermoswarm_version": __version__,
+        "config": cfg.to_toml(),
+        "dt": sim.params.dt,
+        "tau": sim.params.tau,
+        "radius": sim.params.radius,
+    }
+    rec = ZarrRecorder(
+        store,
+        n=state.n,
+        n_frames=n_frames,
+        block=scen.recording.block,
+        extras=scen.extras(setup),
+        extra_coords=scen.extra_coords(setup),
+        attrs=attrs,
+        dtype=scen.recording.dtype,
+        resume=not fresh,
+    )
     if fresh:
         rec.add(state.time, state.by_id(state.pos), scen.frame(sim, state, acc))
         if rec.pending == rec.block:
             rec.flush(_checkpoint(cfg, state, acc), step=state.step)
     t0 = time.perf_counter()
     start_step = state.step
-    with tqdm(total=total, initial=state.step, disable=None if progress is None else not progress,
-              unit="step", mininterval=0.5, leave=False) as bar:
+    with tqdm(
+        total=total,
+        initial=state.step,
+        disable=None if progress is None else not progress,
+        unit="step",
+        mininterval=0.5,
+        leave=False,
+    ) as bar:
         while state.step < total:
             sim.step(state)
             scen.observe(sim, state, acc)
@@ -218,10 +264,12 @@ def _loop(cfg: RunConfig, scen: Scenario, setup: Setup, sim: Simulator, state: S
     metrics = scen.metrics(setup, acc, tracks, sim, state)
     steps_run = state.step - start_step
     metrics["performance"] = {
-        "wall_seconds": wall, "steps": steps_run,
+        "wall_seconds": wall,
+        "steps": steps_run,
         "robot_steps_per_second": state.n * steps_run / wall if wall > 0 else None,
-        "simulated_robot_seconds_per_second":
-            state.n * steps_run * sim.params.dt / wall if wall > 0 else None,
+        "simulated_robot_seconds_per_second": state.n * steps_run * sim.params.dt / wall
+        if wall > 0
+        else None,
     }
     atomic_write_json(out / "metrics.json", metrics)
     if scen.recording.netcdf:

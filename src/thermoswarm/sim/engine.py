@@ -121,26 +121,41 @@ class EngineParams:
 
     def __post_init__(self) -> None:
         check(self.dt > 0 and math.isfinite(self.dt), "dt", "a positive number (s)", self.dt)
-        check(self.tau > 0 and math.isfinite(self.tau), "tau", "a positive number (s)",
-              self.tau)
+        check(self.tau > 0 and math.isfinite(self.tau), "tau", "a positive number (s)", self.tau)
         ratio = self.tau / self.dt
-        check(abs(ratio - round(ratio)) < 1e-6 * max(1.0, ratio) and round(ratio) >= 1,
-              "tau", f"a multiple of dt = {self.dt}", self.tau)
+        check(
+            abs(ratio - round(ratio)) < 1e-6 * max(1.0, ratio) and round(ratio) >= 1,
+            "tau",
+            f"a multiple of dt = {self.dt}",
+            self.tau,
+        )
         check(self.radius > 0, "radius", "a positive number (mm)", self.radius)
-        check(self.mode in ("overdamped", "inertial"), "mode", "'overdamped' or 'inertial'",
-              self.mode)
-        check(1 <= self.iterations <= 1000, "iterations", "an integer in [1, 1000]",
-              self.iterations)
-        check(self.iterations <= self.max_iterations <= 10_000, "max_iterations",
-              f"an integer in [iterations = {self.iterations}, 10000]", self.max_iterations)
+        check(
+            self.mode in ("overdamped", "inertial"),
+            "mode",
+            "'overdamped' or 'inertial'",
+            self.mode,
+        )
+        check(
+            1 <= self.iterations <= 1000, "iterations", "an integer in [1, 1000]", self.iterations
+        )
+        check(
+            self.iterations <= self.max_iterations <= 10_000,
+            "max_iterations",
+            f"an integer in [iterations = {self.iterations}, 10000]",
+            self.max_iterations,
+        )
         check(0 < self.overlap_tol < 0.5, "overlap_tol", "in (0, 0.5)", self.overlap_tol)
         check(0 < self.relax <= 1.5, "relax", "in (0, 1.5]", self.relax)
-        check(self.drag > 0 and math.isfinite(self.drag), "drag", "a positive number",
-              self.drag)
+        check(self.drag > 0 and math.isfinite(self.drag), "drag", "a positive number", self.drag)
         check(0 <= self.skin <= 1, "skin", "in [0, 1]", self.skin)
         if self.cell_size is not None:
-            check(self.cell_size >= 2 * self.radius, "cell_size",
-                  f"at least the diameter {2 * self.radius} mm", self.cell_size)
+            check(
+                self.cell_size >= 2 * self.radius,
+                "cell_size",
+                f"at least the diameter {2 * self.radius} mm",
+                self.cell_size,
+            )
 
     @property
     def tau_steps(self) -> int:
@@ -211,23 +226,34 @@ class SwarmState:
     def to_arrays(self) -> dict[str, np.ndarray]:
         """Arrays for a checkpoint (the generator's state is saved separately)."""
         return {
-            "pos": self.pos, "fcols": self.fcols, "icols": self.icols, "vel": self.vel,
-            "body_pos": self.body_pos, "body_force": self.body_force,
-            "piston_pos": self.piston_pos, "piston_force": self.piston_force,
+            "pos": self.pos,
+            "fcols": self.fcols,
+            "icols": self.icols,
+            "vel": self.vel,
+            "body_pos": self.body_pos,
+            "body_force": self.body_force,
+            "piston_pos": self.piston_pos,
+            "piston_force": self.piston_force,
             "counters": self.counters,
-            "step": np.array(self.step), "time": np.array(self.time),
+            "step": np.array(self.step),
+            "time": np.array(self.time),
         }
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], rng: np.random.Generator) -> SwarmState:
         return cls(
-            pos=np.ascontiguousarray(arrays["pos"]), fcols=np.ascontiguousarray(arrays["fcols"]),
-            icols=np.ascontiguousarray(arrays["icols"]), vel=np.ascontiguousarray(arrays["vel"]),
-            body_pos=np.array(arrays["body_pos"]), body_force=np.array(arrays["body_force"]),
+            pos=np.ascontiguousarray(arrays["pos"]),
+            fcols=np.ascontiguousarray(arrays["fcols"]),
+            icols=np.ascontiguousarray(arrays["icols"]),
+            vel=np.ascontiguousarray(arrays["vel"]),
+            body_pos=np.array(arrays["body_pos"]),
+            body_force=np.array(arrays["body_force"]),
             piston_pos=np.array(arrays["piston_pos"]),
             piston_force=np.array(arrays["piston_force"]),
             counters=np.array(arrays["counters"]),
-            step=int(arrays["step"]), time=float(arrays["time"]), rng=rng,
+            step=int(arrays["step"]),
+            time=float(arrays["time"]),
+            rng=rng,
         )
 
 
@@ -255,8 +281,9 @@ class _Workspace:
         self.ny = int(math.ceil((y1 - y0) / cs)) + 2
         ncell = self.nx * self.ny
         if ncell > 50 * max(n, 1) + 10_000:
-            raise ConfigError(f"grid of {ncell} cells is too large for {n} robots; "
-                              "increase cell_size")
+            raise ConfigError(
+                f"grid of {ncell} cells is too large for {n} robots; increase cell_size"
+            )
         self.cell = np.empty(n, np.int64)
         self.cell_start = np.zeros(ncell + 1, np.int64)
         self.perm = np.empty(n, np.int64)
@@ -264,8 +291,17 @@ class _Workspace:
         self.tmpf = np.empty(n)
         self.tmpi = np.empty(n, np.int64)
         self.cell_flag = np.zeros(ncell, np.uint8)
-        K.flag_cells_near(world.segments, world.static_discs, self.x0, self.y0, cs, self.nx,
-                          self.ny, r * (1 + params.skin), self.cell_flag)
+        K.flag_cells_near(
+            world.segments,
+            world.static_discs,
+            self.x0,
+            self.y0,
+            cs,
+            self.nx,
+            self.ny,
+            r * (1 + params.skin),
+            self.cell_flag,
+        )
         nb, npis = len(world.bodies), len(world.pistons)
         self.brad = np.array([b.radius for b in world.bodies], dtype=np.float64)
         self.bdrag = np.array([b.drag / 1.0 for b in world.bodies], dtype=np.float64)
@@ -288,10 +324,15 @@ class _Workspace:
         return sum(a.nbytes for a in vars(self).values() if isinstance(a, np.ndarray))
 
 
-def place_lattice(bounds: tuple[float, float, float, float], n: int, radius: float,
-                  rng: np.random.Generator, *,
-                  inside: Callable[[np.ndarray], np.ndarray] | None = None,
-                  jitter: bool = True) -> np.ndarray:
+def place_lattice(
+    bounds: tuple[float, float, float, float],
+    n: int,
+    radius: float,
+    rng: np.random.Generator,
+    *,
+    inside: Callable[[np.ndarray], np.ndarray] | None = None,
+    jitter: bool = True,
+) -> np.ndarray:
     """Place ``n`` non-overlapping discs on a jittered triangular lattice (mm).
 
     The lattice spacing is the largest that gives at least ``n`` admissible sites in the
@@ -363,8 +404,13 @@ class Simulator:
     speed with millions of robots) and returns the state.
     """
 
-    def __init__(self, world: World, params: EngineParams, policy: Policy | None = None,
-                 sensing: Sensing | None = None) -> None:
+    def __init__(
+        self,
+        world: World,
+        params: EngineParams,
+        policy: Policy | None = None,
+        sensing: Sensing | None = None,
+    ) -> None:
         if params.mode == "overdamped" and policy is None:
             raise ConfigError("an overdamped (robot) simulation needs a policy")
         self.world = world
@@ -374,9 +420,15 @@ class Simulator:
         self._ws: _Workspace | None = None
 
     # ------------------------------------------------------------------ init
-    def init(self, positions: np.ndarray, rng: np.random.Generator, *,
-             headings: np.ndarray | None = None, group: np.ndarray | None = None,
-             velocities: np.ndarray | None = None) -> SwarmState:
+    def init(
+        self,
+        positions: np.ndarray,
+        rng: np.random.Generator,
+        *,
+        headings: np.ndarray | None = None,
+        group: np.ndarray | None = None,
+        velocities: np.ndarray | None = None,
+    ) -> SwarmState:
         """A state with robots at ``positions`` (n, 2) mm.
 
         Overdamped: every robot takes its first decision at t = 0; with ``desync`` their
@@ -400,12 +452,17 @@ class Simulator:
             vel[:] = velocities
         w = self.world
         state = SwarmState(
-            pos=pos, fcols=fcols, icols=icols, vel=vel,
+            pos=pos,
+            fcols=fcols,
+            icols=icols,
+            vel=vel,
             body_pos=np.array([[b.x, b.y] for b in w.bodies], dtype=np.float64).reshape(-1, 2),
             body_force=np.zeros((len(w.bodies), 2)),
             piston_pos=np.array([p.position for p in w.pistons], dtype=np.float64),
             piston_force=np.zeros(len(w.pistons)),
-            step=0, time=0.0, rng=rng,
+            step=0,
+            time=0.0,
+            rng=rng,
         )
         self._ws = _Workspace(w, self.params, n)
         if self.params.mode == "overdamped":
@@ -432,9 +489,13 @@ class Simulator:
         sel = slice(None) if everyone else index
         zero, light = self.sensing(state, index)
         obs = Observation(
-            time=state.time, index=index, tau=self.params.tau,
-            ids=lambda: state.ids[sel], position=lambda: state.pos[sel],
-            heading=lambda: state.heading[sel], speed=lambda: state.speed[sel],
+            time=state.time,
+            index=index,
+            tau=self.params.tau,
+            ids=lambda: state.ids[sel],
+            position=lambda: state.pos[sel],
+            heading=lambda: state.heading[sel],
+            speed=lambda: state.speed[sel],
             group=lambda: state.group[sel],
             zero_heading=np.asarray(zero, dtype=np.float64),
             light=np.asarray(light, dtype=np.float64),
@@ -443,7 +504,9 @@ class Simulator:
         h = np.asarray(act.heading, dtype=np.float64)
         v = np.asarray(act.speed, dtype=np.float64)
         if h.shape != (index.size,) or v.shape != (index.size,):
-            raise ValueError(f"policy returned shapes {h.shape}, {v.shape} for {index.size} robots")
+            raise ValueError(
+                f"policy returned shapes {h.shape}, {v.shape} for {index.size} robots"
+            )
         if not (np.isfinite(h.sum()) and np.isfinite(v.sum()) and v.min(initial=0.0) >= 0):
             raise ValueError("policy returned a non-finite heading or a negative speed")
         state.heading[sel] = h
@@ -461,23 +524,76 @@ class Simulator:
                 self._decide(state, due)
                 state.timer[due] = p.tau_steps
             sweeps, seen = K.overdamped_step(
-                state.pos, state.fcols[0], state.fcols[1], state.fcols, state.icols, 2,
-                ws.x0, ws.y0, ws.cs, ws.nx, ws.ny, ws.cell, ws.cell_start, ws.perm,
-                ws.tmpf2, ws.tmpf, ws.tmpi, ws.tmpf2, ws.cell_flag,
-                p.radius, p.drag, p.dt, p.iterations, p.max_iterations,
-                p.overlap_tol * 2 * p.radius, p.relax,
-                self.world.segments, self.world.static_discs,
-                state.body_pos, ws.brad, ws.bdrag, ws.bdisp, ws.bshare, state.body_force,
-                ws.paxis, state.piston_pos, ws.pside, ws.plo, ws.phi, ws.pdrag, ws.pforce_ext,
-                ws.pdisp, ws.pshare, state.piston_force, ws.plim_lo, ws.plim_hi,
+                state.pos,
+                state.fcols[0],
+                state.fcols[1],
+                state.fcols,
+                state.icols,
+                2,
+                ws.x0,
+                ws.y0,
+                ws.cs,
+                ws.nx,
+                ws.ny,
+                ws.cell,
+                ws.cell_start,
+                ws.perm,
+                ws.tmpf2,
+                ws.tmpf,
+                ws.tmpi,
+                ws.tmpf2,
+                ws.cell_flag,
+                p.radius,
+                p.drag,
+                p.dt,
+                p.iterations,
+                p.max_iterations,
+                p.overlap_tol * 2 * p.radius,
+                p.relax,
+                self.world.segments,
+                self.world.static_discs,
+                state.body_pos,
+                ws.brad,
+                ws.bdrag,
+                ws.bdisp,
+                ws.bshare,
+                state.body_force,
+                ws.paxis,
+                state.piston_pos,
+                ws.pside,
+                ws.plo,
+                ws.phi,
+                ws.pdrag,
+                ws.pforce_ext,
+                ws.pdisp,
+                ws.pshare,
+                state.piston_force,
+                ws.plim_lo,
+                ws.plim_hi,
             )
             state.counters[0] += sweeps
             state.counters[1] = max(state.counters[1], int(seen * 1e6))
         else:
             K.inertial_step(
-                state.pos, state.vel, state.fcols, state.icols, ws.x0, ws.y0, ws.cs, ws.nx,
-                ws.ny, ws.cell, ws.cell_start, ws.perm, ws.tmpf2, ws.tmpf, ws.tmpi,
-                p.radius, p.dt, self.world.segments, state.counters,
+                state.pos,
+                state.vel,
+                state.fcols,
+                state.icols,
+                ws.x0,
+                ws.y0,
+                ws.cs,
+                ws.nx,
+                ws.ny,
+                ws.cell,
+                ws.cell_start,
+                ws.perm,
+                ws.tmpf2,
+                ws.tmpf,
+                ws.tmpi,
+                p.radius,
+                p.dt,
+                self.world.segments,
+                state.counters,
             )
         state.step += 1
         state.time = state.step * p.dt
@@ -490,17 +606,51 @@ class Simulator:
         fc = np.zeros((0, state.n))
         ic = np.zeros((0, state.n), np.int64)
         pos = state.pos.copy()
-        K.sort_by_cell(pos, fc, ic, ws.x0, ws.y0, 1.0 / ws.cs, ws.nx, ws.ny, ws.cell,
-                       ws.cell_start, ws.perm, ws.tmpf2, ws.tmpf, ws.tmpi)
-        return float(K.max_overlap(pos, ws.cell_start, ws.x0, ws.y0, ws.cs, ws.nx, ws.ny,
-                                   self.params.radius, self.world.segments,
-                                   self.world.static_discs, state.body_pos, ws.brad, ws.paxis,
-                                   state.piston_pos, ws.pside, ws.plo, ws.phi))
+        K.sort_by_cell(
+            pos,
+            fc,
+            ic,
+            ws.x0,
+            ws.y0,
+            1.0 / ws.cs,
+            ws.nx,
+            ws.ny,
+            ws.cell,
+            ws.cell_start,
+            ws.perm,
+            ws.tmpf2,
+            ws.tmpf,
+            ws.tmpi,
+        )
+        return float(
+            K.max_overlap(
+                pos,
+                ws.cell_start,
+                ws.x0,
+                ws.y0,
+                ws.cs,
+                ws.nx,
+                ws.ny,
+                self.params.radius,
+                self.world.segments,
+                self.world.static_discs,
+                state.body_pos,
+                ws.brad,
+                ws.paxis,
+                state.piston_pos,
+                ws.pside,
+                ws.plo,
+                ws.phi,
+            )
+        )
 
 
-def simulator(world: World, params: EngineParams, policy: Policy | None = None,
-              sensing: Sensing | None = None) -> tuple[Callable[..., SwarmState],
-                                                        Callable[[SwarmState], SwarmState]]:
+def simulator(
+    world: World,
+    params: EngineParams,
+    policy: Policy | None = None,
+    sensing: Sensing | None = None,
+) -> tuple[Callable[..., SwarmState], Callable[[SwarmState], SwarmState]]:
     """``(init, step)`` functions for a world, parameters, policy and sensing model.
 
     Example

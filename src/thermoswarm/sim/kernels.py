@@ -105,8 +105,9 @@ def _gather_i1(a, perm, tmp):
 
 
 @njit(cache=True)
-def sort_by_cell(pos, fcols, icols, x0, y0, inv_cs, nx, ny, cell, cell_start, perm, tmpf2,
-                 tmpf, tmpi):
+def sort_by_cell(
+    pos, fcols, icols, x0, y0, inv_cs, nx, ny, cell, cell_start, perm, tmpf2, tmpf, tmpi
+):
     """Re-order robots by grid cell; ``fcols``/``icols`` are per-robot columns re-ordered too.
 
     ``fcols`` is a 2D float array (k, n) and ``icols`` a 2D int64 array (m, n).
@@ -169,8 +170,9 @@ def flag_cells_near(seg, sdisc, x0, y0, cs, nx, ny, reach, flags):
                 # distance from the cell's centre to the segment, minus the half diagonal
                 mx = x0 + (cx + 0.5) * cs
                 my = y0 + (cy + 0.5) * cs
-                ov, _, _ = _seg_push(mx, my, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3],
-                                     reach + 0.7072 * cs)
+                ov, _, _ = _seg_push(
+                    mx, my, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], reach + 0.7072 * cs
+                )
                 if ov > 0.0:
                     flags[cy * nx + cx] = 1
     for s in range(sdisc.shape[0]):
@@ -186,9 +188,33 @@ def flag_cells_near(seg, sdisc, x0, y0, cs, nx, ny, reach, flags):
 
 # ------------------------------------------------------- overdamped projection
 @njit(cache=True)
-def _bodies_pass(pos, cell_start, x0, y0, cs, nx, ny, r, gamma_r, dt,
-                 bpos, brad, bdrag, bdisp, bshare, bforce,
-                 paxis, ppos, pside, plo, phi, pdrag, pdisp, pshare, pforce):
+def _bodies_pass(
+    pos,
+    cell_start,
+    x0,
+    y0,
+    cs,
+    nx,
+    ny,
+    r,
+    gamma_r,
+    dt,
+    bpos,
+    brad,
+    bdrag,
+    bdisp,
+    bshare,
+    bforce,
+    paxis,
+    ppos,
+    pside,
+    plo,
+    phi,
+    pdrag,
+    pdisp,
+    pshare,
+    pforce,
+):
     """Serial pass: displacement of each movable body and piston from its current contacts.
 
     A body with drag ``g_b`` touched by ``k`` robots of drag ``g_r`` moves by
@@ -283,8 +309,31 @@ def _bodies_pass(pos, cell_start, x0, y0, cs, nx, ny, r, gamma_r, dt,
 
 
 @njit(cache=True, parallel=True)
-def _jacobi_sweep(pos, out, cell_start, cell_flag, x0, y0, inv_cs, nx, ny, r, relax,
-                  seg, sdisc, bpos, brad, bshare, paxis, ppos, pside, plo, phi, pshare, worst):
+def _jacobi_sweep(
+    pos,
+    out,
+    cell_start,
+    cell_flag,
+    x0,
+    y0,
+    inv_cs,
+    nx,
+    ny,
+    r,
+    relax,
+    seg,
+    sdisc,
+    bpos,
+    brad,
+    bshare,
+    paxis,
+    ppos,
+    pside,
+    plo,
+    phi,
+    pshare,
+    worst,
+):
     """One Jacobi sweep: each robot's correction from the positions of this sweep.
 
     ``worst[i]`` receives the largest overlap robot ``i`` had before the correction.
@@ -380,13 +429,54 @@ def _predict(pos, heading, speed, timer, dt):
 
 
 @njit(cache=True)
-def overdamped_step(pos, heading, speed, fcols, icols, timer_row,
-                    x0, y0, cs, nx, ny, cell, cell_start, perm, tmpf2, tmpf, tmpi, buf,
-                    cell_flag, r, gamma_r, dt, min_iter, max_iter, tol, relax,
-                    seg, sdisc,
-                    bpos, brad, bdrag, bdisp, bshare, bforce,
-                    paxis, ppos, pside, plo, phi, pdrag, pforce_ext, pdisp, pshare, pforce,
-                    plimit_lo, plimit_hi):
+def overdamped_step(
+    pos,
+    heading,
+    speed,
+    fcols,
+    icols,
+    timer_row,
+    x0,
+    y0,
+    cs,
+    nx,
+    ny,
+    cell,
+    cell_start,
+    perm,
+    tmpf2,
+    tmpf,
+    tmpi,
+    buf,
+    cell_flag,
+    r,
+    gamma_r,
+    dt,
+    min_iter,
+    max_iter,
+    tol,
+    relax,
+    seg,
+    sdisc,
+    bpos,
+    brad,
+    bdrag,
+    bdisp,
+    bshare,
+    bforce,
+    paxis,
+    ppos,
+    pside,
+    plo,
+    phi,
+    pdrag,
+    pforce_ext,
+    pdisp,
+    pshare,
+    pforce,
+    plimit_lo,
+    plimit_hi,
+):
     """Advance the overdamped swarm by one step ``dt``.
 
     1. every robot moves at its commanded velocity (``speed``, ``heading``); pistons move
@@ -414,8 +504,9 @@ def overdamped_step(pos, heading, speed, fcols, icols, timer_row,
                 ppos[p] = plimit_lo[p]
             if ppos[p] > plimit_hi[p]:
                 ppos[p] = plimit_hi[p]
-    sort_by_cell(pos, fcols, icols, x0, y0, inv_cs, nx, ny, cell, cell_start, perm, tmpf2,
-                 tmpf, tmpi)
+    sort_by_cell(
+        pos, fcols, icols, x0, y0, inv_cs, nx, ny, cell, cell_start, perm, tmpf2, tmpf, tmpi
+    )
     for b in range(bforce.shape[0]):
         bforce[b, 0] = 0.0
         bforce[b, 1] = 0.0
@@ -427,12 +518,58 @@ def overdamped_step(pos, heading, speed, fcols, icols, timer_row,
     sweeps = 0
     seen = 0.0
     while sweeps < max_iter:
-        _bodies_pass(src, cell_start, x0, y0, cs, nx, ny, r, gamma_r, dt,
-                     bpos, brad, bdrag, bdisp, bshare, bforce,
-                     paxis, ppos, pside, plo, phi, pdrag, pdisp, pshare, pforce)
-        _jacobi_sweep(src, dst, cell_start, cell_flag, x0, y0, inv_cs, nx, ny, r, relax,
-                      seg, sdisc, bpos, brad, bshare, paxis, ppos, pside, plo, phi, pshare,
-                      worst)
+        _bodies_pass(
+            src,
+            cell_start,
+            x0,
+            y0,
+            cs,
+            nx,
+            ny,
+            r,
+            gamma_r,
+            dt,
+            bpos,
+            brad,
+            bdrag,
+            bdisp,
+            bshare,
+            bforce,
+            paxis,
+            ppos,
+            pside,
+            plo,
+            phi,
+            pdrag,
+            pdisp,
+            pshare,
+            pforce,
+        )
+        _jacobi_sweep(
+            src,
+            dst,
+            cell_start,
+            cell_flag,
+            x0,
+            y0,
+            inv_cs,
+            nx,
+            ny,
+            r,
+            relax,
+            seg,
+            sdisc,
+            bpos,
+            brad,
+            bshare,
+            paxis,
+            ppos,
+            pside,
+            plo,
+            phi,
+            pshare,
+            worst,
+        )
         for b in range(bpos.shape[0]):
             bpos[b, 0] += bdisp[b, 0]
             bpos[b, 1] += bdisp[b, 1]
@@ -454,8 +591,9 @@ def overdamped_step(pos, heading, speed, fcols, icols, timer_row,
 
 
 @njit(cache=True, parallel=True)
-def max_overlap(pos, cell_start, x0, y0, cs, nx, ny, r, seg, sdisc, bpos, brad,
-                paxis, ppos, pside, plo, phi):
+def max_overlap(
+    pos, cell_start, x0, y0, cs, nx, ny, r, seg, sdisc, bpos, brad, paxis, ppos, pside, plo, phi
+):
     """Largest overlap (mm) of any robot with a robot, wall, body or piston.
 
     ``pos`` must be sorted by cell with ``cell_start`` built on it (true after a step).
@@ -508,8 +646,27 @@ def max_overlap(pos, cell_start, x0, y0, cs, nx, ny, r, seg, sdisc, bpos, brad,
 
 # ------------------------------------------------------------- inertial (elastic)
 @njit(cache=True)
-def inertial_step(pos, vel, fcols, icols, x0, y0, cs, nx, ny, cell, cell_start, perm,
-                  tmpf2, tmpf, tmpi, r, dt, seg, counters):
+def inertial_step(
+    pos,
+    vel,
+    fcols,
+    icols,
+    x0,
+    y0,
+    cs,
+    nx,
+    ny,
+    cell,
+    cell_start,
+    perm,
+    tmpf2,
+    tmpf,
+    tmpi,
+    r,
+    dt,
+    seg,
+    counters,
+):
     """Advance elastic hard discs of equal mass by ``dt``.
 
     Ballistic motion, then every overlapping, approaching pair (in cell order) is moved
@@ -524,8 +681,9 @@ def inertial_step(pos, vel, fcols, icols, x0, y0, cs, nx, ny, cell, cell_start, 
     for i in range(n):
         pos[i, 0] += vel[i, 0] * dt
         pos[i, 1] += vel[i, 1] * dt
-    sort_by_cell(pos, fcols, icols, x0, y0, inv_cs, nx, ny, cell, cell_start, perm, tmpf2,
-                 tmpf, tmpi)
+    sort_by_cell(
+        pos, fcols, icols, x0, y0, inv_cs, nx, ny, cell, cell_start, perm, tmpf2, tmpf, tmpi
+    )
     _gather_f2(vel, perm, tmpf2)
     d_rr = 2.0 * r
     for i in range(n):
@@ -578,8 +736,9 @@ def inertial_step(pos, vel, fcols, icols, x0, y0, cs, nx, ny, cell, cell_start, 
                     pos[j, 1] += vel[j, 1] * tb
                     counters[0] += 1
         for s in range(seg.shape[0]):
-            ov, ex, ey = _seg_push(pos[i, 0], pos[i, 1], seg[s, 0], seg[s, 1], seg[s, 2],
-                                   seg[s, 3], r)
+            ov, ex, ey = _seg_push(
+                pos[i, 0], pos[i, 1], seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r
+            )
             if ov <= 0.0:
                 continue
             vn = vel[i, 0] * ex + vel[i, 1] * ey

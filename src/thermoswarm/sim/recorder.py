@@ -72,11 +72,19 @@ class ZarrRecorder:
         Open an existing store instead of creating one.
     """
 
-    def __init__(self, path: Path, *, n: int, n_frames: int, block: int,
-                 extras: Mapping[str, tuple[tuple[str, ...], tuple[int, ...], str]] | None = None,
-                 attrs: dict[str, Any] | None = None, dtype: str = "f8",
-                 extra_coords: Mapping[str, list[str]] | None = None,
-                 resume: bool = False) -> None:
+    def __init__(
+        self,
+        path: Path,
+        *,
+        n: int,
+        n_frames: int,
+        block: int,
+        extras: Mapping[str, tuple[tuple[str, ...], tuple[int, ...], str]] | None = None,
+        attrs: dict[str, Any] | None = None,
+        dtype: str = "f8",
+        extra_coords: Mapping[str, list[str]] | None = None,
+        resume: bool = False,
+    ) -> None:
         self.path = Path(path)
         self.n = n
         self.block = max(1, int(block))
@@ -87,11 +95,22 @@ class ZarrRecorder:
         else:
             self.group = zarr.open_group(self.path, mode="w-", zarr_format=3)
             ichunk = min(n, max(1, 4_000_000 // (2 * self.block)))  # ~32 MB chunks at f8
-            self.group.create_array("position", shape=(n_frames, 2, 1, n),
-                                    chunks=(self.block, 2, 1, ichunk), dtype=dtype,
-                                    fill_value=np.nan, dimension_names=_DIMS)
-            self.group.create_array("time", shape=(n_frames,), chunks=(self.block,),
-                                    dtype="f8", fill_value=np.nan, dimension_names=["time"])
+            self.group.create_array(
+                "position",
+                shape=(n_frames, 2, 1, n),
+                chunks=(self.block, 2, 1, ichunk),
+                dtype=dtype,
+                fill_value=np.nan,
+                dimension_names=_DIMS,
+            )
+            self.group.create_array(
+                "time",
+                shape=(n_frames,),
+                chunks=(self.block,),
+                dtype="f8",
+                fill_value=np.nan,
+                dimension_names=["time"],
+            )
             _string_array(self.group, "space", ["x", "y"])
             _string_array(self.group, "keypoints", ["centroid"])
             _string_array(self.group, "individuals", [f"id_{i}" for i in range(n)])
@@ -100,17 +119,29 @@ class ZarrRecorder:
             for name, (dims, shape, dt) in self.extras.items():
                 chunks = (self.block,) + tuple(min(s, ichunk) for s in shape)
                 fill = np.nan if np.dtype(dt).kind == "f" else -1
-                self.group.create_array(name, shape=(n_frames,) + tuple(shape), chunks=chunks,
-                                        dtype=dt, fill_value=fill, dimension_names=list(dims))
-            all_attrs = {"ds_type": "poses", "source_software": "thermoswarm",
-                         "time_unit": "seconds", "space_unit": "mm", "committed_frames": 0}
+                self.group.create_array(
+                    name,
+                    shape=(n_frames,) + tuple(shape),
+                    chunks=chunks,
+                    dtype=dt,
+                    fill_value=fill,
+                    dimension_names=list(dims),
+                )
+            all_attrs = {
+                "ds_type": "poses",
+                "source_software": "thermoswarm",
+                "time_unit": "seconds",
+                "space_unit": "mm",
+                "committed_frames": 0,
+            }
             all_attrs.update(attrs or {})
             self.group.attrs.update(all_attrs)
             self.committed = 0
         self._pos = np.empty((self.block, 2, n), dtype=dtype)
         self._t = np.empty(self.block)
-        self._ext = {k: np.empty((self.block,) + tuple(s), dtype=d)
-                     for k, (_, s, d) in self.extras.items()}
+        self._ext = {
+            k: np.empty((self.block,) + tuple(s), dtype=d) for k, (_, s, d) in self.extras.items()
+        }
         self._fill = 0
 
     @property
@@ -136,10 +167,10 @@ class ZarrRecorder:
             return
         f0 = self.committed
         if k:
-            self.group["position"][f0:f0 + k, :, 0, :] = self._pos[:k]
-            self.group["time"][f0:f0 + k] = self._t[:k]
+            self.group["position"][f0 : f0 + k, :, 0, :] = self._pos[:k]
+            self.group["time"][f0 : f0 + k] = self._t[:k]
             for name, buf in self._ext.items():
-                self.group[name][f0:f0 + k] = buf[:k]
+                self.group[name][f0 : f0 + k] = buf[:k]
         old = self.group.attrs.get("checkpoint_file")
         attrs: dict[str, Any] = {"committed_frames": f0 + k}
         if checkpoint is not None:

@@ -138,9 +138,15 @@ class World:
         return World(self.bounds, seg, self.static_discs, self.bodies, self.pistons)
 
 
-def box_world(width: float, height: float, *, origin: tuple[float, float] = (0.0, 0.0),
-              bodies: tuple[Body, ...] = (), pistons: tuple[Piston, ...] = (),
-              walls: bool = True) -> World:
+def box_world(
+    width: float,
+    height: float,
+    *,
+    origin: tuple[float, float] = (0.0, 0.0),
+    bodies: tuple[Body, ...] = (),
+    pistons: tuple[Piston, ...] = (),
+    walls: bool = True,
+) -> World:
     """A rectangle ``[ox, ox + width] x [oy, oy + height]`` closed by four static walls."""
     if not (width > 0 and height > 0):
         raise ConfigError(f"box width and height must be positive, got {width} x {height}")
