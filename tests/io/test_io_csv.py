@@ -189,3 +189,14 @@ def test_not_utf8(tmp_path):
     path.write_bytes(b"\xff\xfe\x00\x81" * 20)
     with pytest.raises(InputError, match=r"bin\.csv"):
         read_tracks(path, "tidy_csv", fps=1, units="mm")
+
+
+def test_dense_size_guard(tmp_path, monkeypatch):
+    import thermoswarm.io._common as common
+
+    monkeypatch.setattr(common, "MAX_CELLS", 10)
+    pd.DataFrame(
+        {"id": [f"t{i}" for i in range(4)], "frame": [0, 1, 2, 3], "x": 1.0, "y": 1.0}
+    ).to_csv(tmp_path / "frag.csv", index=False)
+    with pytest.raises(InputError, match=r"frag\.csv: 4 individuals .* merge fragmented"):
+        read_tracks(tmp_path / "frag.csv", fps=1, units="mm")

@@ -114,3 +114,26 @@ def test_slp_only_options_rejected_for_h5(tmp_path, truth):
     sio.save_analysis_h5(_labels(truth), str(path))
     with pytest.raises(InputError, match="only"):
         read_tracks(path, fps=FPS, px_per_mm=SCALE, video=0)
+
+
+def test_slp_user_label_preferred_over_prediction(tmp_path, truth):
+    labels = _labels(truth)
+    lf = labels.labeled_frames[3]
+    pred = lf.instances[0]
+    user_pts = truth.px[3, :, :, 0].T + 5.0
+    lf.instances.append(
+        sio.Instance.from_numpy(
+            points_data=user_pts, skeleton=labels.skeletons[0], track=pred.track
+        )
+    )
+    path = tmp_path / "mixed.slp"
+    sio.save_slp(labels, str(path))
+    ds = read_tracks(path, fps=FPS, px_per_mm=SCALE)
+    got = ds.position.isel(time=3).sel(individuals="ant_a").values  # (space, keypoints)
+    np.testing.assert_allclose(got, user_pts.T / SCALE, rtol=1e-12)
+    ds_pred = read_tracks(path, fps=FPS, px_per_mm=SCALE, user_instances=False)
+    np.testing.assert_allclose(
+        ds_pred.position.isel(time=3).sel(individuals="ant_a").values,
+        truth.mm[3, :, :, 0],
+        rtol=1e-12,
+    )

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from thermoswarm.errors import InputError
 
@@ -263,23 +264,11 @@ def assemble_long(
     if not np.all(np.isfinite(time)):
         bad = int(np.flatnonzero(~np.isfinite(time))[0])
         raise InputError(f"{path}: missing or non-finite time/frame in data row {bad + 1}")
-    ind_str = np.asarray([str(v) for v in individual], dtype=object)
-    if individual_order is None:
-        ind_names, ind_idx = _first_seen_order(ind_str)
-    else:
-        ind_names = list(individual_order)
-        lookup = {name: i for i, name in enumerate(ind_names)}
-        ind_idx = np.fromiter((lookup[v] for v in ind_str), dtype=np.int64, count=n)
+    ind_names, ind_idx = _codes(individual, individual_order)
     if keypoint is None:
         kp_names, kp_idx = ["centroid"], np.zeros(n, dtype=np.int64)
     else:
-        kp_str = np.asarray([str(v) for v in keypoint], dtype=object)
-        if keypoint_order is None:
-            kp_names, kp_idx = _first_seen_order(kp_str)
-        else:
-            kp_names = list(keypoint_order)
-            lookup = {name: i for i, name in enumerate(kp_names)}
-            kp_idx = np.fromiter((lookup[v] for v in kp_str), dtype=np.int64, count=n)
+        kp_names, kp_idx = _codes(keypoint, keypoint_order)
     times, t_idx = np.unique(time_key(time), return_inverse=True)
     n_t, n_k, n_i = times.size, len(kp_names), len(ind_names)
     flat = (t_idx * n_k + kp_idx) * n_i + ind_idx
@@ -293,6 +282,7 @@ def assemble_long(
         if keypoint is not None:
             what += f", keypoint {kp_names[ki]!r}"
         raise InputError(f"{path}: two rows for {what} at time/frame {times[ti]:g}")
+    check_dense_size(path, n_t, n_k, n_i)
     pos = np.full((n_t, 2, n_k, n_i), np.nan)
     pos[t_idx, 0, kp_idx, ind_idx] = x
     pos[t_idx, 1, kp_idx, ind_idx] = y
@@ -309,13 +299,35 @@ def assemble_long(
     }
 
 
-def _first_seen_order(values: np.ndarray) -> tuple[list[str], np.ndarray]:
-    uniq, first, inverse = np.unique(values, return_index=True, return_inverse=True)
-    rank = np.argsort(first)
-    names = [str(uniq[r]) for r in rank]
-    remap = np.empty(uniq.size, dtype=np.int64)
-    remap[rank] = np.arange(uniq.size)
-    return names, remap[inverse]
+#: Largest dense position array a reader will allocate (float64 values; 8 GB).
+MAX_CELLS = 1_000_000_000
+
+
+def check_dense_size(path: Path, n_t: int, n_k: int, n_i: int) -> None:
+    """Refuse a dense ``(time, 2, keypoints, individuals)`` array that cannot fit.
+
+    Long tables from trackers that fragment identities (thousands of short tracks)
+    would otherwise ask for tens of GB of mostly-NaN positions.
+    """
+    cells = n_t * 2 * n_k * n_i
+    if cells > MAX_CELLS:
+        raise InputError(
+            f"{path}: {n_i} individuals x {n_k} keypoints x {n_t} time steps would need "
+            f"{cells * 8 / 1e9:.0f} GB as a dense array; merge fragmented track ids or "
+            "split the file in time"
+        )
+
+
+def _codes(values: np.ndarray, order: Sequence[str] | None) -> tuple[list[str], np.ndarray]:
+    """Names (in first-seen order, or ``order``) and each row's index into them."""
+    codes, uniques = pd.factorize(pd.Series(values, dtype=object).astype(str), sort=False)
+    names = [str(u) for u in uniques]
+    if order is None:
+        return names, codes.astype(np.int64)
+    order = [str(o) for o in order]
+    lookup = {name: i for i, name in enumerate(order)}
+    remap = np.array([lookup[name] for name in names], dtype=np.int64)
+    return order, remap[codes]
 
 
 def natural_key(text: str) -> list[Any]:

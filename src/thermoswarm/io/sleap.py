@@ -149,7 +149,10 @@ def _read_slp(path: Path, scale: float, fps: float, options: dict[str, Any]) -> 
     user = option_bool(path, "user_instances", options.get("user_instances", True))
     untracked = option_bool(path, "untracked", options.get("untracked", False))
     try:
-        labels = sleap_io.load_slp(str(path), open_videos=False)
+        try:
+            labels = sleap_io.load_slp(str(path), open_videos=False, lazy=True)
+        except TypeError:  # sleap-io before lazy loading
+            labels = sleap_io.load_slp(str(path), open_videos=False)
     except Exception as exc:  # h5py/sleap-io raise many types for a damaged file
         raise InputError(
             f"{path}: not a readable SLEAP .slp file ({type(exc).__name__})"
@@ -162,7 +165,7 @@ def _read_slp(path: Path, scale: float, fps: float, options: dict[str, Any]) -> 
         raise InputError(f"{path}: no skeleton in this .slp")
     if len(labels.skeletons) > 1:
         raise InputError(f"{path}: {len(labels.skeletons)} skeletons; one is supported")
-    if not labels.labeled_frames:
+    if len(labels) == 0:
         raise InputError(f"{path}: no labelled frames")
     arr = labels.numpy(
         video=video, untracked=untracked, return_confidence=True, user_instances=user
