@@ -250,39 +250,54 @@ def assemble_long(
     confidence: np.ndarray | None = None,
     individual_order: Sequence[str] | None = None,
     keypoint_order: Sequence[str] | None = None,
+    frame_rate: float | None = None,
 ) -> dict[str, Any]:
     """Scatter a long table (one row per sample) onto ``(time, 2, keypoints, individuals)``.
 
-    ``time`` holds seconds or frame numbers (the caller knows which).  The time axis
-    is the sorted union of all rows' times; a time/individual/keypoint appearing twice
-    is an error (there is no cell for two positions).  Returns a dict with
-    ``position``, ``confidence`` (or None), ``time``, ``individuals``, ``keypoints``.
+    ``time`` holds seconds, or frame numbers when ``frame_rate`` is given.  Seconds:
+    the time axis is the sorted union of all rows' times.  Frames: the axis is every
+    frame from the first to the last (frames nobody was seen in are NaN, so the
+    sampling stays regular), converted to seconds as ``frame / frame_rate``.  A
+    time/individual/keypoint appearing twice is an error (there is no cell for two
+    positions).  Returns a dict with ``position``, ``confidence`` (or None), ``time``
+    (s), ``individuals``, ``keypoints``.
     """
     n = len(time)
     if n == 0:
         raise InputError(f"{path}: no data rows")
+    time = np.asarray(time, dtype=np.float64)
     if not np.all(np.isfinite(time)):
         bad = int(np.flatnonzero(~np.isfinite(time))[0])
         raise InputError(f"{path}: missing or non-finite time/frame in data row {bad + 1}")
-    ind_names, ind_idx = _codes(individual, individual_order)
+    ind_names, ind_idx = _codes(path, individual, individual_order)
     if keypoint is None:
         kp_names, kp_idx = ["centroid"], np.zeros(n, dtype=np.int64)
     else:
-        kp_names, kp_idx = _codes(keypoint, keypoint_order)
-    times, t_idx = np.unique(time_key(time), return_inverse=True)
+        kp_names, kp_idx = _codes(path, keypoint, keypoint_order)
+    if frame_rate is None:
+        times, t_idx = np.unique(time_key(time), return_inverse=True)
+    else:
+        frames = np.rint(time)
+        if np.any(frames != time):
+            bad = int(np.flatnonzero(frames != time)[0])
+            raise InputError(f"{path}: frame number {time[bad]!r} is not an integer")
+        f0 = int(frames.min())
+        t_idx = frames.astype(np.int64) - f0
+        times = np.arange(f0, int(frames.max()) + 1, dtype=np.float64) / frame_rate
     n_t, n_k, n_i = times.size, len(kp_names), len(ind_names)
+    check_dense_size(path, n_t, n_k, n_i)
     flat = (t_idx * n_k + kp_idx) * n_i + ind_idx
-    order = np.sort(flat)
-    dup = np.flatnonzero(order[1:] == order[:-1])
-    if dup.size:
-        cell = int(order[dup[0]])
+    counts = np.bincount(flat, minlength=n_t * n_k * n_i)
+    if counts.max(initial=0) > 1:
+        cell = int(np.argmax(counts > 1))
         ti, rest = divmod(cell, n_k * n_i)
         ki, ii = divmod(rest, n_i)
         what = f"individual {ind_names[ii]!r}"
         if keypoint is not None:
             what += f", keypoint {kp_names[ki]!r}"
-        raise InputError(f"{path}: two rows for {what} at time/frame {times[ti]:g}")
-    check_dense_size(path, n_t, n_k, n_i)
+        when = f"time {times[ti]:g} s" if frame_rate is None else f"frame {int(f0 + ti)}"
+        raise InputError(f"{path}: two rows for {what} at {when}")
+    del counts
     pos = np.full((n_t, 2, n_k, n_i), np.nan)
     pos[t_idx, 0, kp_idx, ind_idx] = x
     pos[t_idx, 1, kp_idx, ind_idx] = y
@@ -318,10 +333,18 @@ def check_dense_size(path: Path, n_t: int, n_k: int, n_i: int) -> None:
         )
 
 
-def _codes(values: np.ndarray, order: Sequence[str] | None) -> tuple[list[str], np.ndarray]:
+def _codes(
+    path: Path, values: np.ndarray, order: Sequence[str] | None
+) -> tuple[list[str], np.ndarray]:
     """Names (in first-seen order, or ``order``) and each row's index into them."""
-    codes, uniques = pd.factorize(pd.Series(values, dtype=object).astype(str), sort=False)
+    codes, uniques = pd.factorize(np.asarray(values), sort=False)
+    if (codes < 0).any():
+        raise InputError(f"{path}: missing individual or keypoint name")
     names = [str(u) for u in uniques]
+    if len(set(names)) != len(names):  # e.g. 1 and "1": same name, two codes
+        names_arr = np.asarray(names, dtype=object)
+        codes, uniques = pd.factorize(names_arr[codes], sort=False)
+        names = [str(u) for u in uniques]
     if order is None:
         return names, codes.astype(np.int64)
     order = [str(o) for o in order]

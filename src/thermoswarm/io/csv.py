@@ -168,7 +168,7 @@ def _read_table(path: Path, n_meta: int, sep: str, text_cols: list[str]) -> pd.D
                 sep=sep,
                 skiprows=n_meta,
                 index_col=False,
-                dtype={c: str for c in text_cols},
+                dtype={c: object for c in text_cols},
                 skipinitialspace=True,
                 encoding="utf-8-sig",
                 engine="c" if sep != r"\s+" else "python",
@@ -206,15 +206,15 @@ def _times(
     frame_col: str | None,
     options: dict[str, Any],
     fps: float | None,
-) -> tuple[np.ndarray, dict[str, Any]]:
-    """Times in seconds, from a time column or from frame numbers and the frame rate."""
-    attrs: dict[str, Any] = {}
+) -> tuple[np.ndarray, float | None, dict[str, Any]]:
+    """Time key of each row: ``(seconds, None, attrs)`` from a time column, or
+    ``(frame numbers, fps, attrs)`` from a frame column and the frame rate."""
     if time_col is not None:
         unit = option_str(
             path, "time_unit", options.get("time_unit", "s"), tuple(SECONDS_PER_UNIT)
         )
         t = as_float_column(path, df[time_col].to_numpy(), time_col) * SECONDS_PER_UNIT[unit]
-        return t, attrs
+        return t, None, {}
     if frame_col is None:
         raise InputError(
             f"{path}: no time or frame column (columns: {', '.join(map(str, df.columns))}); "
@@ -222,11 +222,20 @@ def _times(
         )
     frames = as_float_column(path, df[frame_col].to_numpy(), frame_col)
     rate = require_fps(path, fps, "this CSV")
-    attrs["time_from"] = "frame / fps"
-    return frames / rate, attrs
+    return frames, rate, {"time_from": "frame / fps"}
 
 
 # --------------------------------------------------------------------------- tidy
+
+
+def _names(path: Path, df: pd.DataFrame, col: str) -> np.ndarray:
+    """A name column as strings; an empty cell is an error naming the row."""
+    values = df[col]
+    missing = values.isna().to_numpy()
+    if missing.any():
+        row = int(np.flatnonzero(missing)[0])
+        raise InputError(f"{path}: empty {col!r} in data row {row + 1}")
+    return values.to_numpy(dtype=object)
 
 
 def sniff_tidy(path: Path) -> bool:
@@ -266,7 +275,7 @@ def read_tidy(
     frame_col = _find(cols, "frame", options.get("frame_col"), path)
     conf_col = _find(cols, "confidence", options.get("confidence_col"), path)
     fps = resolve_fps(path, fps, check_fps(path, meta.get("fps")), "the file's header")
-    t, t_attrs = _times(path, df, time_col, frame_col, options, fps)
+    key, rate, t_attrs = _times(path, df, time_col, frame_col, options, fps)
     units, from_file = _units_from(path, options, meta, x_col)
     scale, u_attrs = length_scale(path, units, px_per_mm, "this CSV", from_file=from_file)
     x = as_float_column(path, df[x_col].to_numpy(), x_col) * scale
@@ -275,15 +284,17 @@ def read_tidy(
     if ind_col is None:
         individual = np.full(len(df), "id_0", dtype=object)
     else:
-        individual = df[ind_col].fillna("").to_numpy(dtype=object)
-        if np.any(individual == ""):
-            row = int(np.flatnonzero(individual == "")[0])
-            raise InputError(f"{path}: empty {ind_col!r} in data row {row + 1}")
-    keypoint = None
-    if kp_col is not None:
-        keypoint = df[kp_col].fillna("").to_numpy(dtype=object)
+        individual = _names(path, df, ind_col)
+    keypoint = None if kp_col is None else _names(path, df, kp_col)
     parts = assemble_long(
-        path, individual=individual, time=t, x=x, y=y, keypoint=keypoint, confidence=conf
+        path,
+        individual=individual,
+        time=key,
+        x=x,
+        y=y,
+        keypoint=keypoint,
+        confidence=conf,
+        frame_rate=rate,
     )
     attrs = {**t_attrs, **u_attrs}
     return make_tracks(
@@ -420,7 +431,8 @@ def read_wide(
             f"columns are: {', '.join(cols)}"
         )
     fps = resolve_fps(path, fps, check_fps(path, meta.get("fps")), "the file's header")
-    t, t_attrs = _times(path, df, time_col, frame_col, options, fps)
+    key, rate, t_attrs = _times(path, df, time_col, frame_col, options, fps)
+    t = key if rate is None else key / rate
     if not np.all(np.isfinite(t)):
         row = int(np.flatnonzero(~np.isfinite(t))[0])
         raise InputError(f"{path}: missing or non-finite time/frame in data row {row + 1}")

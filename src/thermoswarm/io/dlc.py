@@ -33,6 +33,7 @@ import xarray as xr
 from thermoswarm.errors import InputError
 from thermoswarm.io._common import (
     as_float_column,
+    check_dense_size,
     check_options,
     decode_names,
     h5_file,
@@ -108,25 +109,35 @@ def _tracks_from_columns(
     if unknown:
         raise InputError(f"{path}: unexpected coords {sorted(unknown)} (want x, y, likelihood)")
     n = values.shape[0]
+    check_dense_size(path, n, len(kps), len(inds))
     pos = np.full((n, 2, len(kps), len(inds)), np.nan)
     conf = np.full((n, len(kps), len(inds)), np.nan, dtype=np.float32)
     has_conf = "likelihood" in coords
+    kp_of = {kp: k for k, kp in enumerate(kps)}
+    ind_of = {ind: i for i, ind in enumerate(inds)}
     seen: set[tuple[str, str, str]] = set()
+    groups: dict[str, tuple[list[int], list[int], list[int]]] = {
+        "x": ([], [], []),
+        "y": ([], [], []),
+        "likelihood": ([], [], []),
+    }
     for j, c in enumerate(columns):
         ind = c[1] if multi else "id_0"
-        kp, coord = c[-2], c[-1]
-        key = (ind, kp, coord)
+        key = (ind, c[-2], c[-1])
         if key in seen:
             raise InputError(f"{path}: column {c} appears twice")
         seen.add(key)
-        k, i = kps.index(kp), inds.index(ind)
-        col = values[:, j]
-        if coord == "x":
-            pos[:, 0, k, i] = col / scale
-        elif coord == "y":
-            pos[:, 1, k, i] = col / scale
-        else:
-            conf[:, k, i] = col
+        cols, ks, is_ = groups[c[-1]]
+        cols.append(j)
+        ks.append(kp_of[c[-2]])
+        is_.append(ind_of[ind])
+    # one vectorised scatter per coordinate instead of one assignment per column
+    for axis, coord in enumerate(("x", "y")):
+        cols, ks, is_ = groups[coord]
+        pos[:, axis, ks, is_] = values[:, cols] / scale
+    cols, ks, is_ = groups["likelihood"]
+    if cols:
+        conf[:, ks, is_] = values[:, cols]
     return make_tracks(
         pos,
         time=frames / fps,
@@ -293,7 +304,7 @@ def _read_table(path: Path, grp: Any) -> tuple[list[tuple[str, ...]], np.ndarray
         kind = _unpickle_plain(path, attrs.get(f"{name}_kind"), f"{name}_kind")
         if not isinstance(kind, list):
             raise InputError(f"{path}: no column names for block {name!r}")
-        vals = np.asarray(table[name])
+        vals = np.ascontiguousarray(table[name])  # a field view strides over records
         if vals.ndim == 1:
             vals = vals[:, None]
         if vals.dtype.kind not in "fiu":
@@ -304,10 +315,11 @@ def _read_table(path: Path, grp: Any) -> tuple[list[tuple[str, ...]], np.ndarray
             )
         for k in kind:
             cols.append(tuple(str(v) for v in (k if isinstance(k, tuple) else (k,))))
-        blocks.append(vals.astype(np.float64))
+        blocks.append(vals.astype(np.float64, copy=False))
     if not blocks:
         raise InputError(f"{path}: no value blocks in the table")
-    return cols, np.hstack(blocks), np.asarray(table["index"])
+    values = blocks[0] if len(blocks) == 1 else np.hstack(blocks)
+    return cols, values, np.asarray(table["index"])
 
 
 def _read_h5(path: Path, scale: float, fps: float, key: Any) -> xr.Dataset:

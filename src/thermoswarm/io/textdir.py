@@ -240,10 +240,12 @@ def read(
     individual = np.concatenate(
         [np.full(t.size, n, dtype=object) for n, t in zip(names, times, strict=True)]
     )
+    all_frames = fps is not None and all("time" not in c for c in tables)
     parts = assemble_long(
         path,
         individual=individual,
-        time=np.concatenate(times),
+        time=np.concatenate([c["frame"] for c in tables] if all_frames else times),
+        frame_rate=fps if all_frames else None,
         x=np.concatenate([c["x"] for c in tables]) * scale,
         y=np.concatenate([c["y"] for c in tables]) * scale,
         individual_order=names,

@@ -229,8 +229,9 @@ def read(
         factor = 10.0
         attrs.update(source_space_unit="cm", unit_conversion="mm = cm * 10")
     frames = np.concatenate(rows["frame"])
+    frame_rate = None
     if rate is not None and (fps is not None or not have_time):
-        time = frames / rate
+        time, frame_rate = frames, rate
         attrs["time_from"] = "frame / fps"
     elif have_time:
         time = _time_from_pairs(path, frames, np.concatenate(rows["time"]))
@@ -244,6 +245,7 @@ def read(
         y=np.concatenate(rows["y"]) * factor,
         keypoint=None,
         individual_order=names,
+        frame_rate=frame_rate,
     )
     return make_tracks(
         parts["position"],
