@@ -112,3 +112,10 @@ def test_write_to_missing_directory(tmp_path, truth):
         write_tracks(make_tracks(truth.mm, fps=FPS), tmp_path / "nope" / "t.nc")
     with pytest.raises(InputError, match="no writer for extension"):
         write_tracks(make_tracks(truth.mm, fps=FPS), tmp_path / "t.parquet")
+
+
+def test_scale_given_for_a_file_in_mm_is_ignored_with_warning(tmp_path, truth):
+    write_tracks(make_tracks(truth.mm, fps=FPS), tmp_path / "t.nc")
+    with pytest.warns(UserWarning, match=r"t\.nc.*mm; --px-per-mm is ignored"):
+        ds = read_tracks(tmp_path / "t.nc", px_per_mm="paper")
+    np.testing.assert_array_equal(ds.position.values, make_tracks(truth.mm).position.values)

@@ -68,13 +68,11 @@ def read(
         units, from_file = str(ds.attrs["space_unit"]), True
     else:
         units, from_file = None, False
-    if not (from_file and units == "mm"):
-        scale, attrs = length_scale(
-            path, units, px_per_mm, "this netCDF file", from_file=from_file
-        )
+    scale, attrs = length_scale(path, units, px_per_mm, "this netCDF file", from_file=from_file)
+    if scale != 1.0:
         ds["position"] = ds["position"].astype(np.float64) * scale
-        ds.attrs.update(attrs)
-        ds.attrs["space_unit"] = "mm"
+    ds.attrs.update(attrs)
+    ds.attrs["space_unit"] = "mm"
     if fps is not None and "fps" not in ds.attrs:
         ds.attrs["fps"] = float(fps)
     ds.attrs.setdefault("source_file", str(path))
