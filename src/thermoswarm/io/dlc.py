@@ -122,10 +122,16 @@ def _tracks_from_columns(
         if idx[cell] != missing:
             raise InputError(f"{path}: column {c} appears twice")
         idx[cell] = j
-    if (idx[:2] == missing).any() or (has_conf and (idx[2] == missing).any()):
-        values = np.hstack([values, np.full((n, 1), np.nan)])
-    # one gather into the final layout (much faster than a scatter per column)
-    gathered = np.take(values, idx.reshape(-1), axis=1).reshape(n, 3, len(kps), len(inds))
+    n_c, n_k, n_i = 3 if has_conf else 2, len(kps), len(inds)
+    idx = idx[:n_c]
+    regular = np.arange(n_i * n_k * n_c).reshape(n_i, n_k, n_c).transpose(2, 1, 0)
+    if values.shape[1] == idx.size and np.array_equal(idx, regular):
+        # DeepLabCut's own column order (individual, bodypart, coord): a reshaped view
+        gathered = values.reshape(n, n_i, n_k, n_c).transpose(0, 3, 2, 1)
+    else:
+        if (idx == missing).any():
+            values = np.hstack([values, np.full((n, 1), np.nan)])
+        gathered = np.take(values, idx.reshape(-1), axis=1).reshape(n, n_c, n_k, n_i)
     pos = gathered[:, :2] / scale
     conf = gathered[:, 2].astype(np.float32) if has_conf else None
     return make_tracks(
