@@ -200,3 +200,14 @@ def test_dense_size_guard(tmp_path, monkeypatch):
     ).to_csv(tmp_path / "frag.csv", index=False)
     with pytest.raises(InputError, match=r"frag\.csv: 4 individuals .* merge fragmented"):
         read_tracks(tmp_path / "frag.csv", fps=1, units="mm")
+
+
+def test_tsv_written_with_tabs_and_read_back(tmp_path, truth):
+    ds0 = make_tracks(truth.mm, fps=FPS, individuals=truth.individuals, keypoints=truth.keypoints)
+    write_tracks(ds0, tmp_path / "t.tsv")
+    header = [
+        ln for ln in (tmp_path / "t.tsv").read_text().splitlines() if not ln.startswith("#")
+    ][0]
+    assert header.split("\t") == ["individual", "keypoint", "time", "frame", "x", "y"]
+    ds = read_tracks(tmp_path / "t.tsv")
+    np.testing.assert_array_equal(ds.position.values, ds0.position.values)

@@ -133,3 +133,10 @@ def test_truncated_npz(tmp_path, truth):
     bad.write_bytes(paths[0].read_bytes()[:100])
     with pytest.raises(InputError, match=r"v_id0\.npz"):
         read_tracks(bad, format="trex")
+
+
+def test_two_videos_in_one_folder_use_full_stems(tmp_path, truth):
+    paths = _export(tmp_path, truth)
+    paths[1].rename(tmp_path / "other_fish0.npz")
+    ds = read_tracks(tmp_path)
+    assert list(ds.individuals.values) == ["other_fish0", "video_fish0"]

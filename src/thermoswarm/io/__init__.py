@@ -4,13 +4,18 @@
 file's content and extension, and returns the trajectory format of
 :mod:`thermoswarm.tracks` with positions in mm and times in seconds.
 
-Readers are registered with :func:`register_reader`; each is a module of this
-package (one per family of formats) that is imported only when used, so that the
-core stays light (``sleap-io`` is needed only for ``.slp``).
+Formats are registered with :func:`register_format`; each lives in a module of
+this package (one per family of formats) that is imported only when used, so that
+the core stays light (``sleap-io`` is needed only for ``.slp``).  A module declares
+``OPTIONS`` (option name -> help) and ``NEEDS``; :func:`read_tracks` rejects options
+a format does not know, and turns any library failure on a malformed file into a
+one-line :class:`~thermoswarm.errors.InputError` naming the file.
 
 Scale and frame rate are never assumed: pixel-based formats need ``px_per_mm``
 (``"paper"`` is the paper's 3.04 px/mm preset) and formats without timestamps need
 ``fps``; otherwise the reader raises :class:`~thermoswarm.errors.InputError`.
+Nothing is unpickled unless ``allow_pickle=True`` (``--allow-pickle``).  See
+``docs/io.md`` for every format, its options and the attributes it records.
 """
 
 from __future__ import annotations

@@ -371,7 +371,8 @@ def write(
         src = str(ds.attrs.get("source_software", "")).replace("\n", " ")
         if src:
             buf.write(f"# source_software: {src}\n")
-    frame.to_csv(buf, index=False, lineterminator="\n")
+    sep = "\t" if path.suffix.lower() == ".tsv" else ","
+    frame.to_csv(buf, index=False, sep=sep, lineterminator="\n")
     atomic_write_text(path, buf.getvalue())
 
 

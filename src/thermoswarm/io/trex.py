@@ -198,7 +198,11 @@ def read(
         if rate is not None:
             rates.add(rate)
     if len(set(names)) != len(names):
-        raise InputError(f"{path}: two files give the same individual name; rename them")
+        # e.g. exports of two videos in one folder: fall back to the whole file stems
+        full = [f.stem for f in files]
+        for old_name, new_name, ind in zip(names, full, rows["ind"], strict=True):
+            ind[ind == old_name] = new_name
+        names = full
     if len(cpps) > 1:
         raise InputError(f"{path}: files disagree on cm_per_pixel ({sorted(cpps)})")
     if len(rates) > 1:
