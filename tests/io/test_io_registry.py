@@ -289,3 +289,65 @@ def test_cli_formats_lists_everything():
     assert res.exit_code == 0
     for name in ("idtracker", "trex", "sleap", "dlc", "tidy_csv", "wide_csv", "zarr"):
         assert name in res.output
+
+
+def _bigger_sleap_h5(path):
+    with h5py.File(path, "w") as f:
+        f.create_dataset("tracks", data=np.random.default_rng(0).normal(size=(4, 2, 3, 500)))
+        f["node_names"] = np.array([b"a", b"b", b"c"])
+        f["track_names"] = np.array([b"t0", b"t1", b"t2", b"t3"])
+
+
+def _bigger_idtracker_h5(path):
+    with h5py.File(path, "w") as f:
+        f["trajectories"] = np.random.default_rng(0).normal(size=(500, 4, 2))
+        f.attrs["frames_per_second"] = FPS
+
+
+def _bigger_dlc_h5(path):
+    pytest.importorskip("tables")
+    cols = pd.MultiIndex.from_tuples(
+        [("s", f"b{k}", c) for k in range(5) for c in ("x", "y", "likelihood")],
+        names=["scorer", "bodyparts", "coords"],
+    )
+    pd.DataFrame(np.random.default_rng(0).normal(size=(500, 15)), columns=cols).to_hdf(
+        path, key="df_with_missing", format="table"
+    )
+
+
+def _bigger_nc(path):
+    from thermoswarm.io import write_tracks
+
+    write_tracks(make_tracks(np.random.default_rng(0).normal(size=(500, 2, 4)), fps=FPS), path)
+
+
+def _bigger_npz(path):
+    n = 500
+    np.savez(
+        path,
+        frame=np.arange(n),
+        time=np.arange(n) / FPS,
+        **{"X#wcentroid": np.ones(n), "Y#wcentroid": np.ones(n)},
+    )
+
+
+@pytest.mark.parametrize(
+    ("name", "make", "fmt"),
+    [
+        ("a.h5", _bigger_sleap_h5, "sleap"),
+        ("b.h5", _bigger_idtracker_h5, "idtracker"),
+        ("c.h5", _bigger_dlc_h5, "dlc"),
+        ("d.nc", _bigger_nc, "netcdf"),
+        ("e_id0.npz", _bigger_npz, "trex"),
+    ],
+)
+@pytest.mark.parametrize("keep", [0.5, 0.9])
+def test_truncated_files_are_one_line_errors(tmp_path, name, make, fmt, keep):
+    path = tmp_path / name
+    make(path)
+    data = path.read_bytes()
+    path.write_bytes(data[: int(len(data) * keep)])
+    with pytest.raises(InputError) as err:
+        read_tracks(path, fmt, **PX)
+    msg = str(err.value)
+    assert msg.startswith(str(path)) and "\n" not in msg
