@@ -29,6 +29,8 @@ _COMMANDS: dict[str, str] = {
     "evaluate": "thermoswarm.cli.track:evaluate",
     "reproduce": "thermoswarm.cli.reproduce:reproduce",
     "sweep": "thermoswarm.cli.sweep:sweep",
+    "convert": "thermoswarm.cli.convert:convert",
+    "formats": "thermoswarm.cli.convert:formats",
 }
 
 

@@ -4,27 +4,36 @@
 file's content and extension, and returns the trajectory format of
 :mod:`thermoswarm.tracks` with positions in mm and times in seconds.
 
-Readers are registered with :func:`register_reader`; each is a module of this
-package (one per family of formats) that is imported only when used, so that the
-core stays light (``sleap-io`` is needed only for ``.slp``).
+Formats are registered with :func:`register_format`; each lives in a module of
+this package (one per family of formats) that is imported only when used, so that
+the core stays light (``sleap-io`` is needed only for ``.slp``).  A module declares
+``OPTIONS`` (option name -> help) and ``NEEDS``; :func:`read_tracks` rejects options
+a format does not know, and turns any library failure on a malformed file into a
+one-line :class:`~thermoswarm.errors.InputError` naming the file.
 
 Scale and frame rate are never assumed: pixel-based formats need ``px_per_mm``
 (``"paper"`` is the paper's 3.04 px/mm preset) and formats without timestamps need
 ``fps``; otherwise the reader raises :class:`~thermoswarm.errors.InputError`.
+Nothing is unpickled unless ``allow_pickle=True`` (``--allow-pickle``).  See
+``docs/io.md`` for every format, its options and the attributes it records.
 """
 
 from __future__ import annotations
 
 import importlib
+import inspect
 import os
-from collections.abc import Callable
+import tomllib
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import xarray as xr
 
-from thermoswarm.errors import InputError
+from thermoswarm.errors import InputError, OutputError, ThermoswarmError
+from thermoswarm.tracks import validate_tracks
 
 #: Named scale presets for ``px_per_mm``.
 SCALE_PRESETS: dict[str, float] = {"paper": 3.04}
@@ -35,7 +44,10 @@ class Format:
     """A registered trajectory format.
 
     ``module`` holds functions ``sniff(path) -> bool`` (optional), ``read(path, **opts)``
-    and ``write(ds, path, **opts)`` (optional), imported lazily.
+    and ``write(ds, path, **opts)`` (optional), a dict ``OPTIONS`` (option name -> one
+    line of help) and a string ``NEEDS`` (what the user must supply), imported lazily.
+    ``"package.module:NAME"`` names an object of the module that has those attributes
+    (one module can hold a family of formats, e.g. tidy and wide CSV).
     """
 
     name: str
@@ -46,7 +58,9 @@ class Format:
     can_write: bool = False
 
     def load(self) -> Any:
-        return importlib.import_module(self.module)
+        module, _, attr = self.module.partition(":")
+        mod = importlib.import_module(module)
+        return getattr(mod, attr) if attr else mod
 
 
 _FORMATS: dict[str, Format] = {}
@@ -102,12 +116,20 @@ def detect_format(path: str | os.PathLike) -> str:
         return candidates[0].name
     for fmt in candidates:
         sniff: Callable[[Path], bool] | None = getattr(fmt.load(), "sniff", None)
-        if sniff is not None and sniff(path):
+        try:
+            found = sniff is not None and sniff(path)
+        except Exception:  # a sniffer must never turn a bad file into a traceback
+            found = False
+        if found:
             return fmt.name
     known = ", ".join(sorted(_FORMATS))
     if candidates:
         names = ", ".join(f.name for f in candidates)
-        raise InputError(f"{path}: could not tell which of {names} this is; pass --format")
+        what = "directory" if ext == "/" else f"{ext} file"
+        raise InputError(
+            f"{path}: this {what} looks like none of {names} (unreadable, empty or another "
+            "layout); pass --format NAME to get that reader's own error"
+        )
     raise InputError(f"{path}: unknown trajectory format {ext!r}; pass --format (one of {known})")
 
 
@@ -117,22 +139,38 @@ def read_tracks(
     *,
     fps: float | None = None,
     px_per_mm: float | str | None = None,
+    allow_pickle: bool = False,
     **options: Any,
 ) -> xr.Dataset:
-    """Read trajectories from ``path`` into the trajectory format.
+    """Read trajectories from ``path`` into the trajectory format (mm, seconds).
 
     Parameters
     ----------
     path
         File or directory.
     format
-        A registered format name; detected from the file when omitted.
+        A registered format name (see :func:`formats`); detected from the file's
+        extension and content when omitted.
     fps
-        Frame rate, for files that have frame numbers but no times.
+        Frame rate (frames/s) for files that have frame numbers but no times.  Where
+        a file records its own frame rate, an explicit ``fps`` overrides it (with a
+        warning when they differ) and the file's value is kept in ``attrs``.
     px_per_mm
-        Pixels per millimetre for pixel-based files, or a preset name (``"paper"``).
+        Pixels per millimetre for pixel-based files, or a preset name (``"paper"`` =
+        3.04 px/mm).  Never assumed: a pixel-based file without it is an error.
+    allow_pickle
+        Allow formats that store Python pickles (idtracker.ai ``trajectories.npy``)
+        to be unpickled.  Unpickling runs code from the file: only for files you trust.
+        Ignored by formats that never unpickle.
     **options
-        Format-specific options (column names, ``allow_pickle``, ...).
+        Format-specific options (see ``docs/io.md``); an option the format does not
+        know is an error that lists the ones it accepts.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``position(time, space, keypoints, individuals)`` in mm, ``confidence`` where
+        the source has scores, attributes recording the source and any conversion.
     """
     path = Path(path)
     if not path.exists():
@@ -142,30 +180,227 @@ def read_tracks(
         known = ", ".join(sorted(n for n, f in _FORMATS.items() if f.can_read))
         raise InputError(f"unknown input format {name!r}; expected one of: {known}")
     reader = _FORMATS[name].load()
-    return reader.read(path, fps=fps, px_per_mm=resolve_px_per_mm(px_per_mm), **options)
+    accepted: dict[str, str] = getattr(reader, "OPTIONS", {})
+    if "allow_pickle" in accepted:
+        options["allow_pickle"] = bool(allow_pickle)
+    unknown = sorted(set(options) - set(accepted))
+    if unknown:
+        known = ", ".join(sorted(k for k in accepted if k != "allow_pickle")) or "none"
+        raise InputError(
+            f"{path}: unknown option(s) {', '.join(unknown)} for format {name!r}; "
+            f"it accepts: {known}"
+        )
+    try:
+        ds = reader.read(path, fps=fps, px_per_mm=resolve_px_per_mm(px_per_mm), **options)
+    except ThermoswarmError:
+        raise
+    except MemoryError:
+        raise
+    except Exception as exc:  # a library failed on a malformed file: one line, naming it
+        detail = str(exc).strip().splitlines()[0][:200] if str(exc).strip() else ""
+        raise InputError(
+            f"{path}: cannot read as {name} ({type(exc).__name__}{': ' if detail else ''}{detail})"
+        ) from exc
+    return _check_result(ds, path)
 
 
-def write_tracks(ds: xr.Dataset, path: str | os.PathLike, format: str | None = None,
-                 **options: Any) -> Path:
-    """Write ``ds`` to ``path`` (atomically); the format follows the extension by default."""
+def _check_result(ds: xr.Dataset, path: Path) -> xr.Dataset:
+    """Final checks common to every reader: schema, at least one finite position."""
+    ds = validate_tracks(ds, source=str(path))
+    if ds.sizes["time"] == 0:
+        raise InputError(f"{path}: no time steps")
+    if ds.sizes["individuals"] == 0 or ds.sizes["keypoints"] == 0:
+        raise InputError(f"{path}: no individuals or keypoints")
+    if not np.isfinite(ds["position"].values).any():
+        raise InputError(f"{path}: every position is missing (NaN); nothing to analyse")
+    ds.attrs.setdefault("source_file", str(path))
+    return ds
+
+
+def parse_read_options(items: Iterable[str], *, flag: str = "--read-option") -> dict[str, Any]:
+    """Turn repeated ``--read-option key=value`` strings into keyword options.
+
+    Values are parsed as TOML (``3``, ``2.5``, ``true``, ``"text"``, ``["a", "b"]``);
+    a value that is not valid TOML is taken as a bare string (``units=mm``).
+    """
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key or not key.replace("_", "").isalnum():
+            raise InputError(f"{flag} {item!r}: expected key=value")
+        if key in out:
+            raise InputError(f"{flag} {key!r} is given twice")
+        text = text.strip()
+        try:
+            out[key] = tomllib.loads(f"v = {text}")["v"]
+        except tomllib.TOMLDecodeError:
+            out[key] = text
+    return out
+
+
+def describe_formats() -> list[dict[str, Any]]:
+    """One row per registered format: name, extensions, read/write, needs, options."""
+    rows = []
+    for fmt in sorted(_FORMATS.values(), key=lambda f: f.name):
+        mod = fmt.load() if fmt.can_read else None
+        rows.append(
+            {
+                "name": fmt.name,
+                "extensions": [("(directory)" if e == "/" else e) for e in fmt.extensions],
+                "description": fmt.description,
+                "read": fmt.can_read,
+                "write": fmt.can_write,
+                "needs": getattr(mod, "NEEDS", ""),
+                "options": dict(getattr(mod, "OPTIONS", {})),
+            }
+        )
+    return rows
+
+
+def write_tracks(
+    ds: xr.Dataset, path: str | os.PathLike, format: str | None = None, **options: Any
+) -> Path:
+    """Write ``ds`` to ``path`` atomically; the format follows the extension by default.
+
+    ``.nc`` -> netCDF, ``.csv`` -> tidy CSV, ``.txt`` -> MOTChallenge (needs
+    ``px_per_mm`` unless ``ds.attrs`` has it).  The parent directory must exist.
+    """
     path = Path(path)
     if format is None:
         ext = _suffix(path)
         writers = [f for f in _FORMATS.values() if f.can_write and ext in f.extensions]
         if not writers:
-            raise InputError(f"{path}: no writer for extension {ext!r}")
+            known = ", ".join(e for f in _FORMATS.values() if f.can_write for e in f.extensions)
+            raise InputError(f"{path}: no writer for extension {ext!r} (writers: {known})")
         format = writers[0].name
     fmt = _FORMATS.get(format)
     if fmt is None or not fmt.can_write:
         known = ", ".join(sorted(n for n, f in _FORMATS.items() if f.can_write))
         raise InputError(f"unknown output format {format!r}; expected one of: {known}")
-    fmt.load().write(ds, path, **options)
+    parent = path.absolute().parent
+    if not parent.is_dir():
+        raise OutputError(f"{path}: parent directory {str(parent)!r} does not exist")
+    if path.is_dir():
+        raise OutputError(f"{path}: is a directory")
+    writer = fmt.load().write
+    params = inspect.signature(writer).parameters
+    accepted = [n for n, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY]
+    takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+    unknown = sorted(set(options) - set(accepted))
+    if unknown and not takes_any:
+        raise InputError(
+            f"{path}: unknown write option(s) {', '.join(unknown)} for {format!r}; "
+            f"it accepts: {', '.join(accepted) or 'none'}"
+        )
+    validate_tracks(ds)
+    writer(ds, path, **options)
     return path
 
 
-register_format(Format("netcdf", "thermoswarm.io.netcdf", (".nc", ".nc4", ".netcdf"),
-                       "thermoswarm / movement netCDF", can_write=True))
-register_format(Format("zarr", "thermoswarm.io.zarrstore", (".zarr",),
-                       "thermoswarm Zarr store (simulation recordings)"))
-register_format(Format("mot", "thermoswarm.io.mot", (".txt",),
-                       "MOTChallenge txt (box centres)", can_write=True))
+def convert_tracks(
+    source: str | os.PathLike,
+    dest: str | os.PathLike,
+    *,
+    format: str | None = None,
+    to: str | None = None,
+    fps: float | None = None,
+    px_per_mm: float | str | None = None,
+    allow_pickle: bool = False,
+    read_options: dict[str, Any] | None = None,
+    write_options: dict[str, Any] | None = None,
+) -> xr.Dataset:
+    """Read ``source`` (any registered format) and write it to ``dest``; return the data."""
+    ds = read_tracks(
+        source,
+        format,
+        fps=fps,
+        px_per_mm=px_per_mm,
+        allow_pickle=allow_pickle,
+        **(read_options or {}),
+    )
+    write_tracks(ds, dest, to, **(write_options or {}))
+    return ds
+
+
+# Registration order matters where formats share an extension: detect_format asks
+# each candidate's ``sniff`` in this order, so the strictest sniffers come first.
+register_format(
+    Format(
+        "netcdf",
+        "thermoswarm.io.netcdf",
+        (".nc", ".nc4", ".netcdf"),
+        "thermoswarm / movement netCDF",
+        can_write=True,
+    )
+)
+register_format(
+    Format(
+        "zarr",
+        "thermoswarm.io.zarrstore",
+        (".zarr", "/"),
+        "thermoswarm Zarr store (simulation recordings)",
+    )
+)
+register_format(
+    Format(
+        "mot", "thermoswarm.io.mot", (".txt",), "MOTChallenge txt (box centres)", can_write=True
+    )
+)
+register_format(
+    Format(
+        "dlc",
+        "thermoswarm.io.dlc",
+        (".h5", ".hdf5", ".csv"),
+        "DeepLabCut predictions (.h5 / .csv)",
+    )
+)
+register_format(
+    Format(
+        "tidy_csv",
+        "thermoswarm.io.csv:TIDY",
+        (".csv", ".tsv"),
+        "tidy CSV: one row per individual and time",
+        can_write=True,
+    )
+)
+register_format(
+    Format(
+        "wide_csv",
+        "thermoswarm.io.csv:WIDE",
+        (".csv", ".tsv"),
+        "wide CSV: one row per frame, x/y columns per individual",
+    )
+)
+register_format(
+    Format(
+        "sleap",
+        "thermoswarm.io.sleap",
+        (".slp", ".h5", ".hdf5"),
+        "SLEAP labels (.slp) and analysis HDF5 (.h5)",
+    )
+)
+register_format(
+    Format(
+        "idtracker",
+        "thermoswarm.io.idtracker",
+        (".npy", ".h5", ".hdf5", "/"),
+        "idtracker.ai trajectories (.h5, .npy, session folder)",
+    )
+)
+register_format(
+    Format(
+        "trex",
+        "thermoswarm.io.trex",
+        (".npz", "/"),
+        "TRex per-individual .npz exports (a file or a folder)",
+    )
+)
+register_format(
+    Format(
+        "text",
+        "thermoswarm.io.textdir",
+        (".txt", ".dat", ".xy", "/"),
+        "one `t x y` text file per individual (a file or a folder of them)",
+    )
+)

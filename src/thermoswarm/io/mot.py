@@ -21,6 +21,9 @@ from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_text
 from thermoswarm.tracks import centroid, make_tracks
 
+OPTIONS: dict[str, str] = {}
+NEEDS = "--fps and --px-per-mm (frame numbers and pixel boxes)"
+
 #: Column names of a MOT row.
 COLUMNS = ("frame", "id", "bb_left", "bb_top", "bb_width", "bb_height", "conf", "x", "y", "z")
 
@@ -107,8 +110,9 @@ def write_mot_table(path: str | Path, table: np.ndarray) -> None:
     atomic_write_text(path, buf.getvalue())
 
 
-def tracks_from_table(table: np.ndarray, *, fps: float, px_per_mm: float,
-                      source_file: str | None = None) -> xr.Dataset:
+def tracks_from_table(
+    table: np.ndarray, *, fps: float, px_per_mm: float, source_file: str | None = None
+) -> xr.Dataset:
     """Box centres of a MOT table as trajectories (frame ``f`` -> time ``(f - 1) / fps``)."""
     frames = table[:, 0].astype(np.int64)
     ids = table[:, 1].astype(np.int64)
@@ -121,13 +125,21 @@ def tracks_from_table(table: np.ndarray, *, fps: float, px_per_mm: float,
     pos[row, 1, 0, col] = (table[:, 3] + table[:, 5] / 2) / px_per_mm
     conf[row, 0, col] = np.clip(table[:, 6], 0, 1)
     t = (np.arange(f0, f1 + 1) - 1) / fps
-    return make_tracks(pos, time=t, fps=fps, individuals=[f"id_{i}" for i in uid],
-                       confidence=conf, source_software="MOTChallenge", source_file=source_file,
-                       attrs={"px_per_mm": px_per_mm})
+    return make_tracks(
+        pos,
+        time=t,
+        fps=fps,
+        individuals=[f"id_{i}" for i in uid],
+        confidence=conf,
+        source_software="MOTChallenge",
+        source_file=source_file,
+        attrs={"px_per_mm": px_per_mm},
+    )
 
 
-def read(path: Path, *, fps: float | None = None, px_per_mm: float | None = None,
-         **options: Any) -> xr.Dataset:
+def read(
+    path: Path, *, fps: float | None = None, px_per_mm: float | None = None, **options: Any
+) -> xr.Dataset:
     if options:
         raise InputError(f"{path}: mot reader takes no options, got {sorted(options)}")
     if fps is None:
@@ -143,8 +155,9 @@ def read(path: Path, *, fps: float | None = None, px_per_mm: float | None = None
     return tracks_from_table(table, fps=fps, px_per_mm=px_per_mm, source_file=str(path))
 
 
-def table_from_tracks(ds: xr.Dataset, *, px_per_mm: float | None = None,
-                      box_size_px: float = 20.0) -> np.ndarray:
+def table_from_tracks(
+    ds: xr.Dataset, *, px_per_mm: float | None = None, box_size_px: float = 20.0
+) -> np.ndarray:
     """Rows of a MOT table with a square box of ``box_size_px`` around each centroid."""
     scale = px_per_mm if px_per_mm is not None else ds.attrs.get("px_per_mm")
     if scale is None:
@@ -173,6 +186,7 @@ def table_from_tracks(ds: xr.Dataset, *, px_per_mm: float | None = None,
     return rows
 
 
-def write(ds: xr.Dataset, path: Path, *, px_per_mm: float | None = None,
-          box_size_px: float = 20.0) -> None:
+def write(
+    ds: xr.Dataset, path: Path, *, px_per_mm: float | None = None, box_size_px: float = 20.0
+) -> None:
     write_mot_table(path, table_from_tracks(ds, px_per_mm=px_per_mm, box_size_px=box_size_px))

@@ -1,0 +1,404 @@
+"""Helpers shared by the readers: options, units, frame rates, long tables.
+
+Every reader converts to the one trajectory format (mm, seconds) and reports bad
+input as a one-line :class:`~thermoswarm.errors.InputError` that names the file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import re
+import warnings
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from thermoswarm.errors import InputError
+
+#: Millimetres per unit, for files that state their own length unit.
+MM_PER_UNIT: dict[str, float] = {
+    "mm": 1.0,
+    "millimeter": 1.0,
+    "millimetre": 1.0,
+    "cm": 10.0,
+    "centimeter": 10.0,
+    "centimetre": 10.0,
+    "m": 1000.0,
+    "meter": 1000.0,
+    "metre": 1000.0,
+    "um": 1e-3,
+    "micrometer": 1e-3,
+    "micrometre": 1e-3,
+}
+#: Names that mean "pixels".
+PIXEL_UNITS = ("px", "pixel", "pixels")
+
+#: Seconds per unit of a time column.
+SECONDS_PER_UNIT: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0, "h": 3600.0}
+
+PX_HINT = "pass --px-per-mm (the paper's scale is --px-per-mm paper = 3.04 px/mm)"
+FPS_HINT = "pass --fps"
+
+
+def check_options(
+    path: Path, fmt: str, options: Mapping[str, Any], accepted: Mapping[str, str]
+) -> None:
+    """Reject options that the reader of ``fmt`` does not know, listing those it does."""
+    unknown = sorted(set(options) - set(accepted))
+    if unknown:
+        known = ", ".join(sorted(accepted)) or "none"
+        raise InputError(
+            f"{path}: unknown option(s) {', '.join(unknown)} for format {fmt!r}; "
+            f"it accepts: {known}"
+        )
+
+
+def option_str(path: Path, name: str, value: Any, choices: Sequence[str] | None = None) -> str:
+    """A string option, optionally one of ``choices``."""
+    if not isinstance(value, str):
+        raise InputError(f"{path}: option {name} must be a string, got {value!r}")
+    if choices is not None and value not in choices:
+        raise InputError(
+            f"{path}: option {name} must be one of {', '.join(choices)}, got {value!r}"
+        )
+    return value
+
+
+def option_bool(path: Path, name: str, value: Any) -> bool:
+    """A boolean option (``true``/``false`` on the command line)."""
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    raise InputError(f"{path}: option {name} must be true or false, got {value!r}")
+
+
+def option_int(path: Path, name: str, value: Any, *, minimum: int | None = None) -> int:
+    """An integer option."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise InputError(f"{path}: option {name} must be an integer, got {value!r}")
+    if minimum is not None and value < minimum:
+        raise InputError(f"{path}: option {name} must be >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def option_positive(path: Path, name: str, value: Any) -> float:
+    """A positive finite number option."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+        raise InputError(f"{path}: option {name} must be a positive number, got {value!r}")
+    value = float(value)
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"{path}: option {name} must be a positive number, got {value!r}")
+    return value
+
+
+def option_str_list(path: Path, name: str, value: Any) -> list[str]:
+    """A list of strings (a single string is a list of one)."""
+    if isinstance(value, str):
+        return [value]
+    if isinstance(value, list | tuple) and value and all(isinstance(v, str) for v in value):
+        return list(value)
+    raise InputError(f"{path}: option {name} must be a string or a list of strings, got {value!r}")
+
+
+def check_fps(path: Path, fps: Any) -> float | None:
+    """``None`` or a positive finite frame rate (1/s)."""
+    if fps is None:
+        return None
+    try:
+        value = float(fps)
+    except (TypeError, ValueError):
+        raise InputError(f"{path}: fps must be a positive number, got {fps!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"{path}: fps must be a positive number, got {fps!r}")
+    return value
+
+
+def require_fps(path: Path, fps: float | None, what: str) -> float:
+    """The frame rate, or an error saying that ``what`` has frame numbers only."""
+    if fps is None:
+        raise InputError(f"{path}: {what} has frame numbers but no times; {FPS_HINT}")
+    return fps
+
+
+def require_px_per_mm(path: Path, px_per_mm: float | None, what: str) -> float:
+    """The scale, or an error saying that ``what`` is in pixels."""
+    if px_per_mm is None:
+        raise InputError(f"{path}: {what} positions are in pixels; {PX_HINT}")
+    return px_per_mm
+
+
+def resolve_fps(path: Path, given: float | None, in_file: float | None, what: str) -> float | None:
+    """The frame rate: ``--fps`` overrides the file's own (warning when they differ)."""
+    given = check_fps(path, given)
+    if in_file is not None and not (math.isfinite(in_file) and in_file > 0):
+        in_file = None
+    if given is not None:
+        if in_file is not None and not math.isclose(given, in_file, rel_tol=1e-6):
+            warnings.warn(
+                f"{path}: --fps {given:g} overrides the frame rate {in_file:g} stored by {what}",
+                stacklevel=3,
+            )
+        return given
+    return in_file
+
+
+def length_scale(
+    path: Path,
+    units: str | None,
+    px_per_mm: float | None,
+    what: str,
+    *,
+    from_file: bool = False,
+) -> tuple[float, dict[str, Any]]:
+    """Factor that turns the file's lengths into mm, and attrs recording the conversion.
+
+    ``units`` is the length unit (``"px"``, ``"mm"``, ``"cm"``, ...) given by the user
+    or, with ``from_file``, recorded in the file; ``None`` means unknown: then
+    ``px_per_mm`` (pixels) is required.  A physical unit together with ``px_per_mm`` is
+    a contradiction: an error when the user chose the unit, a warning (the scale is
+    ignored) when the file records it.
+    """
+    if units is None:
+        if px_per_mm is None:
+            raise InputError(
+                f"{path}: the length unit of {what} is not recorded; {PX_HINT} for pixels, "
+                'or --read-option units="mm" (or "cm", "m") for physical units'
+            )
+        units = "px"
+    key = units.strip().lower()
+    if key in PIXEL_UNITS:
+        scale = require_px_per_mm(path, px_per_mm, what)
+        return 1.0 / scale, {"px_per_mm": scale, "source_space_unit": "px"}
+    if key not in MM_PER_UNIT:
+        known = ", ".join(["px", "mm", "cm", "m", "um"])
+        raise InputError(f"{path}: unknown length unit {units!r}; expected one of {known}")
+    if px_per_mm is not None:
+        if from_file:
+            warnings.warn(
+                f"{path}: {what} records positions in {units}; --px-per-mm is ignored",
+                stacklevel=3,
+            )
+        else:
+            raise InputError(
+                f"{path}: {what} positions are in {units}, not pixels; drop --px-per-mm "
+                '(or pass --read-option units="px" if they really are pixels)'
+            )
+    factor = MM_PER_UNIT[key]
+    return factor, {"source_space_unit": key} if factor != 1.0 else {}
+
+
+def as_float_column(path: Path, values: Any, name: str) -> np.ndarray:
+    """A numeric column as float64; a non-numeric entry is an error naming the column."""
+    arr = np.asarray(values)
+    if arr.dtype.kind in "fiu":
+        return arr.astype(np.float64, copy=False)
+    if arr.dtype.kind == "b":
+        return arr.astype(np.float64)
+    out = np.empty(arr.shape, dtype=np.float64)
+    flat = arr.ravel()
+    res = out.ravel()
+    for i, v in enumerate(flat):
+        if v is None or (isinstance(v, str) and v.strip() == ""):
+            res[i] = np.nan
+            continue
+        try:
+            res[i] = float(v)
+        except (TypeError, ValueError):
+            raise InputError(
+                f"{path}: non-numeric value {str(v)[:40]!r} in column {name!r} (data row {i + 1})"
+            ) from None
+    return out
+
+
+def attr_value(value: Any) -> Any:
+    """A value that netCDF can store as an attribute (str, int, float, or arrays of them)."""
+    if isinstance(value, bytes):
+        return value.decode("utf-8", "replace")
+    if isinstance(value, bool | np.bool_):
+        return int(value)
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, list | tuple):
+        items = [attr_value(v) for v in value]
+        if items and all(isinstance(v, str) for v in items):
+            return ", ".join(items)
+        return str(items)
+    if value is None:
+        return ""
+    if isinstance(value, dict):
+        return json.dumps(value, default=str)
+    return value
+
+
+def time_key(t: np.ndarray) -> np.ndarray:
+    """Times rounded to 1 ns so that float noise does not split one instant in two."""
+    return np.round(np.asarray(t, dtype=np.float64), 9)
+
+
+def assemble_long(
+    path: Path,
+    *,
+    individual: np.ndarray,
+    time: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    keypoint: np.ndarray | None = None,
+    confidence: np.ndarray | None = None,
+    individual_order: Sequence[str] | None = None,
+    keypoint_order: Sequence[str] | None = None,
+    frame_rate: float | None = None,
+) -> dict[str, Any]:
+    """Scatter a long table (one row per sample) onto ``(time, 2, keypoints, individuals)``.
+
+    ``time`` holds seconds, or frame numbers when ``frame_rate`` is given.  Seconds:
+    the time axis is the sorted union of all rows' times.  Frames: the axis is every
+    frame from the first to the last (frames nobody was seen in are NaN, so the
+    sampling stays regular), converted to seconds as ``frame / frame_rate``.  A
+    time/individual/keypoint appearing twice is an error (there is no cell for two
+    positions).  Returns a dict with ``position``, ``confidence`` (or None), ``time``
+    (s), ``individuals``, ``keypoints``.
+    """
+    n = len(time)
+    if n == 0:
+        raise InputError(f"{path}: no data rows")
+    time = np.asarray(time, dtype=np.float64)
+    if not np.all(np.isfinite(time)):
+        bad = int(np.flatnonzero(~np.isfinite(time))[0])
+        raise InputError(f"{path}: missing or non-finite time/frame in data row {bad + 1}")
+    ind_names, ind_idx = _codes(path, individual, individual_order)
+    if keypoint is None:
+        kp_names, kp_idx = ["centroid"], np.zeros(n, dtype=np.int64)
+    else:
+        kp_names, kp_idx = _codes(path, keypoint, keypoint_order)
+    if frame_rate is None:
+        times, t_idx = np.unique(time_key(time), return_inverse=True)
+    else:
+        frames = np.rint(time)
+        if np.any(frames != time):
+            bad = int(np.flatnonzero(frames != time)[0])
+            raise InputError(f"{path}: frame number {time[bad]!r} is not an integer")
+        f0 = int(frames.min())
+        t_idx = frames.astype(np.int64) - f0
+        times = np.arange(f0, int(frames.max()) + 1, dtype=np.float64) / frame_rate
+    n_t, n_k, n_i = times.size, len(kp_names), len(ind_names)
+    check_dense_size(path, n_t, n_k, n_i)
+    flat = (t_idx * n_k + kp_idx) * n_i + ind_idx
+    counts = np.bincount(flat, minlength=n_t * n_k * n_i)
+    if counts.max(initial=0) > 1:
+        cell = int(np.argmax(counts > 1))
+        ti, rest = divmod(cell, n_k * n_i)
+        ki, ii = divmod(rest, n_i)
+        what = f"individual {ind_names[ii]!r}"
+        if keypoint is not None:
+            what += f", keypoint {kp_names[ki]!r}"
+        when = f"time {times[ti]:g} s" if frame_rate is None else f"frame {int(f0 + ti)}"
+        raise InputError(f"{path}: two rows for {what} at {when}")
+    del counts
+    pos = np.full((n_t, 2, n_k, n_i), np.nan)
+    pos[t_idx, 0, kp_idx, ind_idx] = x
+    pos[t_idx, 1, kp_idx, ind_idx] = y
+    conf = None
+    if confidence is not None:
+        conf = np.full((n_t, n_k, n_i), np.nan, dtype=np.float32)
+        conf[t_idx, kp_idx, ind_idx] = confidence
+    return {
+        "position": pos,
+        "confidence": conf,
+        "time": times,
+        "individuals": ind_names,
+        "keypoints": kp_names,
+    }
+
+
+#: Largest dense position array a reader will allocate (float64 values; 8 GB).
+MAX_CELLS = 1_000_000_000
+
+
+def check_dense_size(path: Path, n_t: int, n_k: int, n_i: int) -> None:
+    """Refuse a dense ``(time, 2, keypoints, individuals)`` array that cannot fit.
+
+    Long tables from trackers that fragment identities (thousands of short tracks)
+    would otherwise ask for tens of GB of mostly-NaN positions.
+    """
+    cells = n_t * 2 * n_k * n_i
+    if cells > MAX_CELLS:
+        raise InputError(
+            f"{path}: {n_i} individuals x {n_k} keypoints x {n_t} time steps would need "
+            f"{cells * 8 / 1e9:.0f} GB as a dense array; merge fragmented track ids or "
+            "split the file in time"
+        )
+
+
+def _codes(
+    path: Path, values: np.ndarray, order: Sequence[str] | None
+) -> tuple[list[str], np.ndarray]:
+    """Names (in first-seen order, or ``order``) and each row's index into them."""
+    codes, uniques = pd.factorize(np.asarray(values), sort=False)
+    if (codes < 0).any():
+        raise InputError(f"{path}: missing individual or keypoint name")
+    names = [str(u) for u in uniques]
+    if len(set(names)) != len(names):  # e.g. 1 and "1": same name, two codes
+        names_arr = np.asarray(names, dtype=object)
+        codes, uniques = pd.factorize(names_arr[codes], sort=False)
+        names = [str(u) for u in uniques]
+    if order is None:
+        return names, codes.astype(np.int64)
+    order = [str(o) for o in order]
+    lookup = {name: i for i, name in enumerate(order)}
+    remap = np.array([lookup[name] for name in names], dtype=np.int64)
+    return order, remap[codes]
+
+
+def natural_key(text: str) -> list[Any]:
+    """Sort key that puts ``id2`` before ``id10``."""
+    return [int(p) if p.isdigit() else p.lower() for p in re.split(r"(\d+)", text)]
+
+
+@contextlib.contextmanager
+def h5_file(path: Path, what: str) -> Iterator[Any]:
+    """Open an HDF5 file read-only; an unreadable file is an InputError naming it."""
+    import h5py
+
+    try:
+        fh = h5py.File(path, "r")
+    except Exception as exc:  # h5py raises OSError subclasses with long messages
+        raise InputError(
+            f"{path}: not a readable HDF5 {what} file ({type(exc).__name__})"
+        ) from None
+    try:
+        yield fh
+    finally:
+        fh.close()
+
+
+def h5_read(path: Path, fh: Any, name: str) -> np.ndarray:
+    """Read a whole HDF5 dataset; a missing or corrupt one is an InputError."""
+    if name not in fh:
+        raise InputError(f"{path}: no {name!r} dataset")
+    try:
+        return fh[name][()]
+    except Exception as exc:  # truncated chunks raise OSError/RuntimeError
+        raise InputError(f"{path}: cannot read dataset {name!r} ({type(exc).__name__})") from None
+
+
+def decode_names(values: Any) -> list[str]:
+    """HDF5 string arrays (bytes or str) as a list of str."""
+    out = []
+    for v in np.asarray(values).ravel():
+        out.append(v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v))
+    return out
+
+
+def unique_names(path: Path, names: Sequence[str], what: str) -> list[str]:
+    """Names must be unique (they become coordinate labels)."""
+    names = [str(n) for n in names]
+    seen: set[str] = set()
+    for n in names:
+        if n in seen:
+            raise InputError(f"{path}: {what} name {n!r} appears twice")
+        seen.add(n)
+    return names
