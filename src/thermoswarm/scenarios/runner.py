@@ -139,11 +139,9 @@ def _restore(ck: dict[str, Any]) -> tuple[SwarmState, dict[str, np.ndarray]]:
 
 def open_run_tracks(store: str | Path) -> xr.Dataset:
     """The committed frames of a run's Zarr store as a loaded trajectory dataset."""
-    store = Path(store)
-    marker = read_marker(store)
-    n = int(marker.get("committed_frames", 0))
-    ds = xr.open_zarr(store, consolidated=False)
-    ds = ds.isel(time=slice(0, n)).load()
+    from thermoswarm.io.zarrstore import read
+
+    ds = read(Path(store))
     for k in ("committed_frames", "checkpoint_file", "checkpoint_step", "complete"):
         ds.attrs.pop(k, None)
     return ds
