@@ -1,0 +1,1 @@
+"""Simulation: world geometry, light and shadows, the engine."""
