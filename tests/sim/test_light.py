@@ -11,6 +11,7 @@ from scipy import stats
 
 from thermoswarm.config import from_mapping
 from thermoswarm.errors import ConfigError, InputError
+from thermoswarm.sim import light as light_mod
 from thermoswarm.sim.geometry import Disc, Polygon, Polyline, Segment, Shapes
 from thermoswarm.sim.light import (
     DirectionalLight,
@@ -201,8 +202,8 @@ def test_soft_visibility_equals_average_over_the_extended_source(rng):
             Polyline(((30.0, 120.0), (90.0, 160.0), (40.0, 330.0))),
         ]
     )
-    pts = np.c_[rng.uniform(-60, 100, 12), rng.uniform(-80, 60, 12)]
-    n_sub = 2000
+    pts = np.c_[rng.uniform(-60, 100, 8), rng.uniform(-80, 60, 8)]
+    n_sub = 1000
     n_edges = 2 * (occ.n_discs + occ.n_segments)
     tol = n_edges / n_sub  # each interval end shifts the midpoint-rule share by <= 1/n_sub
     alpha = math.radians(12.0)
@@ -495,6 +496,27 @@ def test_sense_combines_light_and_turn(rng):
     np.testing.assert_array_equal(s.steps, t.steps)
     np.testing.assert_allclose(s.turn_time, t.steps * p.step_deg / p.turn_rate_deg)
     assert list(s.converged) == [False, True, True]
+
+
+def test_parallel_kernels_agree_with_serial(rng):
+    # At and above _PARALLEL_MIN robots the shadow and noise-free turning kernels run in
+    # parallel chunks; the same robots in small batches take the serial kernels.
+    n = light_mod._PARALLEL_MIN + 1000
+    pos = rng.uniform(-500, 500, (n, 2))
+    h0 = rng.uniform(-math.pi, math.pi, n)
+    occ = [Disc((0.0, 0.0), 50.0), Polygon(((200, 200), (300, 200), (250, 300)))]
+    lights = [UP, PointLight((600.0, 100.0), radius=20.0)]
+    p = SensingParams()
+    full_level = light_level(pos, lights, occ)
+    full = turn_to_angle(pos, h0, lights, occ, p)
+    parts = np.array_split(np.arange(n), 4)
+    np.testing.assert_array_equal(
+        full_level, np.concatenate([light_level(pos[i], lights, occ) for i in parts])
+    )
+    batches = [turn_to_angle(pos[i], h0[i], lights, occ, p) for i in parts]
+    np.testing.assert_array_equal(full.heading, np.concatenate([b.heading for b in batches]))
+    np.testing.assert_array_equal(full.steps, np.concatenate([b.steps for b in batches]))
+    assert 0.5 < full.converged.mean() < 1.0
 
 
 def test_same_seed_same_result():

@@ -690,37 +690,40 @@ def _direct_one(px, py, discs, segs, lights, li, buf):
     return w * vis * g
 
 
-# Points per parallel work item: large enough to amortise scheduling and scratch buffers.
+@njit(cache=True)
+def _direct_range(points, i0, i1, discs, segs, lights, dproj, sproj, buf, out):
+    for li in range(lights.shape[0]):
+        if lights[li, 0] == 0.0 and lights[li, 6] == 0.0:
+            _dir_hard_range(
+                points, i0, i1, lights[li, 1], lights[li, 2], dproj[li], sproj[li],
+                lights[li, 3], out, li,
+            )  # fmt: skip
+        else:
+            for i in range(i0, i1):
+                out[i, li] = _direct_one(points[i, 0], points[i, 1], discs, segs, lights, li, buf)
+
+
+# Robots per parallel work item, and the fewest robots for which the parallel kernels are
+# used: waking threads costs more than it saves below that (much more on a busy machine).
 _CHUNK = 4096
+_PARALLEL_MIN = 65536
+
+
+@njit(cache=True)
+def _direct_serial(points, discs, segs, lights, dproj, sproj, out):
+    buf = np.empty((2 * (discs.shape[0] + segs.shape[0]) + 2, 2))
+    _direct_range(points, 0, points.shape[0], discs, segs, lights, dproj, sproj, buf, out)
 
 
 @njit(cache=True, parallel=True)
-def _direct_kernel(points, discs, segs, lights, dproj, sproj, out):
+def _direct_parallel(points, discs, segs, lights, dproj, sproj, out):
     n = points.shape[0]
     nbuf = 2 * (discs.shape[0] + segs.shape[0]) + 2
     for c in prange((n + _CHUNK - 1) // _CHUNK):
-        i0 = c * _CHUNK
-        i1 = min(n, i0 + _CHUNK)
         buf = np.empty((nbuf, 2))
-        for li in range(lights.shape[0]):
-            if lights[li, 0] == 0.0 and lights[li, 6] == 0.0:
-                _dir_hard_range(
-                    points,
-                    i0,
-                    i1,
-                    lights[li, 1],
-                    lights[li, 2],
-                    dproj[li],
-                    sproj[li],
-                    lights[li, 3],
-                    out,
-                    li,
-                )
-            else:
-                for i in range(i0, i1):
-                    out[i, li] = _direct_one(
-                        points[i, 0], points[i, 1], discs, segs, lights, li, buf
-                    )
+        i0 = c * _CHUNK
+        _direct_range(points, i0, min(n, i0 + _CHUNK), discs, segs, lights, dproj, sproj, buf,
+                      out)  # fmt: skip
 
 
 def _project(lights: np.ndarray, occ: Shapes) -> tuple[np.ndarray, np.ndarray]:
@@ -1155,7 +1158,8 @@ def _direct(
     occ = as_shapes(occluders)
     w = np.empty((points.shape[0], lights.shape[0]))
     dproj, sproj = _project(lights, occ)
-    _direct_kernel(points, occ.discs, occ.segments, lights, dproj, sproj, w)
+    kernel = _direct_parallel if points.shape[0] >= _PARALLEL_MIN else _direct_serial
+    kernel(points, occ.discs, occ.segments, lights, dproj, sproj, w)
     if casters is not None:
         _apply_casters(points, w, lights, casters, caster_radius)
     return w
@@ -1361,7 +1365,7 @@ def _turn(
     wa = np.ascontiguousarray(w * (1.0 - amb))
     tol = params.balance_tolerance
     fixed = params.turn == "fixed"
-    if params.noise_mult > 0 or params.noise_add > 0:
+    if params.noise_mult > 0 or params.noise_add > 0 or n < _PARALLEL_MIN:
         _turn_kernel_serial(
             pts,
             hd,
