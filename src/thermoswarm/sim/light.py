@@ -43,7 +43,10 @@ light's centre do not block.  This is exact in 2D.
 Robots do not cast shadows by default: the paper models the object's shadow only, and
 robot-on-robot shadows cost a sort of all robots per call.  Pass ``casters`` (the robot
 positions) to turn them on: robots are then discs of ``caster_radius`` (hard shadows,
-multiplied into the soft visibility of the other occluders).  For a directional light
+multiplied into the soft visibility of the other occluders).  A caster shadows a point
+when the ray (or segment) from the point to the source passes within ``caster_radius``
+of the caster's centre and that centre lies ahead of the point, toward the source, so a
+robot never shadows its own centre, where its sensors are taken to be.  For a directional light
 this is exact in O(n log n) (sort across the light, sliding-window maximum along it);
 for a point light it scans robots in the angular window each robot can shadow, which is
 fast unless robots come within a few radii of the light.
@@ -89,10 +92,11 @@ visible source (for a directional light, the opposite of its rays), optionally w
 Gaussian error ``ideal_noise_deg``; ``steps`` is the number of steps a robot turning the
 short way would need, so time charged for turning stays comparable.
 
-Kernels are Numba loops over robots (``cache=True``).  Shadows and noise-free turning run
-in parallel over chunks of robots (results do not depend on the number of threads, set
-by ``NUMBA_NUM_THREADS``); with sensor noise the turn runs serially so that noise is
-drawn from the caller's :class:`numpy.random.Generator` in robot order (reproducible).
+Kernels are Numba loops over robots (``cache=True``).  From 65,536 robots up, shadows
+and noise-free turning run in parallel over chunks of robots (``NUMBA_NUM_THREADS``
+threads; the results equal the serial kernels'); below that waking threads costs more
+than it saves.  With sensor noise the turn runs serially so that noise is drawn from the
+caller's :class:`numpy.random.Generator` in robot order (reproducible).
 In the loop l3 is read only when the front pair balances, the one time it matters.
 """
 
@@ -783,8 +787,9 @@ def _casters_directional(qperp, qalong, cperp, calong, r, blocked):
 
 @njit(cache=True)
 def _casters_point(points, lx, ly, ctheta, cx, cy, r, half_window, blocked):
-    """Query ``i`` is blocked iff the segment to the light crosses a caster disc that does
-    not contain the query; candidates are casters (sorted by angle ``ctheta`` around the
+    """Query ``i`` is blocked iff the segment to the light passes within ``r`` of a
+    caster's centre lying ahead (its projection on the segment is > 0: a robot does not
+    shadow its own centre); candidates are casters (sorted by angle ``ctheta`` around the
     light) within ``half_window`` of the query's angle."""
     m = ctheta.shape[0]
     r2 = r * r
@@ -811,9 +816,10 @@ def _casters_point(points, lx, ly, ctheta, cx, cy, r, half_window, blocked):
                 break
             wx = cx[jj] - px
             wy = cy[jj] - py
-            if wx * wx + wy * wy < r2:
-                continue  # a caster does not shadow points inside it (a robot's own body)
-            t = min(max((wx * vx + wy * vy) / vv, 0.0), 1.0)
+            t = (wx * vx + wy * vy) / vv
+            if t <= 0.0:
+                continue  # the caster's centre is not ahead (e.g. the robot itself)
+            t = min(t, 1.0)
             dx = wx - t * vx
             dy = wy - t * vy
             if dx * dx + dy * dy < r2:
