@@ -582,3 +582,21 @@ def test_bad_geometry_and_arguments():
     assert turn_to_angle(np.zeros((0, 2)), np.zeros(0), UP, None, SensingParams()).steps.size == 0
     light = from_mapping(PointLight, {"position": [1, 2], "falloff": "none"})
     assert light.position == (1.0, 2.0)
+
+
+def test_shapes_packing():
+    user = np.array([[1.0, 2.0, 3.0]])
+    packed = Shapes(discs=user, segments=[[0, 0, 1, 0]])
+    assert user.flags.writeable and not packed.discs.flags.writeable  # copied, then frozen
+    both = packed + Shapes.from_shapes([Polygon(((0, 0), (1, 0), (0, 1), (0, 1)))])
+    assert both.n_discs == 1 and both.n_segments == 1 + 3  # repeated vertex dropped
+    with pytest.raises(InputError, match="centers must have 1 rows"):
+        packed.with_disc_centers([[0, 0], [1, 1]])
+    with pytest.raises(InputError, match="radii"):
+        Shapes(discs=[[0, 0, -1]])
+    with pytest.raises(InputError, match=r"segments must have shape \(k, 4\)"):
+        Shapes(segments=[[0, 0, 1]])
+    disc = from_mapping(Disc, {"center": [0, 1], "radius": 5}, source="world.toml")
+    assert disc == Disc((0.0, 1.0), 5.0)
+    with pytest.raises(ConfigError, match="world.toml: radius"):
+        from_mapping(Disc, {"center": [0, 1], "radius": 0}, source="world.toml")

@@ -136,7 +136,7 @@ _EMPTY_SEGMENTS = np.zeros((0, 4))
 
 def _as_array(value: object, cols: int, name: str) -> np.ndarray:
     try:
-        arr = np.ascontiguousarray(value, dtype=np.float64)
+        arr = np.array(value, dtype=np.float64, order="C")  # a copy: frozen below
     except (TypeError, ValueError):
         raise InputError(f"{name} must be a numeric array of shape (k, {cols})") from None
     if arr.size == 0:
