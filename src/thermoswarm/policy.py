@@ -137,5 +137,6 @@ class BoltzmannUniform:
     def act(self, obs: Observation, rng: np.random.Generator) -> Action:
         v = speed_law(self.speed_law, self.kT).sample(rng, obs.n)
         theta = rng.uniform(-self.half_width, self.half_width, obs.n)
+        theta += obs.zero_heading  # in place: millions of robots, no extra temporaries
         # headings need not be wrapped: the engine uses cos/sin, recordings wrap
-        return Action(heading=obs.zero_heading + theta, speed=v)
+        return Action(heading=theta, speed=v)

@@ -117,8 +117,16 @@ def _piston_column(n, width, F, kT, seed, y_start=400.0, height=1000.0):
     """Side walls static, a held piston at the bottom (a force gauge), a top piston
     pushed down by F."""
     seg = np.array([[0, 0, 0, height], [width, 0, width, height]], dtype=float)
-    top = Piston(axis=1, position=y_start, side=-1, lo=0, hi=width, force=F, drag=20.0,
-                 limits=(50.0, height))
+    top = Piston(
+        axis=1,
+        position=y_start,
+        side=-1,
+        lo=0,
+        hi=width,
+        force=F,
+        drag=20.0,
+        limits=(50.0, height),
+    )
     bottom = Piston(axis=1, position=0.0, side=+1, lo=0, hi=width, force=0.0, drag=math.inf)
     world = World((0.0, 0.0, width, height), seg, pistons=(top, bottom))
     params = EngineParams(dt=0.1, tau=1.0)
@@ -209,13 +217,25 @@ def test_body_pushed_by_k_robots_moves_at_rigid_speed(k):
     expected = k * v / (k + gb)
     assert speed == pytest.approx(expected, rel=1e-3)
     assert force == pytest.approx(gb * speed, rel=1e-6)
-    assert abs(state.body_pos[0, 0] - 500.0) < 1e-9
+    # straight ahead: the only sideways push comes from the float32 unit directions the
+    # engine uses (error ~3e-8); a pushed column is an unstable equilibrium and amplifies
+    # it, but over this run it stays straight to 1e-3 of the distance travelled
+    travelled = state.body_pos[0, 1] - 600.0
+    assert abs(state.body_pos[0, 0] - 500.0) < 1e-3 * travelled
 
 
 def test_robots_stay_inside_a_polygon_road():
     """Static polygon walls (a channel with a narrow section) keep robots inside."""
-    outline = [(0, 0), (800, 0), (800, 100), (500, 100), (500, 140), (300, 140), (300, 100),
-               (0, 100)]
+    outline = [
+        (0, 0),
+        (800, 0),
+        (800, 100),
+        (500, 100),
+        (500, 140),
+        (300, 140),
+        (300, 100),
+        (0, 100),
+    ]
     # a closed channel outline: the walls run along it
     pts = np.array(outline, dtype=float)
     world = World((0.0, 0.0, 800.0, 140.0), polygon_segments(pts))
@@ -258,8 +278,10 @@ def test_inertial_gas_conserves_energy_and_relaxes_to_maxwell_boltzmann():
     ks = stats.kstest(v, SpeedLaw(kT).cdf)
     assert ks.pvalue > 0.01, ks
     # the test has power: the initial (delta) law and a half-normal law are rejected
-    assert stats.kstest(np.full(v.size, v0) + 1e-9 * np.arange(v.size),
-                        SpeedLaw(kT).cdf).pvalue < 1e-6
+    assert (
+        stats.kstest(np.full(v.size, v0) + 1e-9 * np.arange(v.size), SpeedLaw(kT).cdf).pvalue
+        < 1e-6
+    )
     from thermoswarm.maxent import HalfNormalSpeed
 
     assert stats.kstest(v, HalfNormalSpeed(kT).cdf).pvalue < 1e-6

@@ -45,11 +45,13 @@ paper) is +y unless a sensing model says otherwise.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
 
+import numba
 import numpy as np
 
 from thermoswarm.config import check
@@ -99,7 +101,8 @@ class EngineParams:
     drag : float
         Robot drag coefficient (force per mm/s); sets the force unit.
     skin : float
-        Extra cell width as a fraction of the diameter (contacts found at any sweep).
+        Neighbour-list margin as a fraction of the diameter: pairs closer than
+        ``2 r (1 + skin)`` at the start of a step are checked in every sweep of it.
     cell_size : float or None
         Grid cell size (mm); default ``max(2 r (1 + skin), sqrt(area / n))``.
     desync : bool
@@ -112,10 +115,10 @@ class EngineParams:
     mode: Literal["overdamped", "inertial"] = "overdamped"
     iterations: int = 2
     max_iterations: int = 50
-    overlap_tol: float = 0.01
+    overlap_tol: float = 0.005
     relax: float = 1.0
     drag: float = 1.0
-    skin: float = 0.1
+    skin: float = 0.2
     cell_size: float | None = None
     desync: bool = True
 
@@ -171,23 +174,30 @@ class SwarmState:
 
     Attributes
     ----------
-    pos : (n, 2) mm; fcols : (2, n) rows heading (rad), speed (mm/s);
-    icols : (3, n) rows id, group, steps left in the control period;
-    vel : (n, 2) mm/s (inertial mode; zeros otherwise);
-    body_pos : (B, 2) mm, body_force : (B, 2) mean contact force of the last step;
-    piston_pos : (P,) mm, piston_force : (P,) mean contact force of the last step
-    (along the axis, positive = away from the robots);
-    step : int, time : float (s); rng : the run's only random generator.
+    pos : (n, 2) mm
+    fcols : (2, n) rows heading (rad), speed (mm/s)
+    icols : (3, n) int32 rows id, group, steps left in the control period
+    udir : (2, n) float32 cos and sin of each heading, computed once per decision (the
+        kernels move robots along it: no trigonometry per step)
+    vel : (n, 2) mm/s (inertial mode; empty otherwise)
+    bodies : (B, 11) packed movable discs (see :data:`kernels.B_COLS`); use the views
+        ``body_pos``, ``body_force`` (mean contact force robots exerted during the last
+        step) and ``body_ext_force`` (an external force a scenario may set)
+    pistons : (P, 12) packed force-driven walls; views ``piston_pos`` and
+        ``piston_force`` (contact force of the last step along the axis, positive =
+        away from the robots)
+    step : int; time : float (s); rng : the run's only random generator
+    counters : int64 (2,) overdamped: total sweeps, largest overlap left (in 1e-6 mm);
+        inertial: pair collisions, wall collisions
     """
 
     pos: np.ndarray
     fcols: np.ndarray
     icols: np.ndarray
+    udir: np.ndarray
     vel: np.ndarray
-    body_pos: np.ndarray
-    body_force: np.ndarray
-    piston_pos: np.ndarray
-    piston_force: np.ndarray
+    bodies: np.ndarray
+    pistons: np.ndarray
     step: int
     time: float
     rng: np.random.Generator
@@ -217,6 +227,26 @@ class SwarmState:
     def timer(self) -> np.ndarray:
         return self.icols[2]
 
+    @property
+    def body_pos(self) -> np.ndarray:
+        return self.bodies[:, K.BX : K.BY + 1]
+
+    @property
+    def body_force(self) -> np.ndarray:
+        return self.bodies[:, K.BCX : K.BCY + 1]
+
+    @property
+    def body_ext_force(self) -> np.ndarray:
+        return self.bodies[:, K.BFX : K.BFY + 1]
+
+    @property
+    def piston_pos(self) -> np.ndarray:
+        return self.pistons[:, K.PP]
+
+    @property
+    def piston_force(self) -> np.ndarray:
+        return self.pistons[:, K.PC]
+
     def by_id(self, a: np.ndarray) -> np.ndarray:
         """Re-order a per-robot array (first axis) from storage order to id order."""
         out = np.empty_like(a)
@@ -226,43 +256,87 @@ class SwarmState:
     def to_arrays(self) -> dict[str, np.ndarray]:
         """Arrays for a checkpoint (the generator's state is saved separately)."""
         return {
-            "pos": self.pos,
-            "fcols": self.fcols,
-            "icols": self.icols,
+            "pos": self.pos, "fcols": self.fcols, "icols": self.icols, "udir": self.udir,
             "vel": self.vel,
-            "body_pos": self.body_pos,
-            "body_force": self.body_force,
-            "piston_pos": self.piston_pos,
-            "piston_force": self.piston_force,
-            "counters": self.counters,
-            "step": np.array(self.step),
-            "time": np.array(self.time),
-        }
+            "bodies": self.bodies, "pistons": self.pistons, "counters": self.counters,
+            "step": np.array(self.step), "time": np.array(self.time),
+        }  # fmt: skip
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], rng: np.random.Generator) -> SwarmState:
+        c = np.ascontiguousarray
         return cls(
-            pos=np.ascontiguousarray(arrays["pos"]),
-            fcols=np.ascontiguousarray(arrays["fcols"]),
-            icols=np.ascontiguousarray(arrays["icols"]),
-            vel=np.ascontiguousarray(arrays["vel"]),
-            body_pos=np.array(arrays["body_pos"]),
-            body_force=np.array(arrays["body_force"]),
-            piston_pos=np.array(arrays["piston_pos"]),
-            piston_force=np.array(arrays["piston_force"]),
-            counters=np.array(arrays["counters"]),
-            step=int(arrays["step"]),
-            time=float(arrays["time"]),
-            rng=rng,
-        )
+            pos=c(arrays["pos"]), fcols=c(arrays["fcols"]), icols=c(arrays["icols"]),
+            udir=c(arrays["udir"]), vel=c(arrays["vel"]), bodies=c(arrays["bodies"]),
+            pistons=c(arrays["pistons"]),
+            counters=np.array(arrays["counters"]), step=int(arrays["step"]),
+            time=float(arrays["time"]), rng=rng,
+        )  # fmt: skip
+
+
+def _pack_bodies(world: World) -> np.ndarray:
+    out = np.zeros((len(world.bodies), K.B_COLS))
+    for k, b in enumerate(world.bodies):
+        out[k, [K.BX, K.BY, K.BR, K.BDRAG, K.BSH]] = b.x, b.y, b.radius, b.drag, 1.0
+        out[k, [K.BFX, K.BFY]] = b.force
+    return out
+
+
+def _pack_pistons(world: World) -> np.ndarray:
+    out = np.zeros((len(world.pistons), K.P_COLS))
+    for k, p in enumerate(world.pistons):
+        out[k, [K.PA, K.PP, K.PS, K.PLO, K.PHI, K.PDRAG, K.PF, K.PLL, K.PLH, K.PSH]] = (
+            p.axis, p.position, p.side, p.lo, p.hi, p.drag, p.force, p.limits[0],
+            p.limits[1], 1.0,
+        )  # fmt: skip
+    return out
 
 
 #: ``sensing(state, index) -> (zero_heading, light)`` for the robots at ``index``.
 Sensing = Callable[[SwarmState, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
+def _unit_directions(heading: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """(2, m) float32 cos and sin of headings (into ``out`` when given).
+
+    float32 because NumPy evaluates float32 sin/cos with SIMD, ~25x faster than float64
+    here; the direction error (~3e-7) moves a robot ~1e-5 mm over a 10 s period.
+    Headings are wrapped first when large, so that float32 keeps their precision.
+    """
+    h = np.asarray(heading, dtype=np.float32)
+    if h.size and float(np.abs(h).max()) > 64.0:
+        h = ((np.asarray(heading, dtype=np.float64) + np.pi) % (2 * np.pi) - np.pi).astype(
+            np.float32
+        )
+    if out is None:
+        out = np.empty((2, h.size), np.float32)
+    np.cos(h, out=out[0])
+    np.sin(h, out=out[1])
+    return out
+
+
 def _default_sensing(state: SwarmState, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return np.full(index.size, LIGHT_DIRECTION), np.ones(index.size)
+    # read-only broadcast views: no memory per robot
+    m = index.size
+    return np.broadcast_to(LIGHT_DIRECTION, (m,)), np.broadcast_to(1.0, (m,))
+
+
+#: Swarms smaller than this are stepped on one thread: below it, waking a second
+#: thread for each of a step's parallel loops costs more than it saves.
+SERIAL_BELOW = 5000
+
+
+@contextlib.contextmanager
+def _threads(n: int):
+    if n >= SERIAL_BELOW:
+        yield
+        return
+    prev = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(prev)
 
 
 class _Workspace:
@@ -272,7 +346,8 @@ class _Workspace:
         r = params.radius
         x0, y0, x1, y1 = world.bounds
         area = (x1 - x0) * (y1 - y0)
-        cs = params.cell_size or max(2 * r * (1 + params.skin), math.sqrt(area / max(n, 1)))
+        self.cutoff = 2 * r * (1 + params.skin)
+        cs = params.cell_size or max(self.cutoff, math.sqrt(area / max(n, 1)))
         # one extra cell of margin on every side: robots pressed into a wall stay in range
         self.x0 = x0 - cs
         self.y0 = y0 - cs
@@ -284,44 +359,45 @@ class _Workspace:
             raise ConfigError(
                 f"grid of {ncell} cells is too large for {n} robots; increase cell_size"
             )
-        self.cell = np.empty(n, np.int64)
-        self.cell_start = np.zeros(ncell + 1, np.int64)
-        self.perm = np.empty(n, np.int64)
-        self.tmpf2 = np.empty((n, 2))
-        self.tmpf = np.empty(n)
-        self.tmpi = np.empty(n, np.int64)
+        self.gf = np.array([self.x0, self.y0, cs])
+        self.gi = np.array([self.nx, self.ny, params.iterations, params.max_iterations])
+        self.pp = np.array([r, params.drag, params.dt, params.overlap_tol * 2 * r,
+                            params.relax, self.cutoff])  # fmt: skip
+        self.cell = np.empty(n, np.int32)
+        self.cell_start = np.zeros(ncell + 1, np.int32)
+        self.perm = np.empty(n, np.int32)
+        # second buffers of the state's per-robot arrays (swapped with them every step)
+        self.pos2 = np.empty((n, 2))
+        self.fcols2 = np.empty((2, n))
+        self.icols2 = np.empty((3, n), np.int32)
+        self.udir2 = np.empty((2, n), np.float32)
+        # Neighbour-list capacity, from geometry (exceeded only if overlaps are large;
+        # an overflow falls back to scanning the grid): discs of diameter d whose centres
+        # lie within (1 + skin) d of a centre fit in a circle of radius (1.5 + skin) d,
+        # so at most 0.9069 ((1.5 + skin) / 0.5)^2 - 1 of them; and while 1 + skin <
+        # sqrt(3) they form one ring, at least 2 asin(1 / (2 (1 + skin))) apart in angle.
+        cap = int(0.9069 * ((1.5 + params.skin) / 0.5) ** 2)
+        if 1 + params.skin < math.sqrt(3):
+            cap = min(cap, int(math.pi / math.asin(0.5 / (1 + params.skin))) + 1)
+        self.nbr = np.empty((n, cap), np.int32)
+        self.nnb = np.zeros(n, np.int32)
+        self.moved = np.zeros((3, n), np.uint8)
         self.cell_flag = np.zeros(ncell, np.uint8)
-        K.flag_cells_near(
-            world.segments,
-            world.static_discs,
-            self.x0,
-            self.y0,
-            cs,
-            self.nx,
-            self.ny,
-            r * (1 + params.skin),
-            self.cell_flag,
-        )
-        nb, npis = len(world.bodies), len(world.pistons)
-        self.brad = np.array([b.radius for b in world.bodies], dtype=np.float64)
-        self.bdrag = np.array([b.drag / 1.0 for b in world.bodies], dtype=np.float64)
-        self.bdisp = np.zeros((nb, 2))
-        self.bshare = np.ones(nb)
-        ps = world.pistons
-        self.paxis = np.array([p.axis for p in ps], dtype=np.int64)
-        self.pside = np.array([p.side for p in ps], dtype=np.float64)
-        self.plo = np.array([p.lo for p in ps], dtype=np.float64)
-        self.phi = np.array([p.hi for p in ps], dtype=np.float64)
-        self.pdrag = np.array([p.drag for p in ps], dtype=np.float64)
-        self.pforce_ext = np.array([p.force for p in ps], dtype=np.float64)
-        self.plim_lo = np.array([p.limits[0] for p in ps], dtype=np.float64)
-        self.plim_hi = np.array([p.limits[1] for p in ps], dtype=np.float64)
-        self.pdisp = np.zeros(npis)
-        self.pshare = np.ones(npis)
+        K.flag_cells_near(world.segments, world.static_discs, self.x0, self.y0, cs, self.nx,
+                          self.ny, r * (1 + params.skin), self.cell_flag)  # fmt: skip
+
+    def inertial_buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Scratch arrays of the elastic kernel (allocated on first use)."""
+        if not hasattr(self, "_inertial"):
+            n = self.cell.shape[0]
+            self._inertial = (np.empty((n, 2)), np.empty(n), np.empty(n, np.int32))
+        return self._inertial
 
     @property
     def nbytes(self) -> int:
-        return sum(a.nbytes for a in vars(self).values() if isinstance(a, np.ndarray))
+        arrays = [a for a in vars(self).values() if isinstance(a, np.ndarray)]
+        arrays += list(getattr(self, "_inertial", ()))
+        return sum(a.nbytes for a in arrays)
 
 
 def place_lattice(
@@ -441,29 +517,22 @@ class Simulator:
             raise ConfigError("initial positions must be finite")
         fcols = np.zeros((2, n))
         fcols[0] = rng.uniform(-np.pi, np.pi, n) if headings is None else headings
-        icols = np.zeros((3, n), np.int64)
+        udir = _unit_directions(fcols[0])
+        icols = np.zeros((3, n), np.int32)
         icols[0] = np.arange(n)
         if group is not None:
-            icols[1] = np.asarray(group, dtype=np.int64)
-        vel = np.zeros((n, 2))
+            icols[1] = np.asarray(group, dtype=np.int32)
+        vel = np.zeros((0, 2))  # only the elastic mode has velocities
         if self.params.mode == "inertial":
+            vel = np.zeros((n, 2))
             if velocities is None:
                 raise ConfigError("inertial mode needs initial velocities")
             vel[:] = velocities
         w = self.world
         state = SwarmState(
-            pos=pos,
-            fcols=fcols,
-            icols=icols,
-            vel=vel,
-            body_pos=np.array([[b.x, b.y] for b in w.bodies], dtype=np.float64).reshape(-1, 2),
-            body_force=np.zeros((len(w.bodies), 2)),
-            piston_pos=np.array([p.position for p in w.pistons], dtype=np.float64),
-            piston_force=np.zeros(len(w.pistons)),
-            step=0,
-            time=0.0,
-            rng=rng,
-        )
+            pos=pos, fcols=fcols, icols=icols, udir=udir, vel=vel, bodies=_pack_bodies(w),
+            pistons=_pack_pistons(w), step=0, time=0.0, rng=rng,
+        )  # fmt: skip
         self._ws = _Workspace(w, self.params, n)
         if self.params.mode == "overdamped":
             ts = self.params.tau_steps
@@ -511,6 +580,10 @@ class Simulator:
             raise ValueError("policy returned a non-finite heading or a negative speed")
         state.heading[sel] = h
         state.speed[sel] = v
+        if everyone:
+            _unit_directions(h, out=state.udir)  # in place: no temporaries
+        else:
+            state.udir[:, sel] = _unit_directions(h)
 
     def step(self, state: SwarmState) -> SwarmState:
         """Advance ``state`` by one time step ``dt``."""
@@ -523,78 +596,45 @@ class Simulator:
             if due.size:
                 self._decide(state, due)
                 state.timer[due] = p.tau_steps
-            sweeps, seen = K.overdamped_step(
-                state.pos,
-                state.fcols[0],
-                state.fcols[1],
-                state.fcols,
-                state.icols,
-                2,
-                ws.x0,
-                ws.y0,
-                ws.cs,
-                ws.nx,
-                ws.ny,
-                ws.cell,
-                ws.cell_start,
-                ws.perm,
-                ws.tmpf2,
-                ws.tmpf,
-                ws.tmpi,
-                ws.tmpf2,
-                ws.cell_flag,
-                p.radius,
-                p.drag,
-                p.dt,
-                p.iterations,
-                p.max_iterations,
-                p.overlap_tol * 2 * p.radius,
-                p.relax,
-                self.world.segments,
-                self.world.static_discs,
-                state.body_pos,
-                ws.brad,
-                ws.bdrag,
-                ws.bdisp,
-                ws.bshare,
-                state.body_force,
-                ws.paxis,
-                state.piston_pos,
-                ws.pside,
-                ws.plo,
-                ws.phi,
-                ws.pdrag,
-                ws.pforce_ext,
-                ws.pdisp,
-                ws.pshare,
-                state.piston_force,
-                ws.plim_lo,
-                ws.plim_hi,
-            )
+            with _threads(state.n):
+                sweeps, seen, _ = K.overdamped_step(
+                    state.pos,
+                    state.fcols,
+                    state.icols,
+                    state.udir,
+                    ws.pos2,
+                    ws.fcols2,
+                    ws.icols2,
+                    ws.udir2,
+                    ws.gf,
+                    ws.gi,
+                    ws.pp,
+                    ws.cell,
+                    ws.cell_start,
+                    ws.perm,
+                    ws.nbr,
+                    ws.nnb,
+                    ws.moved,
+                    ws.cell_flag,
+                    self.world.segments,
+                    self.world.static_discs,
+                    state.bodies,
+                    state.pistons,
+                )
+            # the new state is in the second buffers: swap (no copy)
+            state.pos, ws.pos2 = ws.pos2, state.pos
+            state.fcols, ws.fcols2 = ws.fcols2, state.fcols
+            state.icols, ws.icols2 = ws.icols2, state.icols
+            state.udir, ws.udir2 = ws.udir2, state.udir
             state.counters[0] += sweeps
             state.counters[1] = max(state.counters[1], int(seen * 1e6))
         else:
+            tmp = ws.inertial_buffers()
             K.inertial_step(
-                state.pos,
-                state.vel,
-                state.fcols,
-                state.icols,
-                ws.x0,
-                ws.y0,
-                ws.cs,
-                ws.nx,
-                ws.ny,
-                ws.cell,
-                ws.cell_start,
-                ws.perm,
-                ws.tmpf2,
-                ws.tmpf,
-                ws.tmpi,
-                p.radius,
-                p.dt,
-                self.world.segments,
-                state.counters,
-            )
+                state.pos, state.vel, state.fcols, state.icols, ws.x0, ws.y0, ws.cs, ws.nx,
+                ws.ny, ws.cell, ws.cell_start, ws.perm, *tmp, p.radius, p.dt,
+                self.world.segments, state.counters,
+            )  # fmt: skip
         state.step += 1
         state.time = state.step * p.dt
         return state
@@ -602,26 +642,12 @@ class Simulator:
     def max_overlap(self, state: SwarmState) -> float:
         """Largest overlap (mm) of any robot with anything, on the current configuration."""
         ws = self._ensure_ws(state)
-        # the cell lists are built by the step; rebuild so this is valid at any time
-        fc = np.zeros((0, state.n))
-        ic = np.zeros((0, state.n), np.int64)
+        # build a cell list of a sorted copy, so that this is valid at any time
+        n = state.n
         pos = state.pos.copy()
-        K.sort_by_cell(
-            pos,
-            fc,
-            ic,
-            ws.x0,
-            ws.y0,
-            1.0 / ws.cs,
-            ws.nx,
-            ws.ny,
-            ws.cell,
-            ws.cell_start,
-            ws.perm,
-            ws.tmpf2,
-            ws.tmpf,
-            ws.tmpi,
-        )
+        K.sort_by_cell(pos, np.zeros((0, n)), np.zeros((0, n), np.int32), ws.x0, ws.y0,
+                       1.0 / ws.cs, ws.nx, ws.ny, ws.cell, ws.cell_start, ws.perm,
+                       np.empty((n, 2)), np.empty(n), np.empty(n, np.int32))  # fmt: skip
         return float(
             K.max_overlap(
                 pos,
@@ -634,13 +660,8 @@ class Simulator:
                 self.params.radius,
                 self.world.segments,
                 self.world.static_discs,
-                state.body_pos,
-                ws.brad,
-                ws.paxis,
-                state.piston_pos,
-                ws.pside,
-                ws.plo,
-                ws.phi,
+                state.bodies,
+                state.pistons,
             )
         )
 

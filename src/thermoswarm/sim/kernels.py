@@ -187,131 +187,222 @@ def flag_cells_near(seg, sdisc, x0, y0, cs, nx, ny, reach, flags):
 
 
 # ------------------------------------------------------- overdamped projection
-@njit(cache=True)
-def _bodies_pass(
-    pos,
-    cell_start,
-    x0,
-    y0,
-    cs,
-    nx,
-    ny,
-    r,
-    gamma_r,
-    dt,
-    bpos,
-    brad,
-    bdrag,
-    bdisp,
-    bshare,
-    bforce,
-    paxis,
-    ppos,
-    pside,
-    plo,
-    phi,
-    pdrag,
-    pdisp,
-    pshare,
-    pforce,
-):
-    """Serial pass: displacement of each movable body and piston from its current contacts.
-
-    A body with drag ``g_b`` touched by ``k`` robots of drag ``g_r`` moves by
-    ``sum(g_r * overlap * n) / (k g_r + g_b)`` -- the exact rigid solution when the
-    robots push together -- and each robot takes the share ``g_b / (k g_r + g_b)`` of its
-    overlap.  The force that robots exert is accumulated from the robots' side.
-    """
-    for b in range(bpos.shape[0]):
-        R = brad[b] + r
-        cxa = max(0, int(math.floor((bpos[b, 0] - R - x0) / cs)))
-        cxb = min(nx - 1, int(math.floor((bpos[b, 0] + R - x0) / cs)))
-        cya = max(0, int(math.floor((bpos[b, 1] - R - y0) / cs)))
-        cyb = min(ny - 1, int(math.floor((bpos[b, 1] + R - y0) / cs)))
-        k = 0
-        sx = 0.0
-        sy = 0.0
-        for cy in range(cya, cyb + 1):
-            for cx in range(cxa, cxb + 1):
-                c = cy * nx + cx
-                for i in range(cell_start[c], cell_start[c + 1]):
-                    dx = pos[i, 0] - bpos[b, 0]
-                    dy = pos[i, 1] - bpos[b, 1]
-                    d2 = dx * dx + dy * dy
-                    if d2 < R * R:
-                        d = math.sqrt(d2)
-                        if d < 1e-12:
-                            continue
-                        ov = R - d
-                        k += 1
-                        sx -= ov * dx / d
-                        sy -= ov * dy / d
-        if k == 0:
-            bdisp[b, 0] = 0.0
-            bdisp[b, 1] = 0.0
-            bshare[b] = 1.0
-            continue
-        if math.isinf(bdrag[b]):
-            share = 1.0
-            bdisp[b, 0] = 0.0
-            bdisp[b, 1] = 0.0
-        else:
-            den = k * gamma_r + bdrag[b]
-            share = bdrag[b] / den
-            bdisp[b, 0] = gamma_r * sx / den
-            bdisp[b, 1] = gamma_r * sy / den
-        bshare[b] = share
-        # force on the body = minus the force on the robots = g_r * (robot correction) / dt
-        bforce[b, 0] += gamma_r * share * sx / dt
-        bforce[b, 1] += gamma_r * share * sy / dt
-    for p in range(paxis.shape[0]):
-        a = paxis[p]
-        o = 1 - a
-        # rows of cells within r of the piston line
-        if a == 0:
-            ca = max(0, int(math.floor((ppos[p] - r - x0) / cs)))
-            cb = min(nx - 1, int(math.floor((ppos[p] + r - x0) / cs)))
-            oa = max(0, int(math.floor((plo[p] - r - y0) / cs)))
-            ob = min(ny - 1, int(math.floor((phi[p] + r - y0) / cs)))
-        else:
-            ca = max(0, int(math.floor((ppos[p] - r - y0) / cs)))
-            cb = min(ny - 1, int(math.floor((ppos[p] + r - y0) / cs)))
-            oa = max(0, int(math.floor((plo[p] - r - x0) / cs)))
-            ob = min(nx - 1, int(math.floor((phi[p] + r - x0) / cs)))
-        k = 0
-        s = 0.0
-        for u in range(ca, cb + 1):
-            for w in range(oa, ob + 1):
-                c = w * nx + u if a == 0 else u * nx + w
-                for i in range(cell_start[c], cell_start[c + 1]):
-                    q = pos[i, o]
-                    if q < plo[p] or q > phi[p]:
-                        continue
-                    gap = pside[p] * (pos[i, a] - ppos[p])
-                    if gap < r:
-                        k += 1
-                        s += r - gap
-        if k == 0:
-            pdisp[p] = 0.0
-            pshare[p] = 1.0
-            continue
-        if math.isinf(pdrag[p]):
-            share = 1.0
-            pdisp[p] = 0.0
-        else:
-            den = k * gamma_r + pdrag[p]
-            share = pdrag[p] / den
-            # robots push the wall away from their side
-            pdisp[p] = -pside[p] * gamma_r * s / den
-        pshare[p] = share
-        # force on the piston along its axis (positive = away from the robots' side)
-        pforce[p] += -pside[p] * gamma_r * share * s / dt
+# Column layout of the packed body and piston arrays (see engine._pack_*).
+BX, BY, BR, BDRAG, BFX, BFY, BCX, BCY, BDX, BDY, BSH = range(11)
+B_COLS = 11
+PA, PP, PS, PLO, PHI, PDRAG, PF, PLL, PLH, PC, PD, PSH = range(12)
+P_COLS = 12
 
 
 @njit(cache=True, parallel=True)
-def _jacobi_sweep(
-    pos,
-    out,
+def _predict(pos, udir, speed, timer, dt, x0, y0, inv_cs, nx, ny, cell):
+    """Commanded motion for one step; count the control timers down; grid cells.
+
+    ``udir`` (2, n) float32 holds each robot's unit direction (cos, sin of its heading),
+    computed once per decision, so that no trigonometry is done per step.
+    """
+    for i in prange(pos.shape[0]):
+        x = pos[i, 0] + speed[i] * udir[0, i] * dt
+        y = pos[i, 1] + speed[i] * udir[1, i] * dt
+        pos[i, 0] = x
+        pos[i, 1] = y
+        timer[i] -= 1
+        cx, cy = _cell_xy(x, y, x0, y0, inv_cs, nx, ny)
+        cell[i] = cy * nx + cx
+
+
+@njit(cache=True, parallel=True)
+def _gather_all(pos, fcols, icols, udir, pos2, fcols2, icols2, udir2, perm):
+    """Write every per-robot column in sorted order into the second buffers (one pass)."""
+    nf = fcols.shape[0]
+    ni = icols.shape[0]
+    for k in prange(pos.shape[0]):
+        j = perm[k]
+        pos2[k, 0] = pos[j, 0]
+        pos2[k, 1] = pos[j, 1]
+        udir2[0, k] = udir[0, j]
+        udir2[1, k] = udir[1, j]
+        for c in range(nf):
+            fcols2[c, k] = fcols[c, j]
+        for c in range(ni):
+            icols2[c, k] = icols[c, j]
+
+
+@njit(cache=True, parallel=True)
+def _build_neighbours(pos, cell_start, nx, ny, cutoff, nbr, nnb, flag):
+    """Fixed-capacity neighbour lists: every j within ``cutoff`` of i (both directions).
+
+    Robots are sorted by cell, so the three cells of a grid row next to robot i hold
+    one contiguous range of robots: three ranges per robot instead of nine cells.
+    ``flag[i] = 1`` when robot i has more neighbours than the capacity (overflow).
+    """
+    cap = nbr.shape[1]
+    c2 = cutoff * cutoff
+    for cy in prange(ny):
+        ya = max(cy - 1, 0)
+        yb = min(cy + 1, ny - 1)
+        for cx in range(nx):
+            c = cy * nx + cx
+            a = cell_start[c]
+            b = cell_start[c + 1]
+            if a == b:
+                continue
+            xa = max(cx - 1, 0)
+            xb = min(cx + 1, nx - 1)
+            for i in range(a, b):
+                px = pos[i, 0]
+                py = pos[i, 1]
+                k = 0
+                over = 0
+                for ccy in range(ya, yb + 1):
+                    j0 = cell_start[ccy * nx + xa]
+                    j1 = cell_start[ccy * nx + xb + 1]
+                    for j in range(j0, j1):
+                        dx = px - pos[j, 0]
+                        dy = py - pos[j, 1]
+                        if dx * dx + dy * dy < c2 and j != i:
+                            if k < cap:
+                                nbr[i, k] = j
+                                k += 1
+                            else:
+                                over = 1
+                nnb[i] = k
+                flag[i] = over
+
+
+@njit(cache=True, inline="always")
+def _walls_and_bodies(i, px, py, r, cell_flag_i, seg, sdisc, bodies, pistons):
+    """Correction (mx, my) and largest overlap of robot i against walls, bodies, pistons."""
+    mx = 0.0
+    my = 0.0
+    w = 0.0
+    if cell_flag_i:
+        for s in range(seg.shape[0]):
+            ov, nxs, nys = _seg_push(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
+            if ov > 0.0:
+                mx += ov * nxs
+                my += ov * nys
+                if ov > w:
+                    w = ov
+        for s in range(sdisc.shape[0]):
+            dx = px - sdisc[s, 0]
+            dy = py - sdisc[s, 1]
+            R = sdisc[s, 2] + r
+            d2 = dx * dx + dy * dy
+            if d2 < R * R:
+                d = math.sqrt(d2)
+                if R - d > w:
+                    w = R - d
+                if d > 1e-12:
+                    mx += (R - d) * dx / d
+                    my += (R - d) * dy / d
+    for b in range(bodies.shape[0]):
+        dx = px - bodies[b, BX]
+        dy = py - bodies[b, BY]
+        R = bodies[b, BR] + r
+        d2 = dx * dx + dy * dy
+        if d2 < R * R:
+            d = math.sqrt(d2)
+            if R - d > w:
+                w = R - d
+            if d > 1e-12:
+                f = bodies[b, BSH] * (R - d) / d
+                mx += f * dx
+                my += f * dy
+    for p in range(pistons.shape[0]):
+        a = int(pistons[p, PA])
+        q = py if a == 0 else px
+        if q < pistons[p, PLO] or q > pistons[p, PHI]:
+            continue
+        v = px if a == 0 else py
+        gap = pistons[p, PS] * (v - pistons[p, PP])
+        if gap < r:
+            if r - gap > w:
+                w = r - gap
+            corr = pistons[p, PSH] * (r - gap) * pistons[p, PS]
+            if a == 0:
+                mx += corr
+            else:
+                my += corr
+    return mx, my, w
+
+
+@njit(cache=True, parallel=True)
+def _sweep_list(
+    src,
+    dst,
+    nbr,
+    nnb,
+    cell_flag,
+    x0,
+    y0,
+    inv_cs,
+    nx,
+    ny,
+    r,
+    relax,
+    seg,
+    sdisc,
+    bodies,
+    pistons,
+    moved_prev,
+    moved_cur,
+    near_moved_body,
+    first,
+    worst,
+):
+    """One Jacobi sweep over the neighbour lists.
+
+    After the first sweep a robot is recomputed only if it, a neighbour, or a body or
+    piston it may touch moved in the previous sweep; otherwise its position is already
+    right in both buffers and its overlaps are zero.
+    """
+    n = src.shape[0]
+    d_rr = 2.0 * r
+    for i in prange(n):
+        active = True
+        if not first:
+            active = moved_prev[i] != 0 or near_moved_body[i] != 0
+            if not active:
+                for k in range(nnb[i]):
+                    if moved_prev[nbr[i, k]] != 0:
+                        active = True
+                        break
+        w = 0.0
+        if active:
+            px = src[i, 0]
+            py = src[i, 1]
+            cx, cy = _cell_xy(px, py, x0, y0, inv_cs, nx, ny)
+            mx, my, w = _walls_and_bodies(
+                i, px, py, r, cell_flag[cy * nx + cx], seg, sdisc, bodies, pistons
+            )
+            for k in range(nnb[i]):
+                j = nbr[i, k]
+                dx = px - src[j, 0]
+                dy = py - src[j, 1]
+                d2 = dx * dx + dy * dy
+                if d2 < d_rr * d_rr:
+                    d = math.sqrt(d2)
+                    if d_rr - d > w:
+                        w = d_rr - d
+                    if d > 1e-12:
+                        f = 0.5 * relax * (d_rr - d) / d
+                        mx += f * dx
+                        my += f * dy
+                    else:  # coincident centres: separate along x by index order
+                        mx += 0.5 * relax * d_rr * (1.0 if i < j else -1.0)
+            dst[i, 0] = px + mx
+            dst[i, 1] = py + my
+            moved_cur[i] = 1 if (mx != 0.0 or my != 0.0) else 0
+        else:
+            moved_cur[i] = 0
+        worst[i] = w
+
+
+@njit(cache=True, parallel=True)
+def _sweep_cells(
+    src,
+    dst,
     cell_start,
     cell_flag,
     x0,
@@ -323,38 +414,29 @@ def _jacobi_sweep(
     relax,
     seg,
     sdisc,
-    bpos,
-    brad,
-    bshare,
-    paxis,
-    ppos,
-    pside,
-    plo,
-    phi,
-    pshare,
+    bodies,
+    pistons,
+    moved_cur,
     worst,
 ):
-    """One Jacobi sweep: each robot's correction from the positions of this sweep.
-
-    ``worst[i]`` receives the largest overlap robot ``i`` had before the correction.
-    """
-    n = pos.shape[0]
+    """One Jacobi sweep scanning the cell grid (the fallback when a list overflows)."""
+    n = src.shape[0]
     d_rr = 2.0 * r
     for i in prange(n):
-        px = pos[i, 0]
-        py = pos[i, 1]
+        px = src[i, 0]
+        py = src[i, 1]
         cx, cy = _cell_xy(px, py, x0, y0, inv_cs, nx, ny)
-        mx = 0.0
-        my = 0.0
-        w = 0.0
+        mx, my, w = _walls_and_bodies(
+            i, px, py, r, cell_flag[cy * nx + cx], seg, sdisc, bodies, pistons
+        )
         for ccy in range(max(cy - 1, 0), min(cy + 2, ny)):
             for ccx in range(max(cx - 1, 0), min(cx + 2, nx)):
                 c = ccy * nx + ccx
                 for j in range(cell_start[c], cell_start[c + 1]):
                     if j == i:
                         continue
-                    dx = px - pos[j, 0]
-                    dy = py - pos[j, 1]
+                    dx = px - src[j, 0]
+                    dy = py - src[j, 1]
                     d2 = dx * dx + dy * dy
                     if d2 < d_rr * d_rr:
                         d = math.sqrt(d2)
@@ -364,239 +446,330 @@ def _jacobi_sweep(
                             f = 0.5 * relax * (d_rr - d) / d
                             mx += f * dx
                             my += f * dy
-                        else:  # coincident centres: separate along x by index order
+                        else:
                             mx += 0.5 * relax * d_rr * (1.0 if i < j else -1.0)
-        c0 = cy * nx + cx
-        if cell_flag[c0]:
-            for s in range(seg.shape[0]):
-                ov, nxs, nys = _seg_push(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
-                if ov > 0.0:
-                    mx += ov * nxs
-                    my += ov * nys
-                    if ov > w:
-                        w = ov
-            for s in range(sdisc.shape[0]):
-                dx = px - sdisc[s, 0]
-                dy = py - sdisc[s, 1]
-                R = sdisc[s, 2] + r
-                d2 = dx * dx + dy * dy
-                if d2 < R * R:
-                    d = math.sqrt(d2)
-                    if R - d > w:
-                        w = R - d
-                    if d > 1e-12:
-                        mx += (R - d) * dx / d
-                        my += (R - d) * dy / d
-        for b in range(bpos.shape[0]):
-            dx = px - bpos[b, 0]
-            dy = py - bpos[b, 1]
-            R = brad[b] + r
-            d2 = dx * dx + dy * dy
-            if d2 < R * R:
-                d = math.sqrt(d2)
-                if R - d > w:
-                    w = R - d
-                if d > 1e-12:
-                    f = bshare[b] * (R - d) / d
-                    mx += f * dx
-                    my += f * dy
-        for p in range(paxis.shape[0]):
-            a = paxis[p]
-            q = py if a == 0 else px
-            if q < plo[p] or q > phi[p]:
-                continue
-            v = px if a == 0 else py
-            gap = pside[p] * (v - ppos[p])
-            if gap < r:
-                if r - gap > w:
-                    w = r - gap
-                corr = pshare[p] * (r - gap) * pside[p]
-                if a == 0:
-                    mx += corr
-                else:
-                    my += corr
-        out[i, 0] = px + mx
-        out[i, 1] = py + my
+        dst[i, 0] = px + mx
+        dst[i, 1] = py + my
+        moved_cur[i] = 1 if (mx != 0.0 or my != 0.0) else 0
         worst[i] = w
 
 
+@njit(cache=True)
+def _cell_range(lo, hi, origin, cs, ncell):
+    a = int(math.floor((lo - origin) / cs))
+    b = int(math.floor((hi - origin) / cs))
+    return max(a, 0), min(b, ncell - 1)
+
+
+@njit(cache=True)
+def _bodies_pass(pos, cell_start, x0, y0, cs, nx, ny, r, gamma_r, dt, bodies, pistons):
+    """Serial pass: displacement of each movable body and piston from its current contacts.
+
+    A body with drag ``g_b`` touched by ``k`` robots of drag ``g_r`` moves by
+    ``sum(g_r * overlap * n) / (k g_r + g_b)`` -- the exact rigid solution when the
+    robots push together -- and each robot takes the share ``g_b / (k g_r + g_b)`` of its
+    overlap.  The force that robots exert (``g_r`` x the robots' correction / ``dt``) is
+    added to the body's contact-force columns.  The scan covers one extra cell so that
+    robots that moved during earlier sweeps are still found.
+    """
+    for b in range(bodies.shape[0]):
+        R = bodies[b, BR] + r
+        reach = R + cs
+        cxa, cxb = _cell_range(bodies[b, BX] - reach, bodies[b, BX] + reach, x0, cs, nx)
+        cya, cyb = _cell_range(bodies[b, BY] - reach, bodies[b, BY] + reach, y0, cs, ny)
+        k = 0
+        sx = 0.0
+        sy = 0.0
+        for cy in range(cya, cyb + 1):
+            for cx in range(cxa, cxb + 1):
+                c = cy * nx + cx
+                for i in range(cell_start[c], cell_start[c + 1]):
+                    dx = pos[i, 0] - bodies[b, BX]
+                    dy = pos[i, 1] - bodies[b, BY]
+                    d2 = dx * dx + dy * dy
+                    if d2 < R * R:
+                        d = math.sqrt(d2)
+                        if d < 1e-12:
+                            continue
+                        ov = R - d
+                        k += 1
+                        sx -= ov * dx / d
+                        sy -= ov * dy / d
+        drag = bodies[b, BDRAG]
+        if k == 0:
+            bodies[b, BDX] = 0.0
+            bodies[b, BDY] = 0.0
+            bodies[b, BSH] = 1.0
+            continue
+        if math.isinf(drag):
+            share = 1.0
+            bodies[b, BDX] = 0.0
+            bodies[b, BDY] = 0.0
+        else:
+            den = k * gamma_r + drag
+            share = drag / den
+            bodies[b, BDX] = gamma_r * sx / den
+            bodies[b, BDY] = gamma_r * sy / den
+        bodies[b, BSH] = share
+        bodies[b, BCX] += gamma_r * share * sx / dt
+        bodies[b, BCY] += gamma_r * share * sy / dt
+    for p in range(pistons.shape[0]):
+        a = int(pistons[p, PA])
+        side = pistons[p, PS]
+        ppos = pistons[p, PP]
+        if a == 0:
+            ca, cb = _cell_range(ppos - r - cs, ppos + r + cs, x0, cs, nx)
+            oa, ob = _cell_range(pistons[p, PLO] - r, pistons[p, PHI] + r, y0, cs, ny)
+        else:
+            ca, cb = _cell_range(ppos - r - cs, ppos + r + cs, y0, cs, ny)
+            oa, ob = _cell_range(pistons[p, PLO] - r, pistons[p, PHI] + r, x0, cs, nx)
+        o = 1 - a
+        k = 0
+        s = 0.0
+        for u in range(ca, cb + 1):
+            for w in range(oa, ob + 1):
+                c = w * nx + u if a == 0 else u * nx + w
+                for i in range(cell_start[c], cell_start[c + 1]):
+                    q = pos[i, o]
+                    if q < pistons[p, PLO] or q > pistons[p, PHI]:
+                        continue
+                    gap = side * (pos[i, a] - ppos)
+                    if gap < r:
+                        k += 1
+                        s += r - gap
+        drag = pistons[p, PDRAG]
+        if k == 0:
+            pistons[p, PD] = 0.0
+            pistons[p, PSH] = 1.0
+            continue
+        if math.isinf(drag):
+            share = 1.0
+            pistons[p, PD] = 0.0
+        else:
+            den = k * gamma_r + drag
+            share = drag / den
+            pistons[p, PD] = -side * gamma_r * s / den  # pushed away from the robots
+        pistons[p, PSH] = share
+        pistons[p, PC] += -side * gamma_r * share * s / dt
+
+
+@njit(cache=True)
+def _bodies_vs_static(bodies, seg, sdisc):
+    """Keep movable bodies out of static walls and obstacles (walls do not yield)."""
+    for b in range(bodies.shape[0]):
+        R = bodies[b, BR]
+        for s in range(seg.shape[0]):
+            ov, nxs, nys = _seg_push(
+                bodies[b, BX], bodies[b, BY], seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], R
+            )
+            if ov > 0.0:
+                bodies[b, BX] += ov * nxs
+                bodies[b, BY] += ov * nys
+        for s in range(sdisc.shape[0]):
+            dx = bodies[b, BX] - sdisc[s, 0]
+            dy = bodies[b, BY] - sdisc[s, 1]
+            RR = R + sdisc[s, 2]
+            d2 = dx * dx + dy * dy
+            if d2 < RR * RR:
+                d = math.sqrt(d2)
+                if d > 1e-12:
+                    bodies[b, BX] += (RR - d) * dx / d
+                    bodies[b, BY] += (RR - d) * dy / d
+
+
 @njit(cache=True, parallel=True)
-def _predict(pos, heading, speed, timer, dt):
+def _near_moved(pos, bodies, moved_b, pistons, moved_p, r, reach, out):
+    """Flag robots within ``reach`` of a body or piston that moved in the last sweep."""
+    nb = bodies.shape[0]
+    npis = pistons.shape[0]
     for i in prange(pos.shape[0]):
-        pos[i, 0] += speed[i] * math.cos(heading[i]) * dt
-        pos[i, 1] += speed[i] * math.sin(heading[i]) * dt
-        timer[i] -= 1
+        f = 0
+        for b in range(nb):
+            if moved_b[b]:
+                dx = pos[i, 0] - bodies[b, BX]
+                dy = pos[i, 1] - bodies[b, BY]
+                R = bodies[b, BR] + r + reach
+                if dx * dx + dy * dy < R * R:
+                    f = 1
+        for p in range(npis):
+            if moved_p[p]:
+                a = int(pistons[p, PA])
+                if abs(pos[i, a] - pistons[p, PP]) < r + reach:
+                    f = 1
+        out[i] = f
+
+
+@njit(cache=True, parallel=True)
+def _copy2(src, dst):
+    for i in prange(src.shape[0]):
+        dst[i, 0] = src[i, 0]
+        dst[i, 1] = src[i, 1]
 
 
 @njit(cache=True)
 def overdamped_step(
     pos,
-    heading,
-    speed,
     fcols,
     icols,
-    timer_row,
-    x0,
-    y0,
-    cs,
-    nx,
-    ny,
+    udir,
+    pos2,
+    fcols2,
+    icols2,
+    udir2,
+    gf,
+    gi,
+    pp,
     cell,
     cell_start,
     perm,
-    tmpf2,
-    tmpf,
-    tmpi,
-    buf,
+    nbr,
+    nnb,
+    moved,
     cell_flag,
-    r,
-    gamma_r,
-    dt,
-    min_iter,
-    max_iter,
-    tol,
-    relax,
     seg,
     sdisc,
-    bpos,
-    brad,
-    bdrag,
-    bdisp,
-    bshare,
-    bforce,
-    paxis,
-    ppos,
-    pside,
-    plo,
-    phi,
-    pdrag,
-    pforce_ext,
-    pdisp,
-    pshare,
-    pforce,
-    plimit_lo,
-    plimit_hi,
+    bodies,
+    pistons,
 ):
     """Advance the overdamped swarm by one step ``dt``.
 
-    1. every robot moves at its commanded velocity (``speed``, ``heading``); pistons move
-       by ``F_ext dt / drag``; timers count down;
-    2. robots are re-sorted by cell (``fcols``/``icols`` re-ordered along; ``heading`` and
-       ``speed`` must be rows of ``fcols`` and the timer the row ``timer_row`` of ``icols``);
+    Arguments: ``fcols`` rows (heading, speed); ``icols`` rows (id, group, timer);
+    ``udir`` (2, n) float32 unit directions of the headings; ``pos2``, ``fcols2``,
+    ``icols2``, ``udir2`` second buffers of the same shapes, which receive the
+    new state (the caller swaps the references); ``gf`` = (x0, y0, cs); ``gi`` = (nx, ny,
+    min_sweeps, max_sweeps); ``pp`` = (r, drag, dt, tol, relax, cutoff); ``bodies`` and
+    ``pistons`` packed as in the column constants above; the rest are work arrays.
+
+    1. every robot moves at its commanded velocity, bodies and pistons by
+       ``F_ext dt / drag``; timers count down;
+    2. robots are re-sorted by grid cell into the second buffers, and neighbour lists
+       within ``cutoff`` are built;
     3. Jacobi sweeps project the configuration onto non-overlap with robots, static
-       walls, bodies and pistons, moving bodies and pistons by the mass-weighted share of
-       each contact: at least ``min_iter`` sweeps, then until the largest overlap found
-       by a sweep is below ``tol`` (mm), at most ``max_iter``.
+       walls, bodies and pistons (mass-weighted shares for bodies and pistons): at least
+       ``min_sweeps``, then until the largest overlap found is below ``tol`` (mm), at
+       most ``max_sweeps``.  The first buffers serve as scratch space.
 
-    Returns ``(sweeps, largest overlap seen by the last sweep)``.
-
-    ``bforce``/``pforce`` receive the mean contact force that robots exert during the step
-    (N per unit drag: drag x mm/s).  Returns nothing; arrays are updated in place.
+    Returns ``(sweeps, largest overlap seen by the last sweep, overflowed)``.
     """
     n = pos.shape[0]
+    x0, y0, cs = gf[0], gf[1], gf[2]
     inv_cs = 1.0 / cs
-    _predict(pos, heading, speed, icols[timer_row], dt)
-    for p in range(paxis.shape[0]):
-        if not math.isinf(pdrag[p]):
-            # external force pushes toward the robots' side
-            ppos[p] += pside[p] * pforce_ext[p] * dt / pdrag[p]
-            if ppos[p] < plimit_lo[p]:
-                ppos[p] = plimit_lo[p]
-            if ppos[p] > plimit_hi[p]:
-                ppos[p] = plimit_hi[p]
-    sort_by_cell(
-        pos, fcols, icols, x0, y0, inv_cs, nx, ny, cell, cell_start, perm, tmpf2, tmpf, tmpi
-    )
-    for b in range(bforce.shape[0]):
-        bforce[b, 0] = 0.0
-        bforce[b, 1] = 0.0
-    for p in range(pforce.shape[0]):
-        pforce[p] = 0.0
-    src = pos
-    dst = buf
-    worst = tmpf
+    nx, ny, min_iter, max_iter = gi[0], gi[1], gi[2], gi[3]
+    r, gamma_r, dt, tol, relax, cutoff = pp[0], pp[1], pp[2], pp[3], pp[4], pp[5]
+    _predict(pos, udir, fcols[1], icols[2], dt, x0, y0, inv_cs, nx, ny, cell)
+    for b in range(bodies.shape[0]):
+        bodies[b, BCX] = 0.0
+        bodies[b, BCY] = 0.0
+        if not math.isinf(bodies[b, BDRAG]):
+            bodies[b, BX] += bodies[b, BFX] * dt / bodies[b, BDRAG]
+            bodies[b, BY] += bodies[b, BFY] * dt / bodies[b, BDRAG]
+    _bodies_vs_static(bodies, seg, sdisc)
+    for p in range(pistons.shape[0]):
+        pistons[p, PC] = 0.0
+        if not math.isinf(pistons[p, PDRAG]):
+            x = pistons[p, PP] + pistons[p, PS] * pistons[p, PF] * dt / pistons[p, PDRAG]
+            pistons[p, PP] = min(max(x, pistons[p, PLL]), pistons[p, PLH])
+    _counting_sort(cell, nx * ny, cell_start, perm)
+    _gather_all(pos, fcols, icols, udir, pos2, fcols2, icols2, udir2, perm)
+    moved_prev = moved[0]
+    moved_cur = moved[1]
+    near = moved[2]
+    _build_neighbours(pos2, cell_start, nx, ny, cutoff, nbr, nnb, near)
+    overflow = False
+    for i in range(n):
+        if near[i]:
+            overflow = True
+            near[:] = 0
+            break
+    nb = bodies.shape[0]
+    npis = pistons.shape[0]
+    moved_b = np.zeros(nb, np.uint8)
+    moved_p = np.zeros(npis, np.uint8)
+    src = pos2
+    dst = pos  # the old positions and headings are free scratch now
+    worst = fcols[0]
     sweeps = 0
     seen = 0.0
     while sweeps < max_iter:
-        _bodies_pass(
-            src,
-            cell_start,
-            x0,
-            y0,
-            cs,
-            nx,
-            ny,
-            r,
-            gamma_r,
-            dt,
-            bpos,
-            brad,
-            bdrag,
-            bdisp,
-            bshare,
-            bforce,
-            paxis,
-            ppos,
-            pside,
-            plo,
-            phi,
-            pdrag,
-            pdisp,
-            pshare,
-            pforce,
-        )
-        _jacobi_sweep(
-            src,
-            dst,
-            cell_start,
-            cell_flag,
-            x0,
-            y0,
-            inv_cs,
-            nx,
-            ny,
-            r,
-            relax,
-            seg,
-            sdisc,
-            bpos,
-            brad,
-            bshare,
-            paxis,
-            ppos,
-            pside,
-            plo,
-            phi,
-            pshare,
-            worst,
-        )
-        for b in range(bpos.shape[0]):
-            bpos[b, 0] += bdisp[b, 0]
-            bpos[b, 1] += bdisp[b, 1]
-        for p in range(paxis.shape[0]):
-            ppos[p] += pdisp[p]
-        src, dst = dst, src
-        sweeps += 1
+        _bodies_pass(src, cell_start, x0, y0, cs, nx, ny, r, gamma_r, dt, bodies, pistons)
+        if overflow:
+            _sweep_cells(
+                src,
+                dst,
+                cell_start,
+                cell_flag,
+                x0,
+                y0,
+                inv_cs,
+                nx,
+                ny,
+                r,
+                relax,
+                seg,
+                sdisc,
+                bodies,
+                pistons,
+                moved_cur,
+                worst,
+            )
+        else:
+            _sweep_list(
+                src,
+                dst,
+                nbr,
+                nnb,
+                cell_flag,
+                x0,
+                y0,
+                inv_cs,
+                nx,
+                ny,
+                r,
+                relax,
+                seg,
+                sdisc,
+                bodies,
+                pistons,
+                moved_prev,
+                moved_cur,
+                near,
+                sweeps == 0,
+                worst,
+            )
         seen = 0.0
         for i in range(n):  # max is order-independent: deterministic
             if worst[i] > seen:
                 seen = worst[i]
+        any_moved = False
+        for b in range(nb):
+            moved_b[b] = 1 if (bodies[b, BDX] != 0.0 or bodies[b, BDY] != 0.0) else 0
+            bodies[b, BX] += bodies[b, BDX]
+            bodies[b, BY] += bodies[b, BDY]
+            any_moved = any_moved or moved_b[b] != 0
+        _bodies_vs_static(bodies, seg, sdisc)
+        for p in range(npis):
+            moved_p[p] = 1 if pistons[p, PD] != 0.0 else 0
+            pistons[p, PP] += pistons[p, PD]
+            any_moved = any_moved or moved_p[p] != 0
+        src, dst = dst, src
+        moved_prev, moved_cur = moved_cur, moved_prev
+        sweeps += 1
         if sweeps >= min_iter and seen < tol:
             break
+        if any_moved:
+            _near_moved(src, bodies, moved_b, pistons, moved_p, r, cs, near)
+        elif sweeps == 1 or nb + npis > 0:
+            near[:] = 0
     if sweeps % 2 == 1:
-        for i in range(n):
-            pos[i, 0] = buf[i, 0]
-            pos[i, 1] = buf[i, 1]
-    return sweeps, seen
+        _copy2(pos, pos2)  # the latest positions are in the scratch buffer
+    return sweeps, seen, overflow
 
 
 @njit(cache=True, parallel=True)
-def max_overlap(
-    pos, cell_start, x0, y0, cs, nx, ny, r, seg, sdisc, bpos, brad, paxis, ppos, pside, plo, phi
-):
+def max_overlap(pos, cell_start, x0, y0, cs, nx, ny, r, seg, sdisc, bodies, pistons):
     """Largest overlap (mm) of any robot with a robot, wall, body or piston.
 
-    ``pos`` must be sorted by cell with ``cell_start`` built on it (true after a step).
+    ``pos`` must be sorted by cell with ``cell_start`` built on it.
     """
     n = pos.shape[0]
     inv_cs = 1.0 / cs
@@ -606,7 +779,7 @@ def max_overlap(
         px = pos[i, 0]
         py = pos[i, 1]
         cx, cy = _cell_xy(px, py, x0, y0, inv_cs, nx, ny)
-        m = 0.0
+        _, _, m = _walls_and_bodies(i, px, py, r, True, seg, sdisc, bodies, pistons)
         for ccy in range(max(cy - 1, 0), min(cy + 2, ny)):
             for ccx in range(max(cx - 1, 0), min(cx + 2, nx)):
                 c = ccy * nx + ccx
@@ -618,24 +791,6 @@ def max_overlap(
                     d2 = dx * dx + dy * dy
                     if d2 < d_rr * d_rr:
                         m = max(m, d_rr - math.sqrt(d2))
-        for s in range(seg.shape[0]):
-            ov, _, _ = _seg_push(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
-            m = max(m, ov)
-        for s in range(sdisc.shape[0]):
-            dx = px - sdisc[s, 0]
-            dy = py - sdisc[s, 1]
-            m = max(m, sdisc[s, 2] + r - math.sqrt(dx * dx + dy * dy))
-        for b in range(bpos.shape[0]):
-            dx = px - bpos[b, 0]
-            dy = py - bpos[b, 1]
-            m = max(m, brad[b] + r - math.sqrt(dx * dx + dy * dy))
-        for p in range(paxis.shape[0]):
-            a = paxis[p]
-            q = py if a == 0 else px
-            if q < plo[p] or q > phi[p]:
-                continue
-            v = px if a == 0 else py
-            m = max(m, r - pside[p] * (v - ppos[p]))
         worst[i] = m
     out = 0.0
     for i in range(n):

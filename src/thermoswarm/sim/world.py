@@ -43,12 +43,19 @@ class Body:
         Friction with the ground as a drag coefficient (force per mm/s, in units of a
         robot's drag).  ``inf`` makes the body immovable (its contact force is still
         measured).
+    force : (float, float)
+        A constant external force (e.g. robots attached to it); a scenario may change it
+        every step through ``SwarmState.body_ext_force``.
+
+    Bodies collide with robots (sharing each overlap by mobility) and with static walls
+    and obstacles (which do not yield); they do not rotate.
     """
 
     x: float
     y: float
     radius: float = 50.0
     drag: float = 50.0
+    force: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         if not self.radius > 0:

@@ -1,0 +1,105 @@
+"""The engine benchmark workload (``thermoswarm bench``).
+
+Workload (issue 2): discs of 33 mm at packing fraction ``phi`` in a square walled box,
+``kT`` chosen so that the mean speed is 10 mm/s, heading and speed re-sampled every
+0.1 s (``tau = dt = 0.1 s``), Algorithm 3.  Compile time is excluded (one warm-up step).
+
+Reported: ``robot_steps_per_second``, ``simulated_robot_seconds_per_second``,
+``max_overlap_fraction`` (the largest overlap any step left, from the engine's own
+bookkeeping, and an exact check of sampled states), ``bytes_per_robot`` (the arrays held
+by the state and the engine plus the largest allocation made within one step -- the
+policy's temporaries -- traced with :mod:`tracemalloc`, divided by n; no recording),
+``n``, ``phi``, ``dt``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import tracemalloc
+from typing import Any
+
+import numpy as np
+
+from thermoswarm.maxent import kT_for_mean_speed
+from thermoswarm.policy import BoltzmannUniform
+from thermoswarm.sim.engine import EngineParams, Simulator, place_lattice
+from thermoswarm.sim.world import box_world
+
+DIAMETER = 33.0
+MEAN_SPEED = 10.0
+TAU = 0.1
+
+
+def workload(n: int, phi: float, seed: int = 0, dt: float = 0.1):
+    """The benchmark's world, simulator and initial state."""
+    r = DIAMETER / 2
+    side = math.sqrt(n * math.pi * r * r / phi)
+    world = box_world(side, side)
+    params = EngineParams(dt=dt, tau=TAU, radius=r)
+    sim = Simulator(world, params, BoltzmannUniform(kT_for_mean_speed(MEAN_SPEED)))
+    rng = np.random.default_rng(seed)
+    state = sim.init(place_lattice(world.bounds, n, r, rng), rng)
+    return world, sim, state
+
+
+def run_bench(
+    n: int,
+    phi: float,
+    seconds: float | None = None,
+    *,
+    seed: int = 0,
+    dt: float = 0.1,
+    checks: int = 5,
+) -> dict[str, Any]:
+    """Run the workload for ``seconds`` simulated seconds (default: ~2 s of wall time).
+
+    Parameters
+    ----------
+    n, phi : robots and packing fraction.
+    seconds : simulated seconds to run; by default chosen so the run takes a couple of
+        wall seconds at the expected speed (at least 20 steps).
+    checks : exact overlap checks spread over the run (not timed).
+    """
+    world, sim, state = workload(n, phi, seed, dt)
+    sim.step(state)  # warm-up: compilation (or cache load) excluded
+    sim.max_overlap(state)
+    state.counters[:] = 0
+    if seconds is None:
+        steps = max(20, int(2e7 / max(n, 1)))
+    else:
+        steps = max(1, int(round(seconds / dt)))
+    check_at = set(np.linspace(0, steps - 1, checks).astype(int).tolist()) if checks else set()
+    # memory: the arrays the state and engine hold, plus the largest transient
+    # allocation within one step (peak during the step minus memory in use before it)
+    tracemalloc.start()
+    transient = 0
+    wall = 0.0
+    worst_checked = 0.0
+    for k in range(steps):
+        before = tracemalloc.get_traced_memory()[0]
+        tracemalloc.reset_peak()
+        t0 = time.perf_counter()
+        sim.step(state)
+        wall += time.perf_counter() - t0
+        transient = max(transient, tracemalloc.get_traced_memory()[1] - before)
+        if k in check_at:
+            worst_checked = max(worst_checked, sim.max_overlap(state))
+    tracemalloc.stop()
+    state_bytes = sum(a.nbytes for a in state.to_arrays().values())
+    held = state_bytes + sim.workspace_bytes()
+    return {
+        "n": n,
+        "phi": phi,
+        "dt": dt,
+        "tau": TAU,
+        "steps": steps,
+        "wall_seconds": wall,
+        "robot_steps_per_second": n * steps / wall,
+        "simulated_robot_seconds_per_second": n * steps * dt / wall,
+        "max_overlap_fraction": max(float(state.counters[1]) / 1e6, worst_checked) / DIAMETER,
+        "mean_sweeps_per_step": float(state.counters[0]) / steps,
+        "bytes_per_robot": (held + transient) / n,
+        "held_bytes_per_robot": held / n,
+        "step_transient_bytes_per_robot": transient / n,
+    }
