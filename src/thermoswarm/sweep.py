@@ -144,10 +144,8 @@ def _run_one(config_toml: str, out_dir: str, threads: int | None) -> dict[str, A
         numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
     import tomllib
 
-    from thermoswarm.scenarios import runner
-
     from thermoswarm.config import from_mapping
-    from thermoswarm.scenarios import get
+    from thermoswarm.scenarios import get, runner
 
     out = Path(out_dir)
     if (out / "tracks.zarr").is_dir():
