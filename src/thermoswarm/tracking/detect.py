@@ -307,7 +307,8 @@ class ClassicalConfig:
     the background noise and ``peak_fraction`` times the typical ant's peak contrast).
     ``peak_fraction`` also sets, per blob, which pixels are measured (thin legs and
     antennae fall below it).  ``min_area``/``split_area``: blob areas in
-    single-ant areas below which blobs are dropped and above which they are split;
+    single-ant areas below which blobs are dropped and above which they are split
+    (``hint_split_area`` when the tracker predicts two or more ants in the blob);
     ``max_split``: most ants in one blob.  ``bg_quantile``: per-pixel quantile of the
     prepared frames taken as the background (0.9 for dark ants: a pixel is background
     unless an ant covers it in over 90 % of those frames; ``1 - bg_quantile`` for light
@@ -327,6 +328,7 @@ class ClassicalConfig:
     peak_fraction: float = 0.3
     min_area: float = 0.3
     split_area: float = 1.6
+    hint_split_area: float = 1.2
     max_split: int = 6
     bg_quantile: float = 0.9
     bg_frames: int = 48
@@ -348,6 +350,8 @@ class ClassicalConfig:
         check(0 <= self.peak_fraction < 1, "peak_fraction", "in [0, 1)", self.peak_fraction)
         check(0 < self.min_area < self.split_area, "min_area", "in (0, split_area)", self.min_area)
         check(self.max_split >= 1, "max_split", "a positive integer", self.max_split)
+        check(0 < self.hint_split_area <= self.split_area, "hint_split_area",
+              "in (0, split_area]", self.hint_split_area)
         check(0.5 <= self.bg_quantile <= 1, "bg_quantile", "in [0.5, 1]", self.bg_quantile)
         check(self.bg_frames >= 1, "bg_frames", "a positive integer", self.bg_frames)
         check(0 <= self.bg_rate <= 1, "bg_rate", "in [0, 1]", self.bg_rate)
@@ -423,6 +427,7 @@ class ClassicalDetector:
         self._peak: float | None = None
         self._area1: float = 0.6 * self.model_area / self.config.downsample**2
         self._length: float = self.prior_length_px
+        self._widen: float = 0.0
         self._shape: tuple[int, int] | None = None
 
     @property
@@ -437,8 +442,13 @@ class ClassicalDetector:
 
     @property
     def length_px(self) -> float:
-        """The ant body length in use (px, full resolution)."""
+        """The expected ant body length (px, full resolution; from ``ant_length_mm``)."""
         return self._length
+
+    @property
+    def widening_px(self) -> float:
+        """How much longer than the ant its silhouette looks at each end (px; learned)."""
+        return self._widen
 
     # -- image helpers
     def _gray(self, frame: np.ndarray) -> np.ndarray:
@@ -567,10 +577,11 @@ class ClassicalDetector:
             [b.span[(b.area > 0.7 * self._area1) & (b.area < 1.3 * self._area1)] for b in found]
         )
         if spans.size >= 3:
-            L = float(np.median(spans)) / (anatomy.FRONT - anatomy.BACK)
-            self._length = float(
-                np.clip(L, 0.6 * self.prior_length_px, 1.5 * self.prior_length_px)
-            )
+            # Blur and the threshold make silhouettes look longer than the ants by a
+            # fixed amount at each end; measured against the expected length.
+            L0 = self.prior_length_px
+            extra = 0.5 * (float(np.median(spans)) - (anatomy.FRONT - anatomy.BACK) * L0)
+            self._widen = float(np.clip(extra, -0.1 * L0, 0.3 * L0))
 
     # -- detection
     def _measure(
@@ -650,11 +661,12 @@ class ClassicalDetector:
                 if L > 0 and good[L]:
                     hint_at.setdefault(int(L), []).append(int(j))
             for L, js in hint_at.items():
-                if len(js) >= 2:
+                # Two ants cover more than one ant's area even when crossing.
+                if len(js) >= 2 and area[L] >= c.hint_split_area * self._area1:
                     k[L] = min(max(len(js), k[L]), c.max_split)
         single = k[lab] == 1
         pts, hc, span, valid = _moments_pose(
-            fx[single], fy[single], w[single], lab[single], n, self._length
+            fx[single], fy[single], w[single], lab[single], n, self._length, self._widen
         )
         ids = np.flatnonzero(good & (k == 1) & valid)
         parts = [(pts[ids], hc[ids], span[ids], area[ids], peak[ids], np.zeros(ids.size, bool))]
@@ -674,7 +686,9 @@ class ClassicalDetector:
                 gl = np.empty(idx.size, np.int64)
                 for j, gi in enumerate(groups):
                     gl[gi] = j
-                p2, h2, s2, v2 = _moments_pose(px[:, 0], px[:, 1], w[idx], gl, m, self._length)
+                p2, h2, s2, v2 = _moments_pose(
+                    px[:, 0], px[:, 1], w[idx], gl, m, self._length, self._widen
+                )
                 v2 &= np.bincount(gl, minlength=m) >= 3
                 parts.append(
                     (
@@ -719,12 +733,20 @@ class ClassicalDetector:
 
 
 def _moments_pose(
-    x: np.ndarray, y: np.ndarray, w: np.ndarray, lab: np.ndarray, n: int, length: float
+    x: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    lab: np.ndarray,
+    n: int,
+    length: float,
+    widen: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Poses of many single-ant blobs at once from their weighted pixels.
 
-    Returns points ``(n, 3, 2)``, head confidence ``(n,)``, span ``(n,)`` and a valid
-    flag ``(n,)`` indexed by label (see :func:`_pose` for the method).
+    ``length`` is the expected body length and ``widen`` how far each end of a
+    silhouette reaches beyond the ant (px).  Returns points ``(n, 3, 2)``, head
+    confidence ``(n,)``, silhouette span ``(n,)`` and a valid flag ``(n,)``, indexed
+    by label (see :func:`_pose` for the method).
     """
     bc = np.bincount
     m0 = bc(lab, w, n)
@@ -757,14 +779,19 @@ def _moments_pose(
     lo = np.where(valid, lo, 0.0) - 0.5
     hi = np.where(valid, hi, 0.0) + 0.5
     ux, uy = ux * sign, uy * sign
-    s_body = 0.5 * ((hi - anatomy.FRONT * length) + (lo - anatomy.BACK * length))
-    offs = s_body[:, None] + anatomy.KEYPOINT_OFFSETS[None, :] * length  # (n, 3)
+    front, back = hi - widen, lo + widen
+    # Each ant's own length from its silhouette, within 25 % of the expected one.
+    L = np.clip((front - back) / (anatomy.FRONT - anatomy.BACK), 0.75 * length, 1.25 * length)
+    s_body = 0.5 * ((front - anatomy.FRONT * L) + (back - anatomy.BACK * L))
+    offs = s_body[:, None] + anatomy.KEYPOINT_OFFSETS[None, :] * L[:, None]  # (n, 3)
     pts = np.stack([mx[:, None] + offs * ux[:, None], my[:, None] + offs * uy[:, None]], -1)
     hc = 0.5 + 0.5 * np.tanh(np.abs(skew) / 0.3)
     return pts, hc, hi - lo, valid
 
 
-def _pose(px: np.ndarray, w: np.ndarray, length: float) -> tuple[np.ndarray, float, float] | None:
+def _pose(
+    px: np.ndarray, w: np.ndarray, length: float, widen: float = 0.0
+) -> tuple[np.ndarray, float, float] | None:
     """Head, body, tail (px), head confidence and silhouette span of one ant's pixels.
 
     The principal axis of the contrast-weighted pixels is the body axis; the
@@ -776,7 +803,7 @@ def _pose(px: np.ndarray, w: np.ndarray, length: float) -> tuple[np.ndarray, flo
     if px.shape[0] < 3 or w.sum() <= 0:
         return None
     lab = np.zeros(px.shape[0], np.int64)
-    pts, hc, span, valid = _moments_pose(px[:, 0], px[:, 1], w, lab, 1, length)
+    pts, hc, span, valid = _moments_pose(px[:, 0], px[:, 1], w, lab, 1, length, widen)
     return pts[0], float(hc[0]), float(span[0])
 
 
