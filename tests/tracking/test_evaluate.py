@@ -18,8 +18,9 @@ def _row(frame, ident, x, y, w=10.0, h=10.0, conf=1.0, cls=1.0):
 
 
 def test_hand_computed_case_counts():
-    gt = np.array([_row(f, 1, 0, 0) for f in range(1, 5)] + [_row(f, 2, 50, 0)
-                                                             for f in range(1, 5)])
+    gt = np.array(
+        [_row(f, 1, 0, 0) for f in range(1, 5)] + [_row(f, 2, 50, 0) for f in range(1, 5)]
+    )
     pred = np.array(
         [_row(f, 7, 0, 0) for f in range(1, 5)]
         + [_row(1, 8, 55, 0), _row(2, 8, 50, 0), _row(4, 9, 50, 0), _row(2, 5, 200, 200)]
@@ -87,11 +88,20 @@ def _random_fixture(seed: int, n_obj: int = 6, n_frames: int = 60):
             if rng.random() < 0.1:
                 continue  # missed
             jit = rng.normal(0, 2.5, 4)
-            pred.append(_row(f, pred_id[k], pos[k, 0] + jit[0], pos[k, 1] + jit[1],
-                             w + jit[2], h + jit[3], 1, -1))
+            pred.append(
+                _row(
+                    f,
+                    pred_id[k],
+                    pos[k, 0] + jit[0],
+                    pos[k, 1] + jit[1],
+                    w + jit[2],
+                    h + jit[3],
+                    1,
+                    -1,
+                )
+            )
         for _ in range(rng.poisson(0.5)):  # spurious boxes
-            pred.append(_row(f, rng.integers(300, 310), *rng.uniform(0, 300, 2), 15, 15,
-                             1, -1))
+            pred.append(_row(f, rng.integers(300, 310), *rng.uniform(0, 300, 2), 15, 15, 1, -1))
     gt = np.array(gt)
     pred = np.array(pred)
     # Spurious ids must be unique per frame.
@@ -149,12 +159,24 @@ def test_agrees_with_trackeval(tmp_path, seed, iou):
     te = _trackeval(tmp_path, gt, pred, iou)
     # The fixture has every kind of error.
     assert ours["fp"] > 5 and ours["fn"] > 5 and ours["idsw"] > 3
-    for key, te_key in [("mota", "MOTA"), ("motp", "MOTP"), ("idf1", "IDF1"),
-                        ("idp", "IDP"), ("idr", "IDR")]:
+    for key, te_key in [
+        ("mota", "MOTA"),
+        ("motp", "MOTP"),
+        ("idf1", "IDF1"),
+        ("idp", "IDP"),
+        ("idr", "IDR"),
+    ]:
         assert ours[key] == pytest.approx(float(te[te_key]), abs=1e-4), key
-    for key, te_key in [("idsw", "IDSW"), ("fp", "CLR_FP"), ("fn", "CLR_FN"),
-                        ("tp", "CLR_TP"), ("mt", "MT"), ("pt", "PT"), ("ml", "ML"),
-                        ("frag", "Frag")]:
+    for key, te_key in [
+        ("idsw", "IDSW"),
+        ("fp", "CLR_FP"),
+        ("fn", "CLR_FN"),
+        ("tp", "CLR_TP"),
+        ("mt", "MT"),
+        ("pt", "PT"),
+        ("ml", "ML"),
+        ("frag", "Frag"),
+    ]:
         assert ours[key] == int(te[te_key]), key
 
 

@@ -8,7 +8,10 @@ Interface
     (``left, top, width, height`` px; default: the body-centred box of the pose) and
     ``head_confidence`` ``(n,)`` in [0, 1], how sure the detector is that head and tail
     are not swapped (0.5: no idea; ``None``: sure).  The tracker uses it to decide
-    whether motion should overrule the detector's head-tail order.
+    whether motion should overrule the detector's head-tail order.  Optional
+    ``hint_index`` ``(n,)``: for detectors given the tracker's predicted poses
+    (``detect(frame, hints=...)``), the index of the prediction a detection was
+    found from (touching ants split around their predictions), -1 for none.
 :class:`Detector` (a :class:`typing.Protocol`)
     ``detect(frame) -> FrameDetections`` for one frame, ``reset()`` to forget any state
     between videos.  Frames are ``uint8`` arrays, ``(H, W, 3)`` RGB or ``(H, W)`` grey,
@@ -89,6 +92,7 @@ class FrameDetections:
     scores: np.ndarray
     boxes: np.ndarray | None = None
     head_confidence: np.ndarray | None = None
+    hint_index: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         pts = np.asarray(self.points, dtype=np.float64).reshape(-1, 3, 2)
@@ -108,6 +112,11 @@ class FrameDetections:
             if hc.shape != (n,):
                 raise ValueError(f"head_confidence must have shape ({n},), got {hc.shape}")
             object.__setattr__(self, "head_confidence", hc)
+        if self.hint_index is not None:
+            hi = np.asarray(self.hint_index, dtype=np.int64).reshape(-1)
+            if hi.shape != (n,):
+                raise ValueError(f"hint_index must have shape ({n},), got {hi.shape}")
+            object.__setattr__(self, "hint_index", hi)
 
     def __len__(self) -> int:
         return self.points.shape[0]
@@ -128,6 +137,7 @@ class FrameDetections:
             self.scores[keep],
             None if self.boxes is None else self.boxes[keep],
             None if self.head_confidence is None else self.head_confidence[keep],
+            None if self.hint_index is None else self.hint_index[keep],
         )
 
 
@@ -331,7 +341,7 @@ class ClassicalConfig:
     hint_split_area: float = 1.2
     max_split: int = 6
     bg_quantile: float = 0.9
-    bg_frames: int = 48
+    bg_frames: int = 32
     bg_rate: float = 0.02
     gain_grid: int = 24
 
@@ -350,8 +360,12 @@ class ClassicalConfig:
         check(0 <= self.peak_fraction < 1, "peak_fraction", "in [0, 1)", self.peak_fraction)
         check(0 < self.min_area < self.split_area, "min_area", "in (0, split_area)", self.min_area)
         check(self.max_split >= 1, "max_split", "a positive integer", self.max_split)
-        check(0 < self.hint_split_area <= self.split_area, "hint_split_area",
-              "in (0, split_area]", self.hint_split_area)
+        check(
+            0 < self.hint_split_area <= self.split_area,
+            "hint_split_area",
+            "in (0, split_area]",
+            self.hint_split_area,
+        )
         check(0.5 <= self.bg_quantile <= 1, "bg_quantile", "in [0.5, 1]", self.bg_quantile)
         check(self.bg_frames >= 1, "bg_frames", "a positive integer", self.bg_frames)
         check(0 <= self.bg_rate <= 1, "bg_rate", "in [0, 1]", self.bg_rate)
@@ -381,6 +395,7 @@ class _Blobs:
     area: np.ndarray  # (n,) working-resolution px^2
     peak: np.ndarray  # (n,) peak relative contrast
     split: np.ndarray  # (n,) bool: part of a split blob
+    hint: np.ndarray  # (n,) index of the hint this ant continues, -1 if none
 
 
 class ClassicalDetector:
@@ -532,15 +547,21 @@ class ClassicalDetector:
                 step *= 2
         if not smalls:
             raise InputError("the classical detector needs at least one frame to prepare")
-        stack = np.stack(smalls)
-        if stack.shape[0] > c.bg_frames:
-            idx = np.linspace(0, stack.shape[0] - 1, c.bg_frames).round().astype(int)
-            stack = stack[idx]
-        ref = np.median(stack, axis=0).astype(np.float32)
-        if stack.shape[0] > 2:
-            norm = np.stack([s / self._gain(s, ref) for s in stack])
+        if len(smalls) > c.bg_frames:
+            idx = np.linspace(0, len(smalls) - 1, c.bg_frames).round().astype(int)
+            smalls = [smalls[i] for i in idx]
+        n = len(smalls)
+        # Lighting reference: the median of a few frames; then every frame normalised
+        # to it and the bg_quantile of each pixel over the frames (np.partition).
+        ref_idx = np.linspace(0, n - 1, min(n, 9)).round().astype(int)
+        ref = np.median(np.stack([smalls[i] for i in ref_idx]), axis=0).astype(np.float32)
+        if n > 2:
+            norm = np.empty((n, *ref.shape), np.float32)
+            for i, sm in enumerate(smalls):
+                np.divide(sm, self._gain(sm, ref), out=norm[i])
             q = c.bg_quantile if c.polarity == "dark" else 1 - c.bg_quantile
-            self._bg = np.quantile(norm, q, axis=0).astype(np.float32)
+            kth = int(round(q * (n - 1)))
+            self._bg = np.ascontiguousarray(np.partition(norm, kth, axis=0)[kth])
         else:
             self._bg = ref
         self._learn(grays)
@@ -607,6 +628,7 @@ class ClassicalDetector:
             np.zeros(0),
             np.zeros(0),
             np.zeros(0, bool),
+            np.zeros(0, np.int64),
         )
         mask = (con > thr).view(np.uint8)
         # Labels without stats (cv2's stats are slow); areas and peaks from the pixels.
@@ -669,7 +691,22 @@ class ClassicalDetector:
             fx[single], fy[single], w[single], lab[single], n, self._length, self._widen
         )
         ids = np.flatnonzero(good & (k == 1) & valid)
-        parts = [(pts[ids], hc[ids], span[ids], area[ids], peak[ids], np.zeros(ids.size, bool))]
+        # A single-ant blob that holds exactly one predicted ant continues it.
+        one_hint = np.full(n, -1, np.int64)
+        for L, js in hint_at.items():
+            if len(js) == 1:
+                one_hint[L] = js[0]
+        parts = [
+            (
+                pts[ids],
+                hc[ids],
+                span[ids],
+                area[ids],
+                peak[ids],
+                np.zeros(ids.size, bool),
+                one_hint[ids],
+            )
+        ]
         multi = np.flatnonzero(good & (k > 1))
         if multi.size:
             order = np.argsort(lab, kind="stable")
@@ -690,6 +727,10 @@ class ClassicalDetector:
                     px[:, 0], px[:, 1], w[idx], gl, m, self._length, self._widen
                 )
                 v2 &= np.bincount(gl, minlength=m) >= 3
+                # Segment j started from hint js[j]: it continues that predicted ant.
+                src = np.full(m, -1, np.int64)
+                if init is not None:
+                    src[: len(js)] = js
                 parts.append(
                     (
                         p2[v2],
@@ -698,9 +739,10 @@ class ClassicalDetector:
                         np.full(v2.sum(), area[i] / m),
                         np.full(v2.sum(), peak[i]),
                         np.ones(v2.sum(), bool),
+                        src[v2],
                     )
                 )
-        return _Blobs(*(np.concatenate([p[j] for p in parts]) for j in range(6)))
+        return _Blobs(*(np.concatenate([p[j] for p in parts]) for j in range(7)))
 
     def detect(self, frame: np.ndarray, hints: np.ndarray | None = None) -> FrameDetections:
         """Detect the ants in one frame.
@@ -729,7 +771,9 @@ class ClassicalDetector:
         if len(b.points) == 0:
             return FrameDetections.empty()
         scores = np.where(b.split, 0.6, 1.0) * np.clip(b.peak / max(self._peak or 1.0, 1e-3), 0, 1)
-        return FrameDetections(b.points, scores, None, b.head_conf)
+        return FrameDetections(
+            b.points, scores, None, b.head_conf, b.hint if hints is not None else None
+        )
 
 
 def _moments_pose(

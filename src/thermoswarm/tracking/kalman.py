@@ -25,9 +25,7 @@ import numpy as np
 __all__ = ["KalmanParams", "predict", "update", "innovation", "initial_state"]
 
 _F = np.array([[1.0, 0, 1, 0], [0, 1, 0, 1], [0, 0, 1, 0], [0, 0, 0, 1]])
-_Q1 = np.array(
-    [[1 / 3, 0, 1 / 2, 0], [0, 1 / 3, 0, 1 / 2], [1 / 2, 0, 1, 0], [0, 1 / 2, 0, 1]]
-)
+_Q1 = np.array([[1 / 3, 0, 1 / 2, 0], [0, 1 / 3, 0, 1 / 2], [1 / 2, 0, 1, 0], [0, 1 / 2, 0, 1]])
 _H = np.array([[1.0, 0, 0, 0], [0, 1, 0, 0]])
 
 
@@ -69,29 +67,36 @@ def predict(x: np.ndarray, P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np
     return x, P
 
 
-def innovation(x: np.ndarray, P: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
-    """Predicted positions ``(n, 2)`` and their innovation covariances ``S (n, 2, 2)``."""
-    S = P[:, :2, :2] + (r**2) * np.eye(2)
+def innovation(
+    x: np.ndarray, P: np.ndarray, r: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Predicted positions ``(n, 2)`` and innovation covariances ``S (n, 2, 2)`` for
+    measurement noise sd ``r`` (a number or one per row)."""
+    r2 = np.broadcast_to(np.asarray(r, dtype=np.float64) ** 2, (x.shape[0],))
+    S = P[:, :2, :2] + r2[:, None, None] * np.eye(2)
     return x[:, :2], S
 
 
 def update(
-    x: np.ndarray, P: np.ndarray, z: np.ndarray, r: float
+    x: np.ndarray, P: np.ndarray, z: np.ndarray, r: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Kalman update with positions ``z (n, 2)``; returns ``x, P, nis`` (Joseph form)."""
+    """Kalman update with positions ``z (n, 2)`` of noise sd ``r`` (px; a number or one
+    per row); returns ``x, P, nis`` (Joseph form)."""
     zhat, S = innovation(x, P, r)
+    r2 = np.broadcast_to(np.asarray(r, dtype=np.float64) ** 2, (x.shape[0],))
     v = z - zhat
     Sinv = np.linalg.inv(S)
     K = P @ _H.T @ Sinv  # (n, 4, 2)
     x = x + np.einsum("nij,nj->ni", K, v)
     IKH = np.eye(4)[None] - K @ _H
-    P = IKH @ P @ IKH.transpose(0, 2, 1) + (r**2) * K @ K.transpose(0, 2, 1)
+    P = IKH @ P @ IKH.transpose(0, 2, 1) + r2[:, None, None] * K @ K.transpose(0, 2, 1)
     nis = np.einsum("ni,nij,nj->n", v, Sinv, v)
     return x, P, nis
 
 
-def adapt(q: np.ndarray, nis_mean: np.ndarray, nis: np.ndarray, p: KalmanParams
-          ) -> tuple[np.ndarray, np.ndarray]:
+def adapt(
+    q: np.ndarray, nis_mean: np.ndarray, nis: np.ndarray, p: KalmanParams
+) -> tuple[np.ndarray, np.ndarray]:
     """New process-noise intensities and running mean NIS after an update."""
     nis_mean = (1 - p.nis_rate) * nis_mean + p.nis_rate * nis
     q = np.clip(q * (nis_mean / 2.0) ** (p.gain * p.nis_rate), p.q_min, p.q_max)

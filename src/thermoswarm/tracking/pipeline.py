@@ -41,9 +41,16 @@ from thermoswarm.tracking.tracker import Tracker, TrackerConfig, TrackResult
 __all__ = ["track_video", "track_detection_file", "detections_from_table"]
 
 
-def _write_outputs(result: TrackResult, out: Path, *, px_per_mm: float, fps: float,
-                   source: str, det_rows: np.ndarray | None, attrs: dict[str, Any]
-                   ) -> list[str]:
+def _write_outputs(
+    result: TrackResult,
+    out: Path,
+    *,
+    px_per_mm: float,
+    fps: float,
+    source: str,
+    det_rows: np.ndarray | None,
+    attrs: dict[str, Any],
+) -> list[str]:
     from thermoswarm.io.mot import write_mot_table
     from thermoswarm.io.netcdf import write as write_nc
 
@@ -119,14 +126,14 @@ def track_video(
     out = prepare_output_dir(out_dir)
     det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=detector_options)
     tcfg = tracker_config or TrackerConfig()
-    tracker = Tracker(tcfg, px_per_mm=px_per_mm, fps=rate)
+    tracker = Tracker(tcfg, px_per_mm=px_per_mm, fps=rate, frame_size=src.size)
     t0 = time.perf_counter()
     prepare = getattr(det, "prepare", None)
     n_prep = max(1, int(round(prepare_s * rate)))
     if max_frames is not None:
         n_prep = min(n_prep, max_frames)
     if prepare is not None:
-        prepare(src.frames(n_prep))
+        prepare(src.frames(n_prep, step=2 if n_prep >= 32 else 1, prefetch=4))
     t_prep = time.perf_counter() - t0
     takes_hints = bool(getattr(det, "accepts_hints", False))
     writer = OverlayWriter(out / "overlay.mp4", rate, scale=overlay_scale) if overlay else None
@@ -172,15 +179,27 @@ def track_video(
     dets = np.concatenate(det_rows) if det_rows else np.zeros((0, 10))
     det_name = getattr(det, "name", detector or "classical")
     attrs = {"detector": str(det_name), "frame_width": src.size[0], "frame_height": src.size[1]}
-    names = _write_outputs(result, out, px_per_mm=px_per_mm, fps=rate, source=str(video),
-                           det_rows=dets, attrs=attrs)
+    names = _write_outputs(
+        result, out, px_per_mm=px_per_mm, fps=rate, source=str(video), det_rows=dets, attrs=attrs
+    )
     if writer is not None:
         names.append("overlay.mp4")
-    summary = _summary(result, source=str(video), fps=rate, fps_source="user" if fps
-                       is not None else "video", px_per_mm=px_per_mm, tracker=tcfg,
-                       detector=str(det_name), model=model, n_det=n_det, elapsed=elapsed,
-                       prepare=t_prep, size=src.size, outputs=names + ["summary.json"],
-                       detector_options=_detector_info(det, detector_options))
+    summary = _summary(
+        result,
+        source=str(video),
+        fps=rate,
+        fps_source="user" if fps is not None else "video",
+        px_per_mm=px_per_mm,
+        tracker=tcfg,
+        detector=str(det_name),
+        model=model,
+        n_det=n_det,
+        elapsed=elapsed,
+        prepare=t_prep,
+        size=src.size,
+        outputs=names + ["summary.json"],
+        detector_options=_detector_info(det, detector_options),
+    )
     atomic_write_json(out / "summary.json", summary)
     return summary
 
@@ -195,11 +214,23 @@ def _detector_info(det: Any, options: dict[str, Any] | None) -> dict[str, Any]:
     return info
 
 
-def _summary(result: TrackResult, *, source: str, fps: float, fps_source: str,
-             px_per_mm: float, tracker: TrackerConfig, detector: str | None,
-             model: Any, n_det: int, elapsed: float, prepare: float,
-             size: tuple[int, int] | None, outputs: list[str],
-             detector_options: dict[str, Any] | None) -> dict[str, Any]:
+def _summary(
+    result: TrackResult,
+    *,
+    source: str,
+    fps: float,
+    fps_source: str,
+    px_per_mm: float,
+    tracker: TrackerConfig,
+    detector: str | None,
+    model: Any,
+    n_det: int,
+    elapsed: float,
+    prepare: float,
+    size: tuple[int, int] | None,
+    outputs: list[str],
+    detector_options: dict[str, Any] | None,
+) -> dict[str, Any]:
     n = max(result.n_frames, 1)
     return {
         "source": source,
@@ -267,11 +298,30 @@ def track_detection_file(
         tracker.update(d)
     result = tracker.finish()
     elapsed = time.perf_counter() - t0
-    names = _write_outputs(result, out, px_per_mm=px_per_mm, fps=fps, source=str(path),
-                           det_rows=None, attrs={"detector": "detections file"})
-    summary = _summary(result, source=str(path), fps=fps, fps_source="user",
-                       px_per_mm=px_per_mm, tracker=tcfg, detector=None, model=None,
-                       n_det=int(table.shape[0]), elapsed=elapsed, prepare=0.0, size=None,
-                       outputs=names + ["summary.json"], detector_options=None)
+    names = _write_outputs(
+        result,
+        out,
+        px_per_mm=px_per_mm,
+        fps=fps,
+        source=str(path),
+        det_rows=None,
+        attrs={"detector": "detections file"},
+    )
+    summary = _summary(
+        result,
+        source=str(path),
+        fps=fps,
+        fps_source="user",
+        px_per_mm=px_per_mm,
+        tracker=tcfg,
+        detector=None,
+        model=None,
+        n_det=int(table.shape[0]),
+        elapsed=elapsed,
+        prepare=0.0,
+        size=None,
+        outputs=names + ["summary.json"],
+        detector_options=None,
+    )
     atomic_write_json(out / "summary.json", summary)
     return summary

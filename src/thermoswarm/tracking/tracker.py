@@ -21,6 +21,8 @@ Each frame:
    track, confirmed after ``n_init`` hits (and dropped if it misses more than
    ``tentative_max_misses`` frames before that); a confirmed track survives
    ``max_gap_s`` without detections (coasting on its prediction).
+   A track whose ant walks out of the frame (its prediction leaves the image)
+   ends at once rather than coasting.
 5. **Re-linking across short gaps**: a coasting track that gets a detection again, or
    a newly confirmed track that starts where a lost track would be (within
    ``max_speed_mm_s`` of its last position), continues the old identity; the missing
@@ -63,7 +65,8 @@ class TrackerConfig:
     See the module docstring for the role of each weight and limit.
     ``accel_mm_s2``: initial sd of the ants' acceleration (sets the Kalman process
     noise, which then adapts within ``[accel/adapt_range, accel*adapt_range]``);
-    ``meas_noise_px``: sd of detected body points (px).  ``ant_length_mm`` and
+    ``meas_noise_px``: sd of detected body points (px), divided by
+    ``score ** score_noise_power`` for a detection of score below 1.  ``ant_length_mm`` and
     ``ant_width_mm`` set distance units and box padding (half the width).
     """
 
@@ -75,10 +78,12 @@ class TrackerConfig:
     adapt: bool = True
     adapt_range: float = 5.0
     meas_noise_px: float = 1.0
+    score_noise_power: float = 4.0
     gate_sigmas: float = 5.0
     iou_weight: float = 1.0
     distance_weight: float = 1.0
     angle_weight: float = 0.3
+    hint_weight: float = 1.0
     max_cost: float = 2.0
     min_score: float = 0.0
     duplicate_radius: float = 0.3
@@ -92,18 +97,37 @@ class TrackerConfig:
 
     def __post_init__(self) -> None:
         check(self.n_init >= 1, "n_init", "a positive integer", self.n_init)
-        check(self.tentative_max_misses >= 0, "tentative_max_misses",
-              "a non-negative integer", self.tentative_max_misses)
+        check(
+            self.tentative_max_misses >= 0,
+            "tentative_max_misses",
+            "a non-negative integer",
+            self.tentative_max_misses,
+        )
         for name in ("max_gap_s", "duplicate_radius"):
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
-        for name in ("max_speed_mm_s", "accel_mm_s2", "meas_noise_px", "gate_sigmas",
-                     "max_cost", "head_motion_speed_mm_s", "ant_length_mm", "ant_width_mm"):
+        for name in (
+            "max_speed_mm_s",
+            "accel_mm_s2",
+            "meas_noise_px",
+            "gate_sigmas",
+            "max_cost",
+            "head_motion_speed_mm_s",
+            "ant_length_mm",
+            "ant_width_mm",
+        ):
             v = getattr(self, name)
             check(math.isfinite(v) and v > 0, name, "a positive number", v)
         check(self.adapt_range >= 1, "adapt_range", "at least 1", self.adapt_range)
-        for name in ("iou_weight", "distance_weight", "angle_weight", "continuity_weight",
-                     "motion_weight", "shape_weight"):
+        for name in (
+            "iou_weight",
+            "distance_weight",
+            "angle_weight",
+            "hint_weight",
+            "continuity_weight",
+            "motion_weight",
+            "shape_weight",
+        ):
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
         check(0 <= self.min_score <= 1, "min_score", "in [0, 1]", self.min_score)
@@ -163,8 +187,14 @@ class TrackResult:
         t[:, 6] = self.scores
         return t
 
-    def dataset(self, *, px_per_mm: float, fps: float, source_file: str | None = None,
-                attrs: dict[str, Any] | None = None) -> Any:
+    def dataset(
+        self,
+        *,
+        px_per_mm: float,
+        fps: float,
+        source_file: str | None = None,
+        attrs: dict[str, Any] | None = None,
+    ) -> Any:
         """The trajectory Dataset (mm, s; keypoints head, body, tail; one individual
         per track, ``track_<id>``).  ``confidence`` is the detection score (0 where
         interpolated, NaN where absent); ``interpolated`` flags filled samples."""
@@ -180,13 +210,20 @@ class TrackResult:
         conf[self.frames, :, col] = np.where(has, self.scores[:, None], np.nan)
         interp[self.frames, col] = self.interpolated
         ds = make_tracks(
-            pos, fps=fps, individuals=[f"track_{i}" for i in uid],
-            keypoints=list(anatomy.KEYPOINTS), confidence=conf,
-            source_software="thermoswarm track", source_file=source_file,
+            pos,
+            fps=fps,
+            individuals=[f"track_{i}" for i in uid],
+            keypoints=list(anatomy.KEYPOINTS),
+            confidence=conf,
+            source_software="thermoswarm track",
+            source_file=source_file,
             attrs={"px_per_mm": float(px_per_mm), **(attrs or {})},
         )
-        ds["interpolated"] = (("time", "individuals"), interp,
-                              {"long_name": "position filled across a detection gap"})
+        ds["interpolated"] = (
+            ("time", "individuals"),
+            interp,
+            {"long_name": "position filled across a detection gap"},
+        )
         return ds
 
 
@@ -203,15 +240,25 @@ class Tracker:
         :class:`TrackerConfig`.
     px_per_mm, fps
         Image scale and frame rate (they convert the config's mm and s).
+    frame_size
+        ``(width, height)`` px, if known: a track that misses its ant while its
+        prediction is outside the frame ends at once (the ant walked out).
     """
 
-    def __init__(self, config: TrackerConfig | None = None, *, px_per_mm: float,
-                 fps: float) -> None:
+    def __init__(
+        self,
+        config: TrackerConfig | None = None,
+        *,
+        px_per_mm: float,
+        fps: float,
+        frame_size: tuple[int, int] | None = None,
+    ) -> None:
         if not (px_per_mm > 0 and math.isfinite(px_per_mm)):
             raise InputError(f"px_per_mm must be a positive number, got {px_per_mm!r}")
         if not (fps > 0 and math.isfinite(fps)):
             raise InputError(f"fps must be a positive number, got {fps!r}")
         self.config = c = config or TrackerConfig()
+        self.frame_size = frame_size
         self.px_per_mm = float(px_per_mm)
         self.fps = float(fps)
         self.length_px = c.ant_length_mm * px_per_mm
@@ -222,8 +269,12 @@ class Tracker:
         q = (c.accel_mm_s2 * px_per_mm / fps**2) ** 2
         rng_ = c.adapt_range if c.adapt else 1.0
         self.kp = kalman.KalmanParams(
-            r=c.meas_noise_px, q0=q, q_min=q / rng_, q_max=q * rng_,
-            v0=max(self.step_px / 3, 0.5), gain=0.5 if c.adapt else 0.0,
+            r=c.meas_noise_px,
+            q0=q,
+            q_min=q / rng_,
+            q_max=q * rng_,
+            v0=max(self.step_px / 3, 0.5),
+            gain=0.5 if c.adapt else 0.0,
         )
         #: Frames after which a frame's output can no longer change.
         self.lag = max(self.max_gap, c.n_init + c.tentative_max_misses) + 1
@@ -234,6 +285,7 @@ class Tracker:
         self._chunks: list[tuple[np.ndarray, ...]] = []
         self._pending: dict[int, list[tuple[int, np.ndarray, np.ndarray]]] = {}
         self._popped = -1
+        self._hinted: list[_Track] = []
 
     # ------------------------------------------------------------------ prediction
     def predict(self) -> np.ndarray:
@@ -251,11 +303,18 @@ class Tracker:
         # detected in the previous frame); coasting and tentative tracks would make it
         # split single ants.
         sure = [t for t in self._tracks if t.confirmed and t.misses == 0]
+        self._hinted = sure
         return self._predicted_poses_of(sure)
 
     # --------------------------------------------------------------------- update
-    def _cost(self, tracks: list[_Track], pts: np.ndarray, boxes: np.ndarray,
-              avail: np.ndarray) -> np.ndarray:
+    def _cost(
+        self,
+        tracks: list[_Track],
+        pts: np.ndarray,
+        boxes: np.ndarray,
+        avail: np.ndarray,
+        hinted: np.ndarray | None = None,
+    ) -> np.ndarray:
         c = self.config
         n, m = len(tracks), pts.shape[0]
         cost = np.full((n, m), _BIG)
@@ -281,8 +340,16 @@ class Tracker:
         with np.errstate(invalid="ignore", divide="ignore"):
             sin = np.abs(cross) / norm
         sin = np.where(np.isfinite(sin), sin, 0.0)
-        total = (c.iou_weight * (1 - iou) + c.distance_weight * dist / self.length_px
-                 + c.angle_weight * sin)
+        total = (
+            c.iou_weight * (1 - iou)
+            + c.distance_weight * dist / self.length_px
+            + c.angle_weight * sin
+        )
+        if hinted is not None:
+            # A detection found from another track's prediction belongs to that track.
+            owner = np.array([id(t) for t in tracks])
+            other = (hinted[None, :] != 0) & (hinted[None, :] != owner[:, None])
+            total = total + c.hint_weight * other
         cost[ok] = total[ok]
         return cost
 
@@ -301,17 +368,24 @@ class Tracker:
                 boxes[i] = [*(poses[i, 1] - t.half), *(2 * t.half)]
         return boxes
 
-    def _assign(self, tracks: list[_Track], pts: np.ndarray, boxes: np.ndarray,
-                avail: np.ndarray) -> list[tuple[int, int]]:
+    def _assign(
+        self,
+        tracks: list[_Track],
+        pts: np.ndarray,
+        boxes: np.ndarray,
+        avail: np.ndarray,
+        hinted: np.ndarray | None = None,
+    ) -> list[tuple[int, int]]:
         if not tracks or not avail.any():
             return []
-        cost = self._cost(tracks, pts, boxes, avail)
+        cost = self._cost(tracks, pts, boxes, avail, hinted)
         r, cidx = linear_sum_assignment(cost)
         keep = cost[r, cidx] <= self.config.max_cost
         return list(zip(r[keep].tolist(), cidx[keep].tolist(), strict=True))
 
-    def _orient(self, t: _Track | None, p: np.ndarray, hc: float, vel: np.ndarray | None,
-                vel_sd: float) -> np.ndarray:
+    def _orient(
+        self, t: _Track | None, p: np.ndarray, hc: float, vel: np.ndarray | None, vel_sd: float
+    ) -> np.ndarray:
         c = self.config
         if not (np.all(np.isfinite(p[0])) and np.all(np.isfinite(p[2]))):
             return p
@@ -330,13 +404,22 @@ class Tracker:
                 score += c.motion_weight * float(a @ vel) / sp * certainty
         return _flip(p) if score < 0 else p
 
-    def _emit(self, frame: int, out_id: int, points: np.ndarray, box: np.ndarray,
-              score: float, interp: bool) -> None:
-        self._chunks.append((frame, out_id, points, box, score, interp))
+    def _emit(
+        self,
+        frame: int,
+        out_id: int,
+        points: np.ndarray,
+        box: np.ndarray,
+        score: float,
+        interp: bool,
+        hc: float = 0.5,
+    ) -> None:
+        self._chunks.append((frame, out_id, points, box, score, interp, hc))
         self._pending.setdefault(frame, []).append((out_id, points, box))
 
-    def _touch(self, t: _Track, frame: int, p: np.ndarray, box: np.ndarray, score: float
-               ) -> None:
+    def _touch(
+        self, t: _Track, frame: int, p: np.ndarray, box: np.ndarray, score: float, hc: float = 0.5
+    ) -> None:
         """Record detection of ``t`` at ``frame`` (filling the gap since its last one)."""
         c = self.config
         gap = frame - t.last
@@ -347,9 +430,9 @@ class Tracker:
                 ib = (1 - a) * t.last_box + a * box
                 self._emit(t.last + g, t.out_id, ip, ib, 0.0, True)
         if t.confirmed:
-            self._emit(frame, t.out_id, p, box, score, False)
+            self._emit(frame, t.out_id, p, box, score, False, hc)
         else:
-            t.history.append((frame, p, box, score))
+            t.history.append((frame, p, box, score, hc))
         t.last, t.last_points, t.last_box = frame, p, box
 
     def update(self, dets: FrameDetections) -> None:
@@ -361,15 +444,24 @@ class Tracker:
         k = self.frame
         n = len(dets)
         pts = dets.points
-        hc = (dets.head_confidence if dets.head_confidence is not None
-              else np.ones(n))
+        hc = dets.head_confidence if dets.head_confidence is not None else np.ones(n)
         boxes = dets.box_array(self.pad) if n else np.zeros((0, 4))
         avail = np.ones(n, bool)
+        hinted = None
+        if dets.hint_index is not None and self._hinted:
+            # Python ids of the tracks whose predictions the detections came from.
+            owners = np.array([id(t) for t in self._hinted] + [0])
+            hi = np.where(
+                (dets.hint_index >= 0) & (dets.hint_index < len(self._hinted)),
+                dets.hint_index,
+                len(self._hinted),
+            )
+            hinted = owners[hi]
         confirmed = [t for t in self._tracks if t.confirmed]
         tentative = [t for t in self._tracks if not t.confirmed]
         matches: list[tuple[_Track, int]] = []
         for group in (confirmed, tentative):
-            for i, j in self._assign(group, pts, boxes, avail):
+            for i, j in self._assign(group, pts, boxes, avail, hinted):
                 matches.append((group[i], j))
                 avail[j] = False
         # Kalman update of the matched tracks, batched.
@@ -380,21 +472,24 @@ class Tracker:
             P = np.stack([t.P for t in ts])
             vel_before = x[:, 2:4].copy()
             vsd = np.sqrt(0.5 * (P[:, 2, 2] + P[:, 3, 3]))
-            x, P, nis = kalman.update(x, P, pts[js, 1], self.kp.r)
+            # Less certain detections (split blobs) move the filter less.
+            sc = np.clip(dets.scores[js], 0.1, 1.0)
+            x, P, nis = kalman.update(x, P, pts[js, 1], self.kp.r / sc**c.score_noise_power)
             q = np.array([t.q for t in ts])
             nm = np.array([t.nis for t in ts])
             q, nm = kalman.adapt(q, nm, nis, self.kp)
-            for t, j, xi, Pi, qi, ni, v, vs in zip(ts, js, x, P, q, nm, vel_before, vsd,
-                                                   strict=True):
+            for t, j, xi, Pi, qi, ni, v, vs in zip(
+                ts, js, x, P, q, nm, vel_before, vsd, strict=True
+            ):
                 t.x, t.P, t.q, t.nis = xi, Pi, float(qi), float(ni)
                 p = self._orient(t, pts[j].copy(), float(hc[j]), v, float(vs))
                 self._set_shape(t, p, boxes[j])
                 box = boxes[j] if dets.boxes is not None else anatomy.pose_boxes(p, self.pad)[0]
                 t.hits += 1
                 t.misses = 0
-                self._touch(t, k, p, box, float(dets.scores[j]))
+                self._touch(t, k, p, box, float(dets.scores[j]), float(hc[j]))
         matched = {id(t) for t, _ in matches}
-        # Misses and deaths.
+        # Misses and deaths (an ant predicted outside the frame has walked out of it).
         alive = []
         for t in self._tracks:
             if id(t) not in matched:
@@ -402,6 +497,8 @@ class Tracker:
                 if not t.confirmed and t.misses > c.tentative_max_misses:
                     continue
                 if t.confirmed and k - t.last > self.max_gap:
+                    continue
+                if self._outside(t.x[:2]):
                     continue
             alive.append(t)
         self._tracks = alive
@@ -417,16 +514,32 @@ class Tracker:
             x0, P0 = kalman.initial_state(pts[j, 1], self.kp)
             p = self._orient(None, pts[j].copy(), float(hc[j]), None, 0.0)
             box = boxes[j] if dets.boxes is not None else anatomy.pose_boxes(p, self.pad)[0]
-            t = _Track(x=x0[0], P=P0[0], q=self.kp.q0, nis=2.0,
-                       shape=np.full((2, 2), np.nan), half=box[2:4] / 2,
-                       heading=None, first=k, last=k, last_points=p, last_box=box)
+            t = _Track(
+                x=x0[0],
+                P=P0[0],
+                q=self.kp.q0,
+                nis=2.0,
+                shape=np.full((2, 2), np.nan),
+                half=box[2:4] / 2,
+                heading=None,
+                first=k,
+                last=k,
+                last_points=p,
+                last_box=box,
+            )
             self._set_shape(t, p, box)
-            t.history.append((k, p, box, float(dets.scores[j])))
+            t.history.append((k, p, box, float(dets.scores[j]), float(hc[j])))
             self._tracks.append(t)
         # Confirmation, with re-linking to a lost track.
         for t in list(self._tracks):
             if not t.confirmed and t.hits >= c.n_init:
                 self._confirm(t)
+
+    def _outside(self, xy: np.ndarray) -> bool:
+        if self.frame_size is None:
+            return False
+        w, h = self.frame_size
+        return bool(xy[0] < 0 or xy[1] < 0 or xy[0] > w - 1 or xy[1] > h - 1)
 
     def _set_shape(self, t: _Track, p: np.ndarray, box: np.ndarray) -> None:
         if np.all(np.isfinite(p[[0, 2]])):
@@ -456,16 +569,16 @@ class Tracker:
             t.out_id = self._next_id
             self._next_id += 1
             hist, t.history = t.history, []
-            f0, p0, b0, s0 = hist[0]
-            self._emit(f0, t.out_id, p0, b0, s0, False)
+            f0, p0, b0, s0, h0 = hist[0]
+            self._emit(f0, t.out_id, p0, b0, s0, False, h0)
             t.last, t.last_points, t.last_box = f0, p0, b0
-            for frame, p, box, score in hist[1:]:
-                self._touch(t, frame, p, box, score)
+            for frame, p, box, score, hcf in hist[1:]:
+                self._touch(t, frame, p, box, score, hcf)
             return
         # Continue the lost identity: fill the gap, take over the new track's state.
         hist, t.history = t.history, []
-        for frame, p, box, score in hist:
-            self._touch(best, frame, p, box, score)
+        for frame, p, box, score, hcf in hist:
+            self._touch(best, frame, p, box, score, hcf)
         best.x, best.P, best.q, best.nis = t.x, t.P, t.q, t.nis
         best.shape, best.half, best.heading = t.shape, t.half, t.heading
         best.hits += t.hits
@@ -494,26 +607,112 @@ class Tracker:
         """All confirmed tracks (tentative ones at the end are dropped)."""
         n_frames = self.frame + 1
         if not self._chunks:
-            return TrackResult(np.zeros(0, np.int64), np.zeros(0, np.int64),
-                               np.zeros((0, 3, 2)), np.zeros((0, 4)), np.zeros(0),
-                               np.zeros(0, bool), n_frames)
+            return TrackResult(
+                np.zeros(0, np.int64),
+                np.zeros(0, np.int64),
+                np.zeros((0, 3, 2)),
+                np.zeros((0, 4)),
+                np.zeros(0),
+                np.zeros(0, bool),
+                n_frames,
+            )
         frames = np.array([r[0] for r in self._chunks], np.int64)
         ids = np.array([r[1] for r in self._chunks], np.int64)
         pts = np.stack([r[2] for r in self._chunks])
         boxes = np.stack([r[3] for r in self._chunks])
         scores = np.array([r[4] for r in self._chunks])
         interp = np.array([r[5] for r in self._chunks], bool)
-        order = np.lexsort((ids, frames))
-        return TrackResult(frames[order], ids[order], pts[order], boxes[order], scores[order],
-                           interp[order], n_frames)
+        hc = np.array([r[6] for r in self._chunks])
+        order = np.lexsort((frames, ids))
+        pts = self._orient_tracks(frames[order], ids[order], pts[order], hc[order])
+        res = TrackResult(
+            frames[order], ids[order], pts, boxes[order], scores[order], interp[order], n_frames
+        )
+        order = np.lexsort((res.ids, res.frames))
+        return TrackResult(
+            res.frames[order],
+            res.ids[order],
+            res.points[order],
+            res.boxes[order],
+            res.scores[order],
+            res.interpolated[order],
+            n_frames,
+        )
+
+    def _orient_tracks(
+        self, frames: np.ndarray, ids: np.ndarray, pts: np.ndarray, hc: np.ndarray
+    ) -> np.ndarray:
+        """Head-tail order of every track, chosen jointly over its whole life.
+
+        Rows are sorted by track then frame.  Two states per row (as detected, or head
+        and tail swapped); the evidence for a state is the agreement of its head
+        direction with the direction of motion (central differences of the body
+        point, weighted by ``v^2 / (v^2 + v_min^2)`` with ``v_min`` the
+        ``head_motion_speed_mm_s``) times ``motion_weight``, plus ``shape_weight``
+        times the detector's ``2 head_confidence - 1``; turning the head by an angle
+        ``a`` between consecutive rows costs ``continuity_weight (1 - cos a)``.  The
+        best sequence of states (Viterbi) is kept.  Boxes do not change (the
+        body-centred box is the same either way).
+        """
+        c = self.config
+        pts = pts.copy()
+        starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
+        ends = np.r_[starts[1:], ids.size]
+        for a, b in zip(starts, ends, strict=True):
+            rows = np.arange(a, b)
+            ok = np.all(np.isfinite(pts[rows][:, [0, 2]]), axis=(1, 2))
+            rows = rows[ok]
+            if rows.size < 2:
+                continue
+            f = frames[rows].astype(np.float64)
+            body = pts[rows, 1]
+            vel = np.stack([np.gradient(body[:, i], f) for i in (0, 1)], -1)
+            if rows.size >= 5:
+                kern = np.ones(5) / 5
+                vel = np.stack(
+                    [
+                        np.convolve(np.pad(vel[:, i], 2, mode="edge"), kern, mode="valid")
+                        for i in (0, 1)
+                    ],
+                    -1,
+                )
+            ax = pts[rows, 0] - pts[rows, 2]
+            ax /= np.maximum(np.linalg.norm(ax, axis=1, keepdims=True), 1e-9)
+            sp2 = (vel**2).sum(1)
+            cert = sp2 / (sp2 + self.motion_px**2)
+            e = c.motion_weight * cert * (ax * vel).sum(1) / np.sqrt(np.maximum(sp2, 1e-18))
+            e = e + c.shape_weight * (2 * hc[rows] - 1)
+            unary = np.stack([-e, e], 1)  # state 0 keeps, 1 swaps
+            dots = (ax[1:] * ax[:-1]).sum(1)
+            n = rows.size
+            cost = unary[0].copy()
+            back = np.zeros((n, 2), np.int64)
+            sign = np.array([1.0, -1.0])
+            for k in range(1, n):
+                # trans[i, j]: from state i to state j
+                trans = c.continuity_weight * (1 - np.outer(sign, sign) * dots[k - 1])
+                tot = cost[:, None] + trans
+                back[k] = tot.argmin(0)
+                cost = tot.min(0) + unary[k]
+            state = np.empty(n, np.int64)
+            state[-1] = int(cost.argmin())
+            for k in range(n - 1, 0, -1):
+                state[k - 1] = back[k, state[k]]
+            swap = rows[state == 1]
+            pts[swap] = pts[swap][:, [2, 1, 0]]
+        return pts
 
 
 def track_detections(
-    detections: list[FrameDetections], *, px_per_mm: float, fps: float,
+    detections: list[FrameDetections],
+    *,
+    px_per_mm: float,
+    fps: float,
     config: TrackerConfig | None = None,
+    frame_size: tuple[int, int] | None = None,
 ) -> TrackResult:
     """Track a list of per-frame detections (frame ``k`` is ``detections[k]``)."""
-    tr = Tracker(config, px_per_mm=px_per_mm, fps=fps)
+    tr = Tracker(config, px_per_mm=px_per_mm, fps=fps, frame_size=frame_size)
     for d in detections:
         tr.predict()
         tr.update(d)

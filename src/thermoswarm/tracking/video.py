@@ -54,8 +54,9 @@ class VideoSource:
         if self.path.is_dir():
             files = sorted(p for p in self.path.iterdir() if p.suffix.lower() in IMAGE_EXTS)
             if not files:
-                raise InputError(f"{self.path}: folder holds no image frames "
-                                 f"({', '.join(IMAGE_EXTS)})")
+                raise InputError(
+                    f"{self.path}: folder holds no image frames ({', '.join(IMAGE_EXTS)})"
+                )
             self._files = files
             first = self._read_image(files[0])
             self.size = (first.shape[1], first.shape[0])
@@ -65,8 +66,10 @@ class VideoSource:
         cap = cv2.VideoCapture(str(self.path))
         try:
             if not cap.isOpened():
-                raise InputError(f"{self.path}: cannot open as a video (unreadable, corrupt or "
-                                 "not a video file)")
+                raise InputError(
+                    f"{self.path}: cannot open as a video (unreadable, corrupt or "
+                    "not a video file)"
+                )
             ok, frame = cap.read()
             if not ok or frame is None:
                 raise InputError(f"{self.path}: no frame could be decoded (corrupt video?)")
@@ -86,17 +89,21 @@ class VideoSource:
             raise InputError(f"{p}: cannot read image frame")
         return cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
 
-    def _iter(self, stop: int | None) -> Iterator[np.ndarray]:
+    def _iter(self, stop: int | None, step: int = 1) -> Iterator[np.ndarray]:
         import cv2
 
         if self._files is not None:
             for k, p in enumerate(self._files):
                 if stop is not None and k >= stop:
                     return
+                if k % step:
+                    continue
                 img = self._read_image(p)
                 if (img.shape[1], img.shape[0]) != self.size:
-                    raise InputError(f"{p}: frame size {img.shape[1]}x{img.shape[0]} differs "
-                                     f"from the first frame's {self.size[0]}x{self.size[1]}")
+                    raise InputError(
+                        f"{p}: frame size {img.shape[1]}x{img.shape[0]} differs "
+                        f"from the first frame's {self.size[0]}x{self.size[1]}"
+                    )
                 yield img
             return
         cap = cv2.VideoCapture(str(self.path))
@@ -105,6 +112,12 @@ class VideoSource:
         try:
             k = 0
             while stop is None or k < stop:
+                if k % step:
+                    # Skipped frames are decoded (grab) but not converted.
+                    if not cap.grab():
+                        return
+                    k += 1
+                    continue
                 ok, frame = cap.read()
                 if not ok or frame is None:
                     return
@@ -115,11 +128,15 @@ class VideoSource:
         finally:
             cap.release()
 
-    def frames(self, stop: int | None = None, *, prefetch: int = 0) -> Iterator[np.ndarray]:
-        """Frames ``0 .. stop - 1`` (RGB uint8), decoded ahead in a thread if
-        ``prefetch`` > 0 (that many frames are buffered)."""
+    def frames(
+        self, stop: int | None = None, *, step: int = 1, prefetch: int = 0
+    ) -> Iterator[np.ndarray]:
+        """Frames ``0, step, 2 step, ...`` below ``stop`` (RGB uint8), decoded ahead in a
+        thread if ``prefetch`` > 0 (that many frames are buffered)."""
+        if step < 1:
+            raise ValueError(f"step must be a positive integer, got {step}")
         if prefetch <= 0:
-            yield from self._iter(stop)
+            yield from self._iter(stop, step)
             return
         q: queue.Queue = queue.Queue(maxsize=prefetch)
         done = object()
@@ -127,7 +144,7 @@ class VideoSource:
 
         def work() -> None:
             try:
-                for f in self._iter(stop):
+                for f in self._iter(stop, step):
                     while not stop_flag.is_set():
                         try:
                             q.put(f, timeout=0.1)
@@ -183,8 +200,9 @@ class OverlayWriter:
         Frames of trail drawn behind each ant.
     """
 
-    def __init__(self, path: str | os.PathLike, fps: float, *, scale: float = 0.5,
-                 trail: int = 15) -> None:
+    def __init__(
+        self, path: str | os.PathLike, fps: float, *, scale: float = 0.5, trail: int = 15
+    ) -> None:
         if not (0 < scale <= 1):
             raise InputError(f"overlay scale must be in (0, 1], got {scale!r}")
         self.path = Path(path)
@@ -226,8 +244,16 @@ class OverlayWriter:
                 if np.all(np.isfinite(pts[j])):
                     c = np.round(pts[j] * s).astype(int)
                     cv2.circle(img, (int(c[0]), int(c[1])), 2, kc, -1)
-            cv2.putText(img, str(ident), (int(x0), max(int(y0) - 2, 8)),
-                        cv2.FONT_HERSHEY_SIMPLEX, 0.35, col, 1, cv2.LINE_AA)
+            cv2.putText(
+                img,
+                str(ident),
+                (int(x0), max(int(y0) - 2, 8)),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.35,
+                col,
+                1,
+                cv2.LINE_AA,
+            )
         for gone in [i for i in self._hist if i not in seen]:
             del self._hist[gone]
         self._k += 1
@@ -237,15 +263,22 @@ class OverlayWriter:
 
                 h, w = img.shape[:2]
                 self._writer = imageio_ffmpeg.write_frames(
-                    str(self._tmp), (w, h), fps=self.fps, codec="libx264", quality=5,
-                    pix_fmt_in="rgb24", macro_block_size=2, ffmpeg_log_level="error",
+                    str(self._tmp),
+                    (w, h),
+                    fps=self.fps,
+                    codec="libx264",
+                    quality=5,
+                    pix_fmt_in="rgb24",
+                    macro_block_size=2,
+                    ffmpeg_log_level="error",
                     output_params=["-preset", "veryfast", "-f", "mp4"],
                 )
                 self._writer.send(None)
             self._writer.send(np.ascontiguousarray(img))
         else:
-            if not cv2.imwrite(str(self._tmp / f"{self._k:06d}.png"),
-                               cv2.cvtColor(img, cv2.COLOR_RGB2BGR)):
+            if not cv2.imwrite(
+                str(self._tmp / f"{self._k:06d}.png"), cv2.cvtColor(img, cv2.COLOR_RGB2BGR)
+            ):
                 raise OutputError(f"{self.path}: could not write frame {self._k}")
 
     def close(self) -> Path:
