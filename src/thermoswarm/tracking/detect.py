@@ -508,9 +508,12 @@ class ClassicalDetector:
         g = self.config.gain_grid
         h, w = small.shape
         if g and min(h, w) >= 3 * g:
-            gs = (max(w // g, 1), max(h // g, 1))
-            ratio = cv2.resize(small, gs, interpolation=cv2.INTER_AREA) / np.maximum(
-                cv2.resize(bg, gs, interpolation=cv2.INTER_AREA), 1.0
+            gw, gh = w // g, h // g
+            # Cell means over whole cells only (an integer ratio is cv2's fast path).
+            ratio = cv2.resize(
+                small[: gh * g, : gw * g], (gw, gh), interpolation=cv2.INTER_AREA
+            ) / np.maximum(
+                cv2.resize(bg[: gh * g, : gw * g], (gw, gh), interpolation=cv2.INTER_AREA), 1.0
             )
             ratio = cv2.medianBlur(ratio.astype(np.float32), 3)
             return cv2.resize(ratio, (w, h), interpolation=cv2.INTER_LINEAR)
@@ -852,7 +855,7 @@ def _pose(
 
 
 def _split(
-    px: np.ndarray, w: np.ndarray, k: int, length: float, init: np.ndarray | None, iters: int = 8
+    px: np.ndarray, w: np.ndarray, k: int, length: float, init: np.ndarray | None, iters: int = 6
 ) -> list[np.ndarray]:
     """Split the weighted pixels of touching or crossing ants into ``k`` groups.
 

@@ -383,6 +383,34 @@ class Tracker:
         keep = cost[r, cidx] <= self.config.max_cost
         return list(zip(r[keep].tolist(), cidx[keep].tolist(), strict=True))
 
+    def _orient_many(
+        self,
+        p: np.ndarray,
+        hc: np.ndarray,
+        heading: np.ndarray,
+        vel: np.ndarray,
+        vel_sd: np.ndarray,
+    ) -> np.ndarray:
+        """:meth:`_orient` for many detections at once (NaN heading: none yet)."""
+        c = self.config
+        p = p.copy()
+        a = p[:, 0] - p[:, 2]
+        na = np.linalg.norm(a, axis=1)
+        ok = np.isfinite(na) & (na > 1e-9)
+        a = a / np.where(ok, na, 1.0)[:, None]
+        score = c.shape_weight * (2 * hc - 1)
+        cont = (a * heading).sum(1)
+        score = score + c.continuity_weight * np.where(np.isfinite(cont), cont, 0.0)
+        sp = np.linalg.norm(vel, axis=1)
+        moving = sp > 1e-9
+        spv = np.where(moving, sp, 1.0)
+        certainty = spv / (spv + 2 * vel_sd) * np.minimum(1.0, spv / self.motion_px)
+        mot = (a * vel).sum(1) / spv * certainty
+        score = score + c.motion_weight * np.where(moving, mot, 0.0)
+        flip = ok & (score < 0)
+        p[flip] = p[flip][:, [2, 1, 0]]
+        return p
+
     def _orient(
         self, t: _Track | None, p: np.ndarray, hc: float, vel: np.ndarray | None, vel_sd: float
     ) -> np.ndarray:
@@ -478,16 +506,17 @@ class Tracker:
             q = np.array([t.q for t in ts])
             nm = np.array([t.nis for t in ts])
             q, nm = kalman.adapt(q, nm, nis, self.kp)
-            for t, j, xi, Pi, qi, ni, v, vs in zip(
-                ts, js, x, P, q, nm, vel_before, vsd, strict=True
-            ):
-                t.x, t.P, t.q, t.nis = xi, Pi, float(qi), float(ni)
-                p = self._orient(t, pts[j].copy(), float(hc[j]), v, float(vs))
-                self._set_shape(t, p, boxes[j])
-                box = boxes[j] if dets.boxes is not None else anatomy.pose_boxes(p, self.pad)[0]
+            heading = np.array(
+                [t.heading if t.heading is not None else (np.nan, np.nan) for t in ts]
+            )
+            p_all = self._orient_many(pts[js], hc[js], heading, vel_before, vsd)
+            box_all = boxes[js] if dets.boxes is not None else anatomy.pose_boxes(p_all, self.pad)
+            for i, (t, j) in enumerate(zip(ts, js, strict=True)):
+                t.x, t.P, t.q, t.nis = x[i], P[i], float(q[i]), float(nm[i])
+                self._set_shape(t, p_all[i], boxes[j])
                 t.hits += 1
                 t.misses = 0
-                self._touch(t, k, p, box, float(dets.scores[j]), float(hc[j]))
+                self._touch(t, k, p_all[i], box_all[i], float(dets.scores[j]), float(hc[j]))
         matched = {id(t) for t, _ in matches}
         # Misses and deaths (an ant predicted outside the frame has walked out of it).
         alive = []

@@ -271,7 +271,7 @@ class OverlayWriter:
                     pix_fmt_in="rgb24",
                     macro_block_size=2,
                     ffmpeg_log_level="error",
-                    output_params=["-preset", "veryfast", "-f", "mp4"],
+                    output_params=["-preset", "ultrafast", "-f", "mp4"],
                 )
                 self._writer.send(None)
             self._writer.send(np.ascontiguousarray(img))
