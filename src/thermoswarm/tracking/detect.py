@@ -443,6 +443,7 @@ class ClassicalDetector:
         self._area1: float = 0.6 * self.model_area / self.config.downsample**2
         self._length: float = self.prior_length_px
         self._widen: float = 0.0
+        self._bg_cells: list | None = None
         self._shape: tuple[int, int] | None = None
 
     @property
@@ -508,13 +509,14 @@ class ClassicalDetector:
         g = self.config.gain_grid
         h, w = small.shape
         if g and min(h, w) >= 3 * g:
-            gw, gh = w // g, h // g
-            # Cell means over whole cells only (an integer ratio is cv2's fast path).
-            ratio = cv2.resize(
-                small[: gh * g, : gw * g], (gw, gh), interpolation=cv2.INTER_AREA
-            ) / np.maximum(
-                cv2.resize(bg[: gh * g, : gw * g], (gw, gh), interpolation=cv2.INTER_AREA), 1.0
-            )
+            gs = (max(w // g, 1), max(h // g, 1))
+            # The background's cell means change slowly: recomputed every 8th call.
+            key = id(bg)
+            if self._bg_cells is None or self._bg_cells[0] != key or self._bg_cells[2] >= 8:
+                cells = cv2.resize(bg, gs, interpolation=cv2.INTER_AREA)
+                self._bg_cells = [key, np.maximum(cells, 1.0), 0]
+            self._bg_cells[2] += 1
+            ratio = cv2.resize(small, gs, interpolation=cv2.INTER_AREA) / self._bg_cells[1]
             ratio = cv2.medianBlur(ratio.astype(np.float32), 3)
             return cv2.resize(ratio, (w, h), interpolation=cv2.INTER_LINEAR)
         return float(np.median(small[::4, ::4] / np.maximum(bg[::4, ::4], 1.0)))
@@ -855,7 +857,7 @@ def _pose(
 
 
 def _split(
-    px: np.ndarray, w: np.ndarray, k: int, length: float, init: np.ndarray | None, iters: int = 6
+    px: np.ndarray, w: np.ndarray, k: int, length: float, init: np.ndarray | None, iters: int = 8
 ) -> list[np.ndarray]:
     """Split the weighted pixels of touching or crossing ants into ``k`` groups.
 
