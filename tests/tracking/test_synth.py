@@ -215,5 +215,9 @@ def test_write_sequence_round_trip(tmp_path):
     assert ds.attrs["fps"] == 30.0
     assert (out / "seqinfo.ini").read_text().count("seqLength=8") == 1
     assert len(list((out / "img1").iterdir())) == 8
+    with np.load(out / "gt" / "keypoints.npz") as z:
+        np.testing.assert_array_equal(z["keypoints"], v.keypoints)
+        np.testing.assert_array_equal(z["ids"], v.ids)
+        assert list(z["keypoint_names"]) == ["head", "body", "tail"]
     with pytest.raises(InputError, match="video_format"):
         write_sequence(v, tmp_path / "seq2", video_format="gif")

@@ -107,7 +107,9 @@ def test_short_gaps_are_relinked_and_interpolated(video):
     def drop(k, ident):
         return ident == victim and 40 <= k < 55  # 0.5 s < max_gap_s
 
-    res = track_detections(_gt_detections(video, drop=drop), px_per_mm=3.04, fps=30)
+    res = track_detections(
+        _gt_detections(video, drop=drop), px_per_mm=3.04, fps=30, frame_size=(480, 200)
+    )
     m = evaluate_tables(video.mot_gt, res.mot_table())
     assert m["idsw"] <= 2 and m["fn"] <= 2
     assert res.interpolated.sum() >= 14
@@ -202,3 +204,24 @@ def test_box_only_detections(video):
     assert np.all(np.isnan(res.points[:, 0]))
     ds = res.dataset(px_per_mm=3.04, fps=30)
     assert ds["position"].sel(keypoints="body").notnull().any()
+
+
+def test_impossible_speeds_are_removed():
+    # One track moving 1 px/frame; row 5 misplaced by 30 px (a spike), and from row 12
+    # on the track sits 30 px away (a jump).  At 30 fps and 3.04 px/mm, 100 mm/s is
+    # 10.1 px/frame.
+    tr = Tracker(px_per_mm=3.04, fps=30)
+    n = 20
+    frames = np.arange(n)
+    ids = np.ones(n, np.int64)
+    body = np.column_stack([np.arange(n, dtype=float), np.zeros(n)])
+    body[5, 1] += 30
+    body[12:, 1] += 30
+    pts = np.repeat(body[:, None, :], 3, axis=1) + np.array([[4.0, 0], [0, 0], [-4.0, 0]])
+    boxes = np.column_stack([body - 5, np.full((n, 2), 10.0)])
+    scores = np.ones(n)
+    interp = np.zeros(n, bool)
+    drop = tr._fix_jumps(frames, ids, pts, boxes, scores, interp)
+    np.testing.assert_allclose(pts[5, 1], [5.0, 0.0])
+    assert interp[5] and scores[5] == 0 and interp.sum() == 1
+    assert np.flatnonzero(drop).tolist() == [12]

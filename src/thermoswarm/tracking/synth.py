@@ -54,6 +54,7 @@ Command line: ``python -m thermoswarm.tracking.synth OUT_DIR --n-ants 40 --seed 
 from __future__ import annotations
 
 import dataclasses
+import io
 import math
 import os
 from collections.abc import Iterable, Iterator
@@ -65,7 +66,12 @@ import xarray as xr
 
 from thermoswarm.config import check, dumps_toml
 from thermoswarm.errors import InputError, OutputError
-from thermoswarm.fsutil import atomic_path, atomic_write_text, prepare_output_dir
+from thermoswarm.fsutil import (
+    atomic_path,
+    atomic_write_bytes,
+    atomic_write_text,
+    prepare_output_dir,
+)
 from thermoswarm.maxent import DecayingTemperature, EnergyMixture, SteeringLaw, wrap_angle
 from thermoswarm.tracking import anatomy
 from thermoswarm.tracks import make_tracks
@@ -960,7 +966,9 @@ def write_sequence(
     """Write a MOTChallenge-style sequence folder.
 
     ``out_dir/video.mp4`` (or ``img1/`` PNG frames with ``video_format="frames"``),
-    ``gt/gt.txt`` (MOT GT, body-centred boxes), ``gt_tracks.nc`` (trajectory format with
+    ``gt/gt.txt`` (MOT GT, body-centred boxes), ``gt/keypoints.npz`` (``keypoints``
+    ``(T, N, 3, 2)`` px [head, body, tail], NaN when absent; ``ids`` ``(N,)`` the MOT
+    ids; ``keypoint_names``), ``gt_tracks.nc`` (trajectory format with
     the true speeds, rates and phases), ``seqinfo.ini`` and ``synth.toml`` (the config).
     """
     from thermoswarm.io.mot import write_mot_table
@@ -972,6 +980,11 @@ def write_sequence(
     cfg = video.config
     (out / "gt").mkdir(exist_ok=True)
     write_mot_table(out / "gt" / "gt.txt", video.mot_gt)
+    buf = io.BytesIO()
+    np.savez_compressed(
+        buf, keypoints=video.keypoints, ids=video.ids, keypoint_names=np.array(anatomy.KEYPOINTS)
+    )
+    atomic_write_bytes(out / "gt" / "keypoints.npz", buf.getvalue())
     write_nc(video.tracks, out / "gt_tracks.nc")
     atomic_write_text(out / "synth.toml", dumps_toml(cfg))
     target = out / ("video.mp4" if video_format == "mp4" else "img1")
@@ -997,7 +1010,7 @@ def _main() -> None:  # pragma: no cover - thin CLI, exercised by hand
     @click.argument("out_dir", type=click.Path(file_okay=False))
     @click.option("--seed", type=int, required=True, help="Seed of the random generator.")
     @click.option(
-        "--frames",
+        "--format",
         "video_format",
         type=click.Choice(["mp4", "frames"]),
         default="mp4",
@@ -1019,7 +1032,8 @@ def _main() -> None:  # pragma: no cover - thin CLI, exercised by hand
             video = generate(cfg, np.random.default_rng(seed))
             out = write_sequence(video, out_dir, video_format=video_format)
         except ThermoswarmError as exc:
-            raise click.ClickException(str(exc)) from None
+            click.echo(f"error: {exc}", err=True)
+            raise SystemExit(exc.exit_code) from None
         click.echo(f"wrote {out} ({video.ids.size} ants, {cfg.n_frames} frames)")
 
     main()

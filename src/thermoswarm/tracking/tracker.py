@@ -88,6 +88,7 @@ class TrackerConfig:
     min_score: float = 0.0
     duplicate_radius: float = 0.3
     interpolate: bool = True
+    fix_jumps: bool = True
     head_motion_speed_mm_s: float = 3.0
     continuity_weight: float = 1.0
     motion_weight: float = 1.5
@@ -653,10 +654,14 @@ class Tracker:
         interp = np.array([r[5] for r in self._chunks], bool)
         hc = np.array([r[6] for r in self._chunks])
         order = np.lexsort((frames, ids))
-        pts = self._orient_tracks(frames[order], ids[order], pts[order], hc[order])
-        res = TrackResult(
-            frames[order], ids[order], pts, boxes[order], scores[order], interp[order], n_frames
-        )
+        frames, ids, pts, boxes = frames[order], ids[order], pts[order], boxes[order]
+        scores, interp, hc = scores[order], interp[order], hc[order]
+        if self.config.fix_jumps:
+            keep = ~self._fix_jumps(frames, ids, pts, boxes, scores, interp)
+            frames, ids, pts, boxes = frames[keep], ids[keep], pts[keep], boxes[keep]
+            scores, interp, hc = scores[keep], interp[keep], hc[keep]
+        pts = self._orient_tracks(frames, ids, pts, hc)
+        res = TrackResult(frames, ids, pts, boxes, scores, interp, n_frames)
         order = np.lexsort((res.ids, res.frames))
         return TrackResult(
             res.frames[order],
@@ -667,6 +672,53 @@ class Tracker:
             res.interpolated[order],
             n_frames,
         )
+
+    def _fix_jumps(
+        self,
+        frames: np.ndarray,
+        ids: np.ndarray,
+        pts: np.ndarray,
+        boxes: np.ndarray,
+        scores: np.ndarray,
+        interp: np.ndarray,
+    ) -> np.ndarray:
+        # Rows sorted by track, then frame.
+        """Remove what no ant can do: moving faster than ``max_speed_mm_s``.
+
+        Rows are sorted by track then frame; ``pts``, ``boxes``, ``scores`` and
+        ``interp`` are changed in place.  A single row that jumps away and back (a
+        misplaced detection) is replaced by the interpolation of its neighbours and
+        flagged as interpolated (score 0); after a jump that stays (the track took
+        over another ant, or the detections moved to another part of a merged blob) the
+        first row is dropped, so that no speed is measured across the jump.  Returns the
+        rows to drop.
+        """
+        drop = np.zeros(ids.size, bool)
+        starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
+        ends = np.r_[starts[1:], ids.size]
+        limit = self.step_px
+        for a, b in zip(starts, ends, strict=True):
+            if b - a < 2:
+                continue
+            f = frames[a:b].astype(np.float64)
+            body = pts[a:b, 1]
+            step = np.linalg.norm(np.diff(body, axis=0), axis=1) / np.diff(f)
+            fast = step > limit
+            if not fast.any():
+                continue
+            for i in np.flatnonzero(fast[:-1] & fast[1:]) + 1:  # spikes
+                span = (body[i + 1] - body[i - 1]) / (f[i + 1] - f[i - 1])
+                if np.linalg.norm(span) <= limit:
+                    w = (f[i] - f[i - 1]) / (f[i + 1] - f[i - 1])
+                    r = a + i
+                    pts[r] = (1 - w) * pts[r - 1] + w * pts[r + 1]
+                    boxes[r] = (1 - w) * boxes[r - 1] + w * boxes[r + 1]
+                    scores[r], interp[r] = 0.0, True
+            body = pts[a:b, 1]
+            step = np.linalg.norm(np.diff(body, axis=0), axis=1) / np.diff(f)
+            for i in np.flatnonzero(step > limit):  # jumps: no speed across them
+                drop[a + i + 1] = True
+        return drop
 
     def _orient_tracks(
         self, frames: np.ndarray, ids: np.ndarray, pts: np.ndarray, hc: np.ndarray
