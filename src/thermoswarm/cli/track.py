@@ -107,6 +107,13 @@ def track(
     from thermoswarm.tracking.pipeline import track_detection_file, track_video
     from thermoswarm.tracking.tracker import TrackerConfig
 
+    if video is not None:
+        try:
+            import cv2  # noqa: F401
+        except ImportError:
+            raise InputError(
+                "tracking videos needs OpenCV: pip install 'thermoswarm[track]'"
+            ) from None
     if (video is None) == (detections is None):
         raise InputError("give either VIDEO or --detections DETS.txt (exactly one)")
     if px_per_mm is None:

@@ -155,12 +155,12 @@ def track_video(
             n_det += len(d)
             det_rows.append(_det_rows(k, d, tracker.pad))
             if writer is not None:
-                ring.append((k, frame))
+                ring.append((k, writer.shrink(frame)))  # small frames wait for the lag
                 for f, rows in tracker.pop_final():
                     while ring and ring[0][0] < f:
                         ring.popleft()
                     if ring and ring[0][0] == f:
-                        writer.write(ring.popleft()[1], rows)
+                        writer.write(ring.popleft()[1], rows, shrunk=True)
         if k < 0:
             raise InputError(f"{video}: no frame could be decoded")
         if writer is not None:
@@ -168,7 +168,7 @@ def track_video(
                 while ring and ring[0][0] < f:
                     ring.popleft()
                 if ring and ring[0][0] == f:
-                    writer.write(ring.popleft()[1], rows)
+                    writer.write(ring.popleft()[1], rows, shrunk=True)
             writer.close()
     except BaseException:
         if writer is not None:

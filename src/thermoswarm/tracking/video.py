@@ -217,17 +217,33 @@ class OverlayWriter:
         if not self._mp4:
             self._tmp.mkdir(exist_ok=True)
 
-    def write(self, frame: np.ndarray, rows: list[tuple[int, np.ndarray, np.ndarray]]) -> None:
-        """Annotate one RGB frame with ``rows`` of ``(id, points (3, 2), box (4,))`` px."""
+    def shrink(self, frame: np.ndarray) -> np.ndarray:
+        """The frame at the output size (even width and height)."""
+        import cv2
+
+        h, w = frame.shape[:2]
+        size = (
+            max(int(round(w * self.scale)) // 2 * 2, 2),
+            max(int(round(h * self.scale)) // 2 * 2, 2),
+        )
+        if size == (w, h):
+            return frame.copy()
+        return cv2.resize(frame, size, interpolation=cv2.INTER_AREA)
+
+    def write(
+        self,
+        frame: np.ndarray,
+        rows: list[tuple[int, np.ndarray, np.ndarray]],
+        *,
+        shrunk: bool = False,
+    ) -> None:
+        """Annotate one RGB frame with ``rows`` of ``(id, points (3, 2), box (4,))`` px
+        of the full frame; ``shrunk`` says the frame already went through
+        :meth:`shrink`."""
         import cv2
 
         s = self.scale
-        if s != 1.0:
-            h, w = frame.shape[:2]
-            size = (max(int(round(w * s)) // 2 * 2, 2), max(int(round(h * s)) // 2 * 2, 2))
-            img = cv2.resize(frame, size, interpolation=cv2.INTER_AREA)
-        else:
-            img = frame.copy()
+        img = frame if shrunk else self.shrink(frame)
         seen = set()
         for ident, pts, box in rows:
             col = tuple(int(c) for c in _COLOURS[ident % len(_COLOURS)])
