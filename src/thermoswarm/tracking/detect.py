@@ -490,16 +490,16 @@ class ClassicalDetector:
             )
         return gray
 
-    def _small(self, gray: np.ndarray) -> np.ndarray:
+    def _small(self, gray: np.ndarray, dtype: type = np.float32) -> np.ndarray:
         import cv2
 
         f = self.config.downsample
         if f == 1:
-            return gray.astype(np.float32)
+            return gray.astype(dtype)
         h, w = gray.shape[0] // f, gray.shape[1] // f
         # Crop to a multiple of f so that small pixel (y, x) is full block [fy, fy+f).
         return cv2.resize(gray[: h * f, : w * f], (w, h), interpolation=cv2.INTER_AREA).astype(
-            np.float32
+            dtype, copy=False
         )
 
     def _gain(self, small: np.ndarray, bg: np.ndarray) -> np.ndarray | float:
@@ -544,7 +544,7 @@ class ClassicalDetector:
             gray = self._gray(frame)
             if n % step:
                 continue
-            smalls.append(self._small(gray))
+            smalls.append(self._small(gray, np.uint8))  # 4x less memory than float
             if n % 4 == 0 and len(grays) < 8:
                 grays.append(gray)
             if len(smalls) >= 2 * c.bg_frames:  # keep an even spread over all frames
@@ -563,10 +563,12 @@ class ClassicalDetector:
         if n > 2:
             norm = np.empty((n, *ref.shape), np.float32)
             for i, sm in enumerate(smalls):
+                sm = sm.astype(np.float32)
                 np.divide(sm, self._gain(sm, ref), out=norm[i])
             q = c.bg_quantile if c.polarity == "dark" else 1 - c.bg_quantile
             kth = int(round(q * (n - 1)))
-            self._bg = np.ascontiguousarray(np.partition(norm, kth, axis=0)[kth])
+            norm.partition(kth, axis=0)  # in place: no second copy of the stack
+            self._bg = norm[kth].copy()
         else:
             self._bg = ref
         self._learn(grays)
