@@ -33,23 +33,26 @@ Registry
 
 The classical detector
 ----------------------
-Background subtraction on a downscaled grey image (``scale``, default 1/2): the
-background is the per-pixel median of the first ``bg_frames`` frames (ants move, so the
-median is the empty road) and then follows slow changes by a running average updated
-only where no ant was found (``bg_rate``); lighting is normalised by the ratio of frame
-to background on a coarse grid (``gain_grid`` px), median-filtered so that ants do not
-count, which removes flicker, drift and moving shadows.  Pixels darker than the
-expected background by more than ``threshold`` grey levels (automatic: ``k`` robust
-standard deviations of the difference, at least ``min_threshold``) form blobs
-(:func:`cv2.connectedComponentsWithStats`).  Each blob is measured at full resolution in
-its own small window: the principal axis of the contrast-weighted pixels gives the
-orientation, the extent of the silhouette along that axis gives the ant's length, and
-the anatomy (:mod:`~thermoswarm.tracking.anatomy`) places head, body and tail.  Which
-end is the head comes from the shape (the gaster is the widest, darkest part, so the
-silhouette is skewed towards the head) with a confidence from the size of the skew; the
-tracker overrules it with the direction of motion.  Blobs larger than
-``split_area`` single ants (touching or crossing ants) are split into
-``round(area / single-ant area)`` parts by contrast-weighted k-means.
+Background subtraction on a downscaled image (``downsample``, default 2) of one channel
+(green by default): the background is a high per-pixel quantile (``bg_quantile``) of
+up to ``bg_frames`` frames given to ``prepare`` (each normalised to a common lighting),
+so that an ant is background only if it covers a pixel in most of them; afterwards it
+follows slow changes by a running average updated only where no ant was found
+(``bg_rate``).  Lighting is normalised by the ratio of frame to background on a coarse
+grid (``gain_grid`` px), median-filtered so that ants do not count, which removes
+flicker, drift and moving shadows; contrast is relative, ``(expected - frame) /
+expected``.  Pixels above ``threshold`` (automatic: the largest of ``min_threshold``,
+``threshold_sigmas`` robust standard deviations of the noise, and ``peak_fraction`` of
+the typical ant's peak contrast) form blobs (:func:`cv2.connectedComponents`).  All
+blobs are then measured at once, at full resolution and vectorised over blobs
+(:func:`_moments_pose`): the contrast-weighted principal axis gives the orientation,
+the skew of the silhouette along it the head end (the gaster is the widest part) with
+a confidence, and the silhouette's two ends, less the blur widening learned in
+``prepare``, place head, body and tail by the anatomy
+(:mod:`~thermoswarm.tracking.anatomy`).  The tracker overrules the head-tail order
+with the direction of motion.  Blobs larger than ``split_area`` single ants, or than
+``hint_split_area`` when the tracker predicts two or more ants in them, are split by
+k-means with segments (:func:`_split`), started from the predictions when given.
 """
 
 from __future__ import annotations
@@ -797,7 +800,14 @@ def _moments_pose(
     ``length`` is the expected body length and ``widen`` how far each end of a
     silhouette reaches beyond the ant (px).  Returns points ``(n, 3, 2)``, head
     confidence ``(n,)``, silhouette span ``(n,)`` and a valid flag ``(n,)``, indexed
-    by label (see :func:`_pose` for the method).
+    by label.
+
+    Method: the principal axis of the contrast-weighted pixels is the body axis; the
+    silhouette is skewed towards the thin head (the gaster is the widest part, so most
+    pixels sit at the back), which orients it, with a confidence ``0.5 + 0.5
+    tanh(|skew| / 0.3)``; head and tail are placed from the silhouette's two ends by the
+    anatomy (:mod:`~thermoswarm.tracking.anatomy`) and the body point is the mean of the
+    two placements.
     """
     bc = np.bincount
     m0 = bc(lab, w, n)
@@ -838,24 +848,6 @@ def _moments_pose(
     pts = np.stack([mx[:, None] + offs * ux[:, None], my[:, None] + offs * uy[:, None]], -1)
     hc = 0.5 + 0.5 * np.tanh(np.abs(skew) / 0.3)
     return pts, hc, hi - lo, valid
-
-
-def _pose(
-    px: np.ndarray, w: np.ndarray, length: float, widen: float = 0.0
-) -> tuple[np.ndarray, float, float] | None:
-    """Head, body, tail (px), head confidence and silhouette span of one ant's pixels.
-
-    The principal axis of the contrast-weighted pixels is the body axis; the
-    silhouette is skewed towards the thin head (the gaster is the widest part, so
-    most pixels sit at the back), which orients it; head and tail are placed from the
-    silhouette's two ends by the anatomy (:mod:`~thermoswarm.tracking.anatomy`) and
-    the body point is the mean of the two placements.
-    """
-    if px.shape[0] < 3 or w.sum() <= 0:
-        return None
-    lab = np.zeros(px.shape[0], np.int64)
-    pts, hc, span, valid = _moments_pose(px[:, 0], px[:, 1], w, lab, 1, length, widen)
-    return pts[0], float(hc[0]), float(span[0])
 
 
 def _split(

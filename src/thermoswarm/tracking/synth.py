@@ -48,7 +48,7 @@ and renders frames (RGB ``uint8``) lazily with :meth:`SynthVideo.frames`.
 :func:`write_video` writes mp4 (imageio-ffmpeg) or a folder of PNG frames;
 :func:`write_sequence` writes a MOTChallenge-style sequence folder.
 
-Command line: ``python -m thermoswarm.tracking.synth OUT_DIR --n-ants 40 --seed 1``.
+Command line: ``python -m thermoswarm.tracking.synth OUT_DIR --seed 1 --set n_ants=40``.
 """
 
 from __future__ import annotations

@@ -33,9 +33,16 @@ Each frame:
    by how well the speed is known relative to ``head_motion_speed_mm_s``), and the
    detector's own confidence (``shape_weight``); a negative sum swaps head and tail.
 
-Output is final with a fixed lag (``Tracker.lag`` frames): rows of frame ``k`` never
-change once frame ``k + lag`` has been processed, so overlays can be drawn while the
-video streams.  Positions are px (full frame); ``fps`` and ``px_per_mm`` convert the
+7. **At the end** (:meth:`Tracker.finish`): motion no ant can make is removed (a
+   single misplaced row is interpolated; after a jump that stays, the first row is
+   dropped so that no speed spans it; ``fix_jumps``), and each track's head-tail
+   order is chosen over its whole life (Viterbi; :meth:`Tracker._orient_tracks`).
+   Neither changes identities.
+
+Online output is final with a fixed lag (``Tracker.lag`` frames): identities and rows
+of frame ``k`` never change once frame ``k + lag`` has been processed, so overlays can
+be drawn while the video streams; only step 7 then touches a few rows and the
+head-tail order.  Positions are px (full frame); ``fps`` and ``px_per_mm`` convert the
 config's physical limits.
 """
 
