@@ -297,3 +297,14 @@ def test_cli_input_errors(tmp_path, tracked):
     assert "--fps" in line
     line = _one_line_error(runner.invoke(cli, ["evaluate", str(empty), str(dets)]))
     assert "empty.txt" in line
+
+
+def test_truncated_video_is_a_one_line_error(sequence, tmp_path):
+    _, seq = sequence
+    data = (seq / "video.mp4").read_bytes()
+    bad = tmp_path / "cut.mp4"
+    bad.write_bytes(data[: len(data) // 3])  # no index (moov) at the end
+    res = CliRunner().invoke(
+        cli, ["track", str(bad), "--out", str(tmp_path / "o"), "--px-per-mm", "paper"]
+    )
+    assert "cut.mp4" in _one_line_error(res)

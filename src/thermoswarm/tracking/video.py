@@ -26,6 +26,11 @@ from thermoswarm.errors import InputError, OutputError
 
 __all__ = ["VideoSource", "open_video", "OverlayWriter", "IMAGE_EXTS"]
 
+# FFmpeg's own messages ("moov atom not found", ...) would come before our one-line
+# error; OpenCV reads this when its FFmpeg backend first opens a file.  A user's own
+# setting wins.
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 
 
