@@ -157,7 +157,7 @@ class _Track:
     hits: int = 1
     misses: int = 0
     out_id: int = 0
-    history: list[tuple[int, np.ndarray, np.ndarray, float]] = field(default_factory=list)
+    history: list[tuple[int, np.ndarray, np.ndarray, float, float]] = field(default_factory=list)
 
     @property
     def confirmed(self) -> bool:
