@@ -1,0 +1,176 @@
+"""``thermoswarm track`` (video or detections -> trajectories) and ``thermoswarm evaluate``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+
+from thermoswarm.errors import ConfigError, InputError
+
+_SECTIONS = ("tracker", "detector")
+
+
+def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, Any]:
+    """``[tracker]`` and ``[detector]`` tables from a TOML file and ``--set`` items."""
+    from thermoswarm.config import apply_overrides, load_toml, parse_overrides
+
+    data: dict[str, Any] = load_toml(config) if config else {}
+    source = config or "--set"
+    data = apply_overrides(data, parse_overrides(overrides))
+    for key, value in data.items():
+        if key not in _SECTIONS:
+            raise ConfigError(
+                f"{source}: unknown section {key!r}; expected one of: "
+                + ", ".join(_SECTIONS)
+                + " (e.g. --set tracker.max_gap_s=0.5)"
+            )
+        if not isinstance(value, dict):
+            raise ConfigError(f"{source}: {key!r} must be a table of options")
+    return data
+
+
+@click.command()
+@click.argument("video", required=False, type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    "out_dir",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Output folder (created; its parent must exist).",
+)
+@click.option(
+    "--detections",
+    type=click.Path(path_type=Path),
+    help="Track a MOTChallenge detection file instead of a video.",
+)
+@click.option(
+    "--model",
+    type=click.Path(path_type=Path),
+    help="Trained detector weights (selects the 'unet' detector).",
+)
+@click.option("--detector", help="Detector name (default: classical, or unet with --model).")
+@click.option("--px-per-mm", "px_per_mm", help="Image scale in px per mm, or 'paper' (3.04).")
+@click.option("--fps", type=float, help="Frame rate (default: the video's own).")
+@click.option(
+    "--config",
+    type=click.Path(dir_okay=False),
+    help="TOML file with [tracker] and [detector] tables.",
+)
+@click.option(
+    "--set",
+    "overrides",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="Override an option, e.g. --set tracker.max_gap_s=0.5.",
+)
+@click.option(
+    "--overlay/--no-overlay",
+    default=True,
+    show_default=True,
+    help="Write overlay.mp4 with the tracks drawn on the video.",
+)
+@click.option(
+    "--overlay-scale",
+    type=float,
+    default=0.5,
+    show_default=True,
+    help="Size of the overlay relative to the video.",
+)
+@click.option("--max-frames", type=int, help="Stop after this many frames.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def track(
+    video: Path | None,
+    out_dir: Path,
+    detections: Path | None,
+    model: Path | None,
+    detector: str | None,
+    px_per_mm: str | None,
+    fps: float | None,
+    config: str | None,
+    overrides: tuple[str, ...],
+    overlay: bool,
+    overlay_scale: float,
+    max_frames: int | None,
+    quiet: bool,
+) -> None:
+    """Track the ants of VIDEO (a file or a folder of frames) into OUT.
+
+    Writes OUT/tracks.nc (trajectory format: mm, s, keypoints head/body/tail),
+    OUT/tracks_mot.txt (MOTChallenge), OUT/detections.txt, OUT/overlay.mp4 and
+    OUT/summary.json.  With --detections DETS.txt, tracks MOTChallenge detections
+    without a video.
+    """
+    from thermoswarm.config import from_mapping
+    from thermoswarm.io import resolve_px_per_mm
+    from thermoswarm.tracking.pipeline import track_detection_file, track_video
+    from thermoswarm.tracking.tracker import TrackerConfig
+
+    if video is not None:
+        try:
+            import cv2  # noqa: F401
+        except ImportError:
+            raise InputError(
+                "tracking videos needs OpenCV: pip install 'thermoswarm[track]'"
+            ) from None
+    if (video is None) == (detections is None):
+        raise InputError("give either VIDEO or --detections DETS.txt (exactly one)")
+    if px_per_mm is None:
+        raise InputError(
+            "pass --px-per-mm (positions are written in mm; the paper's scale "
+            "is --px-per-mm paper = 3.04)"
+        )
+    scale = resolve_px_per_mm(px_per_mm)
+    settings = _load_settings(config, overrides)
+    tcfg = from_mapping(
+        TrackerConfig, settings.get("tracker", {}), source=config or "--set tracker"
+    )
+    if detections is not None:
+        if model is not None or detector is not None:
+            raise InputError("--model and --detector apply to videos, not to --detections")
+        if settings.get("detector"):
+            raise InputError("[detector] options apply to videos, not to --detections")
+        if fps is None:
+            raise InputError(f"{detections}: detections have frame numbers only; pass --fps")
+        summary = track_detection_file(
+            detections, out_dir, px_per_mm=scale, fps=fps, tracker_config=tcfg
+        )
+    else:
+        summary = track_video(
+            video,
+            out_dir,
+            px_per_mm=scale,
+            fps=fps,
+            detector=detector,
+            model=model,
+            detector_options=settings.get("detector"),
+            tracker_config=tcfg,
+            overlay=overlay,
+            overlay_scale=overlay_scale,
+            max_frames=max_frames,
+            progress=not quiet,
+        )
+    click.echo(
+        f"{summary['n_frames']} frames, {summary['n_tracks']} tracks, "
+        f"{summary['detections_per_frame']:.1f} detections/frame, "
+        f"{summary['frames_per_second']:.1f} frames/s -> {out_dir}/tracks.nc"
+    )
+
+
+@click.command()
+@click.argument("gt", type=click.Path(path_type=Path))
+@click.argument("pred", type=click.Path(path_type=Path))
+@click.option(
+    "--iou", type=float, default=0.5, show_default=True, help="IoU threshold of a match."
+)
+def evaluate(gt: Path, pred: Path, iou: float) -> None:
+    """Compare tracks PRED with ground truth GT (MOTChallenge files); print JSON.
+
+    Keys: mota, motp, idf1, idp, idr, idsw, idsw_rate, fp, fn, tp, n_gt, n_pred,
+    n_gt_ids, n_pred_ids, n_frames, precision, recall, mt, pt, ml, frag, iou_threshold.
+    """
+    from thermoswarm.fsutil import dumps_json
+    from thermoswarm.tracking.evaluate import evaluate_files
+
+    click.echo(dumps_json(evaluate_files(gt, pred, iou=iou)))

@@ -1,0 +1,930 @@
+"""Detection: one frame in, ant poses out.
+
+Interface
+---------
+:class:`FrameDetections`
+    ``points`` ``(n, 3, 2)`` float px, [head, body, tail] x [x, y], NaN where a point is
+    unknown; ``scores`` ``(n,)`` in [0, 1]; optional ``boxes`` ``(n, 4)`` MOT boxes
+    (``left, top, width, height`` px; default: the body-centred box of the pose) and
+    ``head_confidence`` ``(n,)`` in [0, 1], how sure the detector is that head and tail
+    are not swapped (0.5: no idea; ``None``: sure).  The tracker uses it to decide
+    whether motion should overrule the detector's head-tail order.  Optional
+    ``hint_index`` ``(n,)``: for detectors given the tracker's predicted poses
+    (``detect(frame, hints=...)``), the index of the prediction a detection was
+    found from (touching ants split around their predictions), -1 for none.
+:class:`Detector` (a :class:`typing.Protocol`)
+    ``detect(frame) -> FrameDetections`` for one frame, ``reset()`` to forget any state
+    between videos.  Frames are ``uint8`` arrays, ``(H, W, 3)`` RGB or ``(H, W)`` grey,
+    given in time order.  A detector may also have ``prepare(frames)``, which the
+    pipeline calls once with the first frames of a video before ``detect`` (the
+    classical detector learns its background there).
+Registry
+    :func:`register_detector` adds a detector by name with a lazily imported factory
+    ``factory(*, px_per_mm, model, options) -> Detector``; :func:`make_detector` builds
+    one.  ``classical`` (:class:`ClassicalDetector`, the default, needs no training) is
+    registered here, and ``unet`` points at ``thermoswarm.tracking.unet:make_detector``,
+    the trained top-down model (U-Net centroid peaks, then a pose model on crops), which
+    is a separate module.  ``thermoswarm track --model PATH`` selects the first
+    registered detector with ``needs_model=True`` (``unet``) unless ``--detector`` names
+    one.  Model files are PyTorch state dicts read by :func:`load_state_dict` /
+    :func:`load_weights` (``torch.load(..., weights_only=True)``); a missing,
+    unreadable or wrong-shaped file is an :class:`~thermoswarm.errors.InputError` naming
+    the file and the first mismatching tensor.
+
+The classical detector
+----------------------
+Background subtraction on a downscaled image (``downsample``, default 2) of one channel
+(green by default): the background is a high per-pixel quantile (``bg_quantile``) of
+up to ``bg_frames`` frames given to ``prepare`` (each normalised to a common lighting),
+so that an ant is background only if it covers a pixel in most of them; afterwards it
+follows slow changes by a running average updated only where no ant was found
+(``bg_rate``).  Lighting is normalised by the ratio of frame to background on a coarse
+grid (``gain_grid`` px), median-filtered so that ants do not count, which removes
+flicker, drift and moving shadows; contrast is relative, ``(expected - frame) /
+expected``.  Pixels above ``threshold`` (automatic: the largest of ``min_threshold``,
+``threshold_sigmas`` robust standard deviations of the noise, and ``peak_fraction`` of
+the typical ant's peak contrast) form blobs (:func:`cv2.connectedComponents`).  All
+blobs are then measured at once, at full resolution and vectorised over blobs
+(:func:`_moments_pose`): the contrast-weighted principal axis gives the orientation,
+the skew of the silhouette along it the head end (the gaster is the widest part) with
+a confidence, and the silhouette's two ends, less the blur widening learned in
+``prepare``, place head, body and tail by the anatomy
+(:mod:`~thermoswarm.tracking.anatomy`).  The tracker overrules the head-tail order
+with the direction of motion.  Blobs larger than ``split_area`` single ants, or than
+``hint_split_area`` when the tracker predicts two or more ants in them, are split by
+k-means with segments (:func:`_split`), started from the predictions when given.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import math
+import os
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal, Protocol, runtime_checkable
+
+import numpy as np
+
+from thermoswarm.config import check, from_mapping
+from thermoswarm.errors import ConfigError, InputError
+from thermoswarm.tracking import anatomy
+
+__all__ = [
+    "FrameDetections",
+    "Detector",
+    "DetectorEntry",
+    "register_detector",
+    "detectors",
+    "make_detector",
+    "default_model_detector",
+    "load_state_dict",
+    "load_weights",
+    "ClassicalConfig",
+    "ClassicalDetector",
+]
+
+
+@dataclass(frozen=True)
+class FrameDetections:
+    """The ants found in one frame (all coordinates in px of the full frame)."""
+
+    points: np.ndarray
+    scores: np.ndarray
+    boxes: np.ndarray | None = None
+    head_confidence: np.ndarray | None = None
+    hint_index: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        pts = np.asarray(self.points, dtype=np.float64).reshape(-1, 3, 2)
+        n = pts.shape[0]
+        sc = np.asarray(self.scores, dtype=np.float64).reshape(-1)
+        if sc.shape != (n,):
+            raise ValueError(f"scores must have shape ({n},), got {sc.shape}")
+        object.__setattr__(self, "points", pts)
+        object.__setattr__(self, "scores", sc)
+        if self.boxes is not None:
+            bx = np.asarray(self.boxes, dtype=np.float64).reshape(-1, 4)
+            if bx.shape[0] != n:
+                raise ValueError(f"boxes must have shape ({n}, 4), got {bx.shape}")
+            object.__setattr__(self, "boxes", bx)
+        if self.head_confidence is not None:
+            hc = np.asarray(self.head_confidence, dtype=np.float64).reshape(-1)
+            if hc.shape != (n,):
+                raise ValueError(f"head_confidence must have shape ({n},), got {hc.shape}")
+            object.__setattr__(self, "head_confidence", hc)
+        if self.hint_index is not None:
+            hi = np.asarray(self.hint_index, dtype=np.int64).reshape(-1)
+            if hi.shape != (n,):
+                raise ValueError(f"hint_index must have shape ({n},), got {hi.shape}")
+            object.__setattr__(self, "hint_index", hi)
+
+    def __len__(self) -> int:
+        return self.points.shape[0]
+
+    @classmethod
+    def empty(cls) -> FrameDetections:
+        return cls(np.zeros((0, 3, 2)), np.zeros(0))
+
+    def box_array(self, pad: float) -> np.ndarray:
+        """MOT boxes ``(n, 4)``: the given ones, else body-centred pose boxes (px)."""
+        if self.boxes is not None:
+            return self.boxes
+        return anatomy.pose_boxes(self.points, pad)
+
+    def subset(self, keep: np.ndarray) -> FrameDetections:
+        return FrameDetections(
+            self.points[keep],
+            self.scores[keep],
+            None if self.boxes is None else self.boxes[keep],
+            None if self.head_confidence is None else self.head_confidence[keep],
+            None if self.hint_index is None else self.hint_index[keep],
+        )
+
+
+@runtime_checkable
+class Detector(Protocol):
+    """Finds ants in frames given in time order (see the module docstring)."""
+
+    def detect(self, frame: np.ndarray) -> FrameDetections: ...
+
+    def reset(self) -> None: ...
+
+
+# -------------------------------------------------------------------------- registry
+
+
+@dataclass(frozen=True)
+class DetectorEntry:
+    """A registered detector: ``target`` is ``"module:factory"``, imported when used."""
+
+    name: str
+    target: str
+    description: str
+    needs_model: bool = False
+
+
+_DETECTORS: dict[str, DetectorEntry] = {}
+
+
+def register_detector(entry: DetectorEntry) -> None:
+    """Add (or replace) a detector in the registry."""
+    _DETECTORS[entry.name] = entry
+
+
+def detectors() -> dict[str, DetectorEntry]:
+    """Registered detectors by name (some may live in modules that are not installed)."""
+    return dict(_DETECTORS)
+
+
+def default_model_detector() -> str:
+    """Name of the detector that ``--model`` selects when ``--detector`` is not given."""
+    for name, entry in _DETECTORS.items():
+        if entry.needs_model:
+            return name
+    raise InputError("no registered detector loads a trained model")
+
+
+def make_detector(
+    name: str | None = None,
+    *,
+    px_per_mm: float,
+    model: str | os.PathLike | None = None,
+    options: Mapping[str, Any] | None = None,
+) -> Detector:
+    """Build a registered detector.
+
+    Parameters
+    ----------
+    name
+        Registry name; default ``"classical"``, or :func:`default_model_detector` when
+        ``model`` is given.
+    px_per_mm
+        Image scale (px per mm), which sets the expected ant size.
+    model
+        Path of a trained model for detectors that need one.
+    options
+        Detector options (for ``classical`` the fields of :class:`ClassicalConfig`),
+        checked strictly.
+    """
+    if name is None:
+        name = default_model_detector() if model is not None else "classical"
+    entry = _DETECTORS.get(name)
+    if entry is None:
+        raise InputError(
+            f"unknown detector {name!r}; expected one of: " + ", ".join(sorted(_DETECTORS))
+        )
+    if entry.needs_model and model is None:
+        raise InputError(f"detector {name!r} needs a trained model: pass --model PATH")
+    if not entry.needs_model and model is not None:
+        raise InputError(f"detector {name!r} takes no model file (got --model {model})")
+    if model is not None and not Path(model).is_file():
+        raise InputError(f"{model}: model file does not exist")
+    module_name, attr = entry.target.split(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        raise InputError(
+            f"detector {name!r} is not available in this installation ({exc.name} missing)"
+        ) from None
+    factory = getattr(module, attr)
+    return factory(
+        px_per_mm=float(px_per_mm),
+        model=None if model is None else Path(model),
+        options=dict(options or {}),
+    )
+
+
+# ------------------------------------------------------------------- model weights
+
+
+def load_state_dict(path: str | os.PathLike) -> dict[str, Any]:
+    """Read a PyTorch state dict with ``torch.load(..., weights_only=True)``.
+
+    A checkpoint ``{"state_dict": {...}, ...}`` is unwrapped.  Raises
+    :class:`InputError` naming the file when it is missing, not a weights file, or not
+    a mapping of names to tensors.
+    """
+    path = Path(path)
+    try:
+        import torch
+    except ImportError:
+        raise InputError(f"{path}: loading a model needs PyTorch (pip install torch)") from None
+    if not path.is_file():
+        raise InputError(f"{path}: model file does not exist")
+    try:
+        obj = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch raises many types for a bad file
+        raise InputError(f"{path}: not a PyTorch weights file ({type(exc).__name__})") from None
+    if isinstance(obj, Mapping) and "state_dict" in obj and isinstance(obj["state_dict"], Mapping):
+        obj = obj["state_dict"]
+    if (
+        not isinstance(obj, Mapping)
+        or not obj
+        or not all(isinstance(k, str) and isinstance(v, torch.Tensor) for k, v in obj.items())
+    ):
+        raise InputError(f"{path}: expected a state dict (names -> tensors)")
+    return dict(obj)
+
+
+def load_weights(module: Any, path: str | os.PathLike) -> Any:
+    """Load a state dict file into ``module`` (a :class:`torch.nn.Module`), strictly.
+
+    Raises :class:`InputError` naming the file and the first missing, unexpected or
+    wrongly shaped tensor.  Returns ``module``.
+    """
+    sd = load_state_dict(path)
+    expected = module.state_dict()
+    missing = [k for k in expected if k not in sd]
+    unexpected = [k for k in sd if k not in expected]
+    if missing:
+        raise InputError(
+            f"{path}: model file lacks tensor {missing[0]!r} "
+            f"({len(missing)} missing); is it a model of this kind?"
+        )
+    if unexpected:
+        raise InputError(
+            f"{path}: model file has unexpected tensor {unexpected[0]!r} "
+            f"({len(unexpected)} unexpected); is it a model of this kind?"
+        )
+    for k, v in expected.items():
+        if tuple(sd[k].shape) != tuple(v.shape):
+            raise InputError(
+                f"{path}: tensor {k!r} has shape {tuple(sd[k].shape)}, "
+                f"the model expects {tuple(v.shape)}"
+            )
+    module.load_state_dict(sd, strict=True)
+    return module
+
+
+# ----------------------------------------------------------------- classical detector
+
+
+@dataclass(frozen=True)
+class ClassicalConfig:
+    """Options of the classical detector.
+
+    Contrast is *relative*: ``(background - frame) / background`` for dark ants (so a
+    shadow or a dimmer frame does not change it), in [0, 1].
+
+    ``ant_length_mm``/``ant_width_mm``: expected ant size (the paper's 7.14 x 2.5 mm),
+    a prior that the measured ants refine.  ``polarity``: ``"dark"`` ants on a lighter
+    background (the paper's road) or ``"light"``.  ``channel``: the image channel used
+    (``"green"`` by default: red-brown and black ants on yellow wood differ most in
+    green; ``"gray"`` is the luma).  ``downsample``: integer factor of the working
+    resolution of the foreground mask (blobs are measured at full resolution).
+    ``threshold``: relative contrast of foreground pixels (``None``: automatic, the
+    largest of ``min_threshold``, ``threshold_sigmas`` robust standard deviations of
+    the background noise and ``peak_fraction`` times the typical ant's peak contrast).
+    ``peak_fraction`` also sets, per blob, which pixels are measured (thin legs and
+    antennae fall below it).  ``min_area``/``split_area``: blob areas in
+    single-ant areas below which blobs are dropped and above which they are split
+    (``hint_split_area`` when the tracker predicts two or more ants in the blob);
+    ``max_split``: most ants in one blob.  ``bg_quantile``: per-pixel quantile of the
+    prepared frames taken as the background (0.9 for dark ants: a pixel is background
+    unless an ant covers it in over 90 % of those frames; ``1 - bg_quantile`` for light
+    ants); ``bg_frames``: most frames used for it; ``bg_rate``: running-average rate per
+    frame of the background where no ant is.  ``gain_grid``: cell size (px, working
+    resolution) of the lighting correction, 0 for one global gain.
+    """
+
+    ant_length_mm: float = anatomy.ANT_LENGTH_MM
+    ant_width_mm: float = anatomy.ANT_WIDTH_MM
+    polarity: Literal["dark", "light"] = "dark"
+    channel: Literal["gray", "red", "green", "blue"] = "green"
+    downsample: int = 2
+    threshold: float | None = None
+    min_threshold: float = 0.1
+    threshold_sigmas: float = 6.0
+    peak_fraction: float = 0.3
+    min_area: float = 0.3
+    split_area: float = 1.6
+    hint_split_area: float = 1.2
+    max_split: int = 6
+    bg_quantile: float = 0.9
+    bg_frames: int = 32
+    bg_rate: float = 0.02
+    gain_grid: int = 24
+
+    def __post_init__(self) -> None:
+        for name in ("ant_length_mm", "ant_width_mm", "threshold_sigmas", "split_area"):
+            v = getattr(self, name)
+            check(math.isfinite(v) and v > 0, name, "a positive number", v)
+        check(1 <= self.downsample <= 8, "downsample", "an integer in [1, 8]", self.downsample)
+        check(
+            self.threshold is None or 0 < self.threshold < 1,
+            "threshold",
+            "a relative contrast in (0, 1)",
+            self.threshold,
+        )
+        check(0 <= self.min_threshold < 1, "min_threshold", "in [0, 1)", self.min_threshold)
+        check(0 <= self.peak_fraction < 1, "peak_fraction", "in [0, 1)", self.peak_fraction)
+        check(0 < self.min_area < self.split_area, "min_area", "in (0, split_area)", self.min_area)
+        check(self.max_split >= 1, "max_split", "a positive integer", self.max_split)
+        check(
+            0 < self.hint_split_area <= self.split_area,
+            "hint_split_area",
+            "in (0, split_area]",
+            self.hint_split_area,
+        )
+        check(0.5 <= self.bg_quantile <= 1, "bg_quantile", "in [0.5, 1]", self.bg_quantile)
+        check(self.bg_frames >= 1, "bg_frames", "a positive integer", self.bg_frames)
+        check(0 <= self.bg_rate <= 1, "bg_rate", "in [0, 1]", self.bg_rate)
+        check(self.gain_grid >= 0, "gain_grid", "a non-negative integer", self.gain_grid)
+
+
+def _classical_factory(
+    *, px_per_mm: float, model: Path | None, options: Mapping[str, Any]
+) -> ClassicalDetector:
+    try:
+        cfg = from_mapping(ClassicalConfig, options, source="detector options")
+    except ConfigError as exc:
+        raise InputError(str(exc)) from None
+    return ClassicalDetector(px_per_mm, cfg)
+
+
+_CHANNEL = {"red": 0, "green": 1, "blue": 2}
+
+
+@dataclass
+class _Blobs:
+    """Measured blobs of one frame (full-resolution px)."""
+
+    points: np.ndarray  # (n, 3, 2)
+    head_conf: np.ndarray  # (n,)
+    span: np.ndarray  # (n,) silhouette length along the axis
+    area: np.ndarray  # (n,) working-resolution px^2
+    peak: np.ndarray  # (n,) peak relative contrast
+    split: np.ndarray  # (n,) bool: part of a split blob
+    hint: np.ndarray  # (n,) index of the hint this ant continues, -1 if none
+
+
+class ClassicalDetector:
+    """Background subtraction + blob moments; no training (see the module docstring).
+
+    Call :meth:`prepare` with the first frames of a video (a few seconds) before
+    :meth:`detect`; otherwise the first frame given to :meth:`detect` becomes the
+    background, and ants in it are missed until they move away.
+
+    ``detect(frame, hints=...)`` accepts the tracker's predicted poses ``(m, 3, 2)``
+    px: a blob that contains two or more predicted body points is split into that
+    many ants, starting from the predictions (touching and crossing ants).
+
+    Parameters
+    ----------
+    px_per_mm
+        Image scale, px per mm.
+    config
+        :class:`ClassicalConfig`.
+    """
+
+    name = "classical"
+    accepts_hints = True
+
+    def __init__(self, px_per_mm: float, config: ClassicalConfig | None = None) -> None:
+        if not (px_per_mm > 0 and math.isfinite(px_per_mm)):
+            raise InputError(f"px_per_mm must be a positive number, got {px_per_mm!r}")
+        self.px_per_mm = float(px_per_mm)
+        self.config = config or ClassicalConfig()
+        c = self.config
+        self.prior_length_px = c.ant_length_mm * self.px_per_mm
+        parts = (anatomy.HEAD, anatomy.MESOSOMA, anatomy.GASTER)
+        #: Silhouette area of the anatomical model, px^2 at full resolution.
+        self.model_area = math.pi * sum(p[1] * p[2] for p in parts) * self.prior_length_px**2
+        f = c.downsample
+        self._offsets = np.array([(dy, dx) for dy in range(f) for dx in range(f)])
+        self.reset()
+
+    # -- state
+    def reset(self) -> None:
+        """Forget the background and the learned sizes (a new video)."""
+        self._bg: np.ndarray | None = None
+        self._thr: float | None = self.config.threshold
+        self._peak: float | None = None
+        self._area1: float = 0.6 * self.model_area / self.config.downsample**2
+        self._length: float = self.prior_length_px
+        self._widen: float = 0.0
+        self._bg_cells: list | None = None
+        self._shape: tuple[int, int] | None = None
+
+    @property
+    def threshold(self) -> float | None:
+        """The relative-contrast threshold in use."""
+        return self._thr
+
+    @property
+    def single_area(self) -> float:
+        """The single-ant blob area in use (px^2 at working resolution)."""
+        return self._area1
+
+    @property
+    def length_px(self) -> float:
+        """The expected ant body length (px, full resolution; from ``ant_length_mm``)."""
+        return self._length
+
+    @property
+    def widening_px(self) -> float:
+        """How much longer than the ant its silhouette looks at each end (px; learned)."""
+        return self._widen
+
+    # -- image helpers
+    def _gray(self, frame: np.ndarray) -> np.ndarray:
+        import cv2
+
+        frame = np.asarray(frame)
+        if frame.dtype != np.uint8:
+            raise InputError(f"frames must be uint8, got {frame.dtype}")
+        if frame.ndim == 2:
+            gray = frame
+        elif frame.ndim == 3 and frame.shape[2] in (3, 4):
+            if self.config.channel == "gray":
+                gray = cv2.cvtColor(np.ascontiguousarray(frame[..., :3]), cv2.COLOR_RGB2GRAY)
+            else:
+                gray = cv2.extractChannel(frame, _CHANNEL[self.config.channel])
+        else:
+            raise InputError(f"frames must be (H, W) or (H, W, 3), got shape {frame.shape}")
+        if self._shape is None:
+            self._shape = gray.shape
+        elif gray.shape != self._shape:
+            raise InputError(
+                f"frame size {gray.shape[::-1]} differs from the first frame's {self._shape[::-1]}"
+            )
+        return gray
+
+    def _small(self, gray: np.ndarray, dtype: type = np.float32) -> np.ndarray:
+        import cv2
+
+        f = self.config.downsample
+        if f == 1:
+            return gray.astype(dtype)
+        h, w = gray.shape[0] // f, gray.shape[1] // f
+        # Crop to a multiple of f so that small pixel (y, x) is full block [fy, fy+f).
+        return cv2.resize(gray[: h * f, : w * f], (w, h), interpolation=cv2.INTER_AREA).astype(
+            dtype, copy=False
+        )
+
+    def _gain(self, small: np.ndarray, bg: np.ndarray) -> np.ndarray | float:
+        """Lighting of ``small`` relative to ``bg``: a field (working res.) or a number."""
+        import cv2
+
+        g = self.config.gain_grid
+        h, w = small.shape
+        if g and min(h, w) >= 3 * g:
+            gs = (max(w // g, 1), max(h // g, 1))
+            # The background's cell means change slowly: recomputed every 8th call.
+            key = id(bg)
+            if self._bg_cells is None or self._bg_cells[0] != key or self._bg_cells[2] >= 8:
+                cells = cv2.resize(bg, gs, interpolation=cv2.INTER_AREA)
+                self._bg_cells = [key, np.maximum(cells, 1.0), 0]
+            self._bg_cells[2] += 1
+            ratio = cv2.resize(small, gs, interpolation=cv2.INTER_AREA) / self._bg_cells[1]
+            ratio = cv2.medianBlur(ratio.astype(np.float32), 3)
+            return cv2.resize(ratio, (w, h), interpolation=cv2.INTER_LINEAR)
+        return float(np.median(small[::4, ::4] / np.maximum(bg[::4, ::4], 1.0)))
+
+    def _contrast(self, img: np.ndarray, expected: np.ndarray) -> np.ndarray:
+        d = expected - img if self.config.polarity == "dark" else img - expected
+        return d / np.maximum(expected, 8.0)
+
+    def _contrast_map(self, small: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        expected = (self._bg * self._gain(small, self._bg)).astype(np.float32)
+        return self._contrast(small, expected), expected
+
+    # -- preparation
+    def prepare(self, frames: Iterable[np.ndarray]) -> None:
+        """Learn the background, the threshold and the ant size from early frames.
+
+        ``frames`` (an iterable, consumed once) should span a few seconds of video;
+        at most ``2 * bg_frames`` of them are kept, at working resolution.
+        """
+        c = self.config
+        smalls: list[np.ndarray] = []
+        grays: list[np.ndarray] = []
+        step = 1
+        for n, frame in enumerate(frames):
+            gray = self._gray(frame)
+            if n % step:
+                continue
+            smalls.append(self._small(gray, np.uint8))  # 4x less memory than float
+            if n % 4 == 0 and len(grays) < 8:
+                grays.append(gray)
+            if len(smalls) >= 2 * c.bg_frames:  # keep an even spread over all frames
+                smalls = smalls[::2]
+                step *= 2
+        if not smalls:
+            raise InputError("the classical detector needs at least one frame to prepare")
+        if len(smalls) > c.bg_frames:
+            idx = np.linspace(0, len(smalls) - 1, c.bg_frames).round().astype(int)
+            smalls = [smalls[i] for i in idx]
+        n = len(smalls)
+        # Lighting reference: the median of a few frames; then every frame normalised
+        # to it and the bg_quantile of each pixel over the frames (np.partition).
+        ref_idx = np.linspace(0, n - 1, min(n, 9)).round().astype(int)
+        ref = np.median(np.stack([smalls[i] for i in ref_idx]), axis=0).astype(np.float32)
+        if n > 2:
+            norm = np.empty((n, *ref.shape), np.float32)
+            for i, sm in enumerate(smalls):
+                sm = sm.astype(np.float32)
+                np.divide(sm, self._gain(sm, ref), out=norm[i])
+            q = c.bg_quantile if c.polarity == "dark" else 1 - c.bg_quantile
+            kth = int(round(q * (n - 1)))
+            norm.partition(kth, axis=0)  # in place: no second copy of the stack
+            self._bg = norm[kth].copy()
+        else:
+            self._bg = ref
+        self._learn(grays)
+
+    def _learn(self, grays: list[np.ndarray]) -> None:
+        """Threshold, single-ant area and body length from a few full frames."""
+        c = self.config
+        smalls = [self._small(g) for g in grays]
+        maps = [self._contrast_map(s) for s in smalls]
+        sample = np.concatenate([con[::3, ::3].ravel() for con, _ in maps])
+        med = float(np.median(sample))
+        sigma = 1.4826 * float(np.median(np.abs(sample - med)))
+        noise_thr = max(c.min_threshold, c.threshold_sigmas * sigma)
+        self._thr = noise_thr if c.threshold is None else c.threshold
+        model = self.model_area / c.downsample**2
+        if c.threshold is None:
+            peaks = np.concatenate(
+                [
+                    self._measure(g, con, exp, self._thr, 0.2 * model, split=False).peak
+                    for g, (con, exp) in zip(grays, maps, strict=True)
+                ]
+            )
+            if peaks.size >= 3:
+                self._peak = float(np.median(peaks))
+                self._thr = max(noise_thr, c.peak_fraction * self._peak)
+        found = [
+            self._measure(g, con, exp, self._thr, 0.2 * model, split=False)
+            for g, (con, exp) in zip(grays, maps, strict=True)
+        ]
+        areas = np.concatenate([b.area for b in found])
+        a1 = float(np.median(areas)) if areas.size >= 3 else 0.6 * model
+        self._area1 = float(np.clip(a1, 0.3 * model, 3.0 * model))
+        spans = np.concatenate(
+            [b.span[(b.area > 0.7 * self._area1) & (b.area < 1.3 * self._area1)] for b in found]
+        )
+        if spans.size >= 3:
+            # Blur and the threshold make silhouettes look longer than the ants by a
+            # fixed amount at each end; measured against the expected length.
+            L0 = self.prior_length_px
+            extra = 0.5 * (float(np.median(spans)) - (anatomy.FRONT - anatomy.BACK) * L0)
+            self._widen = float(np.clip(extra, -0.1 * L0, 0.3 * L0))
+
+    # -- detection
+    def _measure(
+        self,
+        gray: np.ndarray,
+        con: np.ndarray,
+        expected: np.ndarray,
+        thr: float,
+        min_area: float,
+        *,
+        split: bool = True,
+        hints: np.ndarray | None = None,
+    ) -> _Blobs:
+        """Find and measure the blobs of one frame, vectorised over blobs."""
+        import cv2
+
+        c = self.config
+        f = c.downsample
+        empty = _Blobs(
+            np.zeros((0, 3, 2)),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros(0, bool),
+            np.zeros(0, np.int64),
+        )
+        mask = (con > thr).view(np.uint8)
+        # Labels without stats (cv2's stats are slow); areas and peaks from the pixels.
+        n, labels = cv2.connectedComponents(mask, connectivity=8, ltype=cv2.CV_32S)
+        nz = cv2.findNonZero(mask)
+        if nz is None or n <= 1:
+            return empty
+        nz = nz.reshape(-1, 2)
+        xs, ys = nz[:, 0], nz[:, 1]
+        lab = labels[ys, xs]
+        area = np.bincount(lab, minlength=n).astype(np.float64)
+        good = area >= min_area
+        good[0] = False
+        if not good.any():
+            return empty
+        peak = np.zeros(n)
+        np.maximum.at(peak, lab, con[ys, xs])
+        # One working pixel of margin (the blurred rim), then every full-res pixel.
+        kernel = np.ones((3, 3), np.uint8)
+        lab_d = cv2.dilate(labels.astype(np.float32), kernel)
+        nz = cv2.findNonZero(cv2.dilate(mask, kernel))
+        nz = nz.reshape(-1, 2)
+        xs, ys = nz[:, 0], nz[:, 1]
+        lab = lab_d[ys, xs].astype(np.int64)
+        keep = good[lab]
+        xs, ys, lab = xs[keep], ys[keep], lab[keep]
+        ff = f * f
+        fy = (ys[:, None] * f + self._offsets[None, :, 0]).ravel()
+        fx = (xs[:, None] * f + self._offsets[None, :, 1]).ravel()
+        lab = np.repeat(lab, ff)
+        rel = self._contrast(gray[fy, fx].astype(np.float32), np.repeat(expected[ys, xs], ff))
+        w = rel - c.peak_fraction * peak[lab]
+        sel = w > 0
+        fx = fx[sel].astype(np.float64)
+        fy = fy[sel].astype(np.float64)
+        lab, w = lab[sel], w[sel].astype(np.float64)
+        if lab.size == 0:
+            return empty
+        # Blobs to split: too large, or holding two or more predicted ants.
+        k = np.ones(n, np.int64)
+        if split:
+            big = good & (area >= c.split_area * self._area1)
+            k[big] = np.clip(np.round(area[big] / self._area1), 2, c.max_split)
+        hint_at: dict[int, list[int]] = {}
+        if split and hints is not None and len(hints):
+            hb = np.asarray(hints, dtype=np.float64).reshape(-1, 3, 2)[:, 1, :]
+            ok = np.all(np.isfinite(hb), axis=1)
+            hx = np.clip((hb[ok, 0] / f).astype(np.int64), 0, labels.shape[1] - 1)
+            hy = np.clip((hb[ok, 1] / f).astype(np.int64), 0, labels.shape[0] - 1)
+            hl = lab_d[hy, hx].astype(np.int64)
+            for j, L in zip(np.flatnonzero(ok), hl, strict=True):
+                if L > 0 and good[L]:
+                    hint_at.setdefault(int(L), []).append(int(j))
+            for L, js in hint_at.items():
+                # Two ants cover more than one ant's area even when crossing.
+                if len(js) >= 2 and area[L] >= c.hint_split_area * self._area1:
+                    k[L] = min(max(len(js), k[L]), c.max_split)
+        single = k[lab] == 1
+        pts, hc, span, valid = _moments_pose(
+            fx[single], fy[single], w[single], lab[single], n, self._length, self._widen
+        )
+        ids = np.flatnonzero(good & (k == 1) & valid)
+        # A single-ant blob that holds exactly one predicted ant continues it.
+        one_hint = np.full(n, -1, np.int64)
+        for L, js in hint_at.items():
+            if len(js) == 1:
+                one_hint[L] = js[0]
+        parts = [
+            (
+                pts[ids],
+                hc[ids],
+                span[ids],
+                area[ids],
+                peak[ids],
+                np.zeros(ids.size, bool),
+                one_hint[ids],
+            )
+        ]
+        multi = np.flatnonzero(good & (k > 1))
+        if multi.size:
+            order = np.argsort(lab, kind="stable")
+            bounds = np.searchsorted(lab[order], np.stack([multi, multi + 1]))
+            for i, lo, hi in zip(multi, bounds[0], bounds[1], strict=True):
+                idx = order[lo:hi]
+                if idx.size < 3:
+                    continue
+                px = np.column_stack([fx[idx], fy[idx]])
+                js = hint_at.get(int(i), [])
+                init = np.asarray(hints, dtype=np.float64)[js] if len(js) >= 2 else None
+                groups = _split(px, w[idx], int(k[i]), self._length, init)
+                m = len(groups)
+                gl = np.empty(idx.size, np.int64)
+                for j, gi in enumerate(groups):
+                    gl[gi] = j
+                p2, h2, s2, v2 = _moments_pose(
+                    px[:, 0], px[:, 1], w[idx], gl, m, self._length, self._widen
+                )
+                v2 &= np.bincount(gl, minlength=m) >= 3
+                # Segment j started from hint js[j]: it continues that predicted ant.
+                src = np.full(m, -1, np.int64)
+                if init is not None:
+                    src[: len(js)] = js
+                parts.append(
+                    (
+                        p2[v2],
+                        h2[v2],
+                        s2[v2],
+                        np.full(v2.sum(), area[i] / m),
+                        np.full(v2.sum(), peak[i]),
+                        np.ones(v2.sum(), bool),
+                        src[v2],
+                    )
+                )
+        return _Blobs(*(np.concatenate([p[j] for p in parts]) for j in range(7)))
+
+    def detect(self, frame: np.ndarray, hints: np.ndarray | None = None) -> FrameDetections:
+        """Detect the ants in one frame.
+
+        Parameters
+        ----------
+        frame
+            ``(H, W, 3)`` RGB or ``(H, W)`` uint8.
+        hints
+            Optional predicted poses ``(m, 3, 2)`` px (from the tracker) that guide the
+            splitting of touching ants.
+        """
+        import cv2
+
+        gray = self._gray(frame)
+        if self._bg is None:
+            self.prepare([frame])
+        c = self.config
+        small = self._small(gray)
+        con, expected = self._contrast_map(small)
+        b = self._measure(gray, con, expected, self._thr, c.min_area * self._area1, hints=hints)
+        if c.bg_rate > 0:
+            fg = (con > 0.5 * self._thr).view(np.uint8)
+            fg = cv2.dilate(fg, np.ones((5, 5), np.uint8))
+            cv2.accumulateWeighted(small, self._bg, c.bg_rate, mask=1 - fg)
+        if len(b.points) == 0:
+            return FrameDetections.empty()
+        scores = np.where(b.split, 0.6, 1.0) * np.clip(b.peak / max(self._peak or 1.0, 1e-3), 0, 1)
+        return FrameDetections(
+            b.points, scores, None, b.head_conf, b.hint if hints is not None else None
+        )
+
+
+def _moments_pose(
+    x: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    lab: np.ndarray,
+    n: int,
+    length: float,
+    widen: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Poses of many single-ant blobs at once from their weighted pixels.
+
+    ``length`` is the expected body length and ``widen`` how far each end of a
+    silhouette reaches beyond the ant (px).  Returns points ``(n, 3, 2)``, head
+    confidence ``(n,)``, silhouette span ``(n,)`` and a valid flag ``(n,)``, indexed
+    by label.
+
+    Method: the principal axis of the contrast-weighted pixels is the body axis; the
+    silhouette is skewed towards the thin head (the gaster is the widest part, so most
+    pixels sit at the back), which orients it, with a confidence ``0.5 + 0.5
+    tanh(|skew| / 0.3)``; head and tail are placed from the silhouette's two ends by the
+    anatomy (:mod:`~thermoswarm.tracking.anatomy`) and the body point is the mean of the
+    two placements.
+    """
+    bc = np.bincount
+    m0 = bc(lab, w, n)
+    cnt = bc(lab, None, n).astype(np.float64)
+    valid = cnt >= 3
+    s0 = np.where(m0 > 0, m0, 1.0)
+    mx = bc(lab, w * x, n) / s0
+    my = bc(lab, w * y, n) / s0
+    dx = x - mx[lab]
+    dy = y - my[lab]
+    cxx = bc(lab, w * dx * dx, n) / s0
+    cyy = bc(lab, w * dy * dy, n) / s0
+    cxy = bc(lab, w * dx * dy, n) / s0
+    ang = 0.5 * np.arctan2(2 * cxy, cxx - cyy)
+    ux, uy = np.cos(ang), np.sin(ang)
+    t = dx * ux[lab] + dy * uy[lab]
+    c1 = np.where(cnt > 0, cnt, 1.0)
+    e1 = bc(lab, t, n) / c1
+    e2 = bc(lab, t * t, n) / c1
+    e3 = bc(lab, t**3, n) / c1
+    m2 = e2 - e1**2
+    m3 = e3 - 3 * e1 * e2 + 2 * e1**3
+    skew = m3 / np.maximum(m2, 1e-12) ** 1.5
+    sign = np.where(skew < 0, -1.0, 1.0)
+    lo = np.full(n, np.inf)
+    hi = np.full(n, -np.inf)
+    np.minimum.at(lo, lab, t)
+    np.maximum.at(hi, lab, t)
+    lo, hi = np.where(sign > 0, lo, -hi), np.where(sign > 0, hi, -lo)
+    lo = np.where(valid, lo, 0.0) - 0.5
+    hi = np.where(valid, hi, 0.0) + 0.5
+    ux, uy = ux * sign, uy * sign
+    front, back = hi - widen, lo + widen
+    # Each ant's own length from its silhouette, within 25 % of the expected one.
+    L = np.clip((front - back) / (anatomy.FRONT - anatomy.BACK), 0.75 * length, 1.25 * length)
+    s_body = 0.5 * ((front - anatomy.FRONT * L) + (back - anatomy.BACK * L))
+    offs = s_body[:, None] + anatomy.KEYPOINT_OFFSETS[None, :] * L[:, None]  # (n, 3)
+    pts = np.stack([mx[:, None] + offs * ux[:, None], my[:, None] + offs * uy[:, None]], -1)
+    hc = 0.5 + 0.5 * np.tanh(np.abs(skew) / 0.3)
+    return pts, hc, hi - lo, valid
+
+
+def _split(
+    px: np.ndarray, w: np.ndarray, k: int, length: float, init: np.ndarray | None, iters: int = 8
+) -> list[np.ndarray]:
+    """Split the weighted pixels of touching or crossing ants into ``k`` groups.
+
+    Each ant is modelled as a segment of length ``0.6 length`` (its dark axis from
+    gaster to head); pixels go to the nearest segment, and each segment is refitted to
+    its pixels (weighted mean and principal axis) -- k-means with segments instead of
+    points, which separates ants lying side by side, end to end or across each other.
+    Segments start from ``init`` poses ``(m, 3, 2)`` (the tracker's predictions or one
+    point per gaster; head/tail may be NaN), completed by points spread along the
+    blob's principal axis.
+    """
+    sw = w.sum()
+    mean = (px * w[:, None]).sum(0) / sw
+    d = px - mean
+    cov = (d * w[:, None]).T @ d / sw
+    _, evecs = np.linalg.eigh(cov)
+    u0 = evecs[:, -1]
+    t0 = d @ u0
+    qs = np.quantile(t0, (np.arange(k) + 0.5) / k)
+    centres = mean[None, :] + qs[:, None] * u0[None, :]
+    dirs = np.repeat(u0[None, :], k, axis=0)
+    if init is not None:
+        m = min(len(init), k)
+        centres[:m] = init[:m, 1]
+        ax = init[:m, 0] - init[:m, 2]
+        norm = np.linalg.norm(ax, axis=1)
+        ok = np.isfinite(norm) & (norm > 1e-6)
+        dirs[:m][ok] = ax[ok] / norm[ok, None]
+    half = 0.3 * length
+    lab = np.full(px.shape[0], -1)
+    x, y = px[:, 0], px[:, 1]
+    for _ in range(iters):
+        rx = x[:, None] - centres[None, :, 0]
+        ry = y[:, None] - centres[None, :, 1]
+        t = np.clip(rx * dirs[None, :, 0] + ry * dirs[None, :, 1], -half, half)
+        dist = (rx - t * dirs[None, :, 0]) ** 2 + (ry - t * dirs[None, :, 1]) ** 2
+        new = dist.argmin(1)
+        if np.array_equal(new, lab):
+            break
+        lab = new
+        # Refit every segment at once: weighted mean and principal axis (closed form).
+        m0 = np.bincount(lab, w, k)
+        okk = m0 > 0
+        s0 = np.where(okk, m0, 1.0)
+        cx = np.bincount(lab, w * x, k) / s0
+        cy = np.bincount(lab, w * y, k) / s0
+        dx, dy = x - cx[lab], y - cy[lab]
+        a = np.bincount(lab, w * dx * dx, k) / s0
+        b = np.bincount(lab, w * dx * dy, k) / s0
+        cc = np.bincount(lab, w * dy * dy, k) / s0
+        centres[okk, 0], centres[okk, 1] = cx[okk], cy[okk]
+        disc = np.sqrt(np.maximum((a - cc) ** 2 / 4 + b * b, 0.0))
+        elong = okk & (disc > 0.1 * (a + cc))
+        ang = 0.5 * np.arctan2(2 * b, a - cc)
+        dirs[elong, 0], dirs[elong, 1] = np.cos(ang[elong]), np.sin(ang[elong])
+    return [np.flatnonzero(lab == j) for j in range(k)]
+
+
+register_detector(
+    DetectorEntry(
+        "classical",
+        "thermoswarm.tracking.detect:_classical_factory",
+        "background subtraction + blob moments (no training)",
+    )
+)
+register_detector(
+    DetectorEntry(
+        "unet",
+        "thermoswarm.tracking.unet:make_detector",
+        "trained top-down U-Net + pose model (--model PATH)",
+        needs_model=True,
+    )
+)
+
+# Keep dataclasses importable for config round trips.
+_ = dataclasses

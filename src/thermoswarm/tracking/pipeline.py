@@ -1,0 +1,327 @@
+"""Video (or detections) in, trajectories out: what ``thermoswarm track`` runs.
+
+:func:`track_video` streams a video through a detector and the tracker:
+
+1. the detector's ``prepare`` (if any) sees the first ``prepare_s`` seconds (the
+   classical detector learns the empty road there; decoded once more, a small cost
+   on long videos);
+2. each frame is decoded in a background thread, detected (with the tracker's
+   predictions as hints where the detector takes them) and tracked;
+3. frames whose tracks are final (after the tracker's fixed lag) are drawn into the
+   overlay video, so nothing but a short ring of small frames is kept in memory.
+
+:func:`track_detection_file` runs the tracker on a MOTChallenge detection file
+(``frame, -1, left, top, width, height, conf, ...``) without video; head and tail are
+then unknown (NaN) and the body point is the box centre.
+
+Both write into ``out_dir``: ``tracks.nc`` (trajectory format, mm and s, keypoints
+head/body/tail), ``tracks_mot.txt`` (MOTChallenge, body-centred boxes in px),
+``detections.txt`` (MOT detection rows, to re-track without the video),
+``overlay.mp4`` (unless disabled) and ``summary.json``; every file is written
+atomically.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from thermoswarm.config import to_dict
+from thermoswarm.errors import InputError
+from thermoswarm.fsutil import atomic_write_json, prepare_output_dir
+from thermoswarm.tracking.detect import FrameDetections, make_detector
+from thermoswarm.tracking.tracker import Tracker, TrackerConfig, TrackResult
+
+__all__ = ["track_video", "track_detection_file", "detections_from_table"]
+
+
+def _write_outputs(
+    result: TrackResult,
+    out: Path,
+    *,
+    px_per_mm: float,
+    fps: float,
+    source: str,
+    det_rows: np.ndarray | None,
+    attrs: dict[str, Any],
+) -> list[str]:
+    from thermoswarm.io.mot import write_mot_table
+    from thermoswarm.io.netcdf import write as write_nc
+
+    ds = result.dataset(px_per_mm=px_per_mm, fps=fps, source_file=source, attrs=attrs)
+    write_nc(ds, out / "tracks.nc")
+    write_mot_table(out / "tracks_mot.txt", result.mot_table())
+    names = ["tracks.nc", "tracks_mot.txt"]
+    if det_rows is not None:
+        write_mot_table(out / "detections.txt", det_rows)
+        names.append("detections.txt")
+    return names
+
+
+def _det_rows(frame: int, d: FrameDetections, pad: float) -> np.ndarray:
+    rows = np.full((len(d), 10), -1.0)
+    rows[:, 0] = frame + 1
+    rows[:, 2:6] = d.box_array(pad)
+    rows[:, 6] = d.scores
+    return rows
+
+
+def track_video(
+    video: str | os.PathLike,
+    out_dir: str | os.PathLike,
+    *,
+    px_per_mm: float,
+    fps: float | None = None,
+    detector: str | None = None,
+    model: str | os.PathLike | None = None,
+    detector_options: dict[str, Any] | None = None,
+    tracker_config: TrackerConfig | None = None,
+    overlay: bool = True,
+    overlay_scale: float = 0.5,
+    max_frames: int | None = None,
+    prepare_s: float = 3.0,
+    progress: bool = False,
+) -> dict[str, Any]:
+    """Track the ants of a video; write the outputs; return the summary.
+
+    Parameters
+    ----------
+    video
+        Video file or folder of frames.
+    out_dir
+        Output folder (created; its parent must exist).
+    px_per_mm
+        Image scale (px per mm).
+    fps
+        Frame rate; default the video's own (required for folders of frames).
+    detector, model, detector_options
+        See :func:`thermoswarm.tracking.detect.make_detector` (default: classical).
+    tracker_config
+        :class:`~thermoswarm.tracking.tracker.TrackerConfig`.
+    overlay, overlay_scale
+        Write ``overlay.mp4`` at this fraction of the video's size.
+    max_frames
+        Stop after this many frames.
+    prepare_s
+        Seconds of video shown to the detector's ``prepare`` step.
+    progress
+        Show a progress bar (tqdm; silent when not on a terminal).
+    """
+    from thermoswarm.tracking.video import OverlayWriter, open_video
+
+    src = open_video(video)
+    rate = fps if fps is not None else src.fps
+    if rate is None:
+        raise InputError(f"{video}: the frame rate is unknown (a folder of frames?); pass --fps")
+    if not (rate > 0 and np.isfinite(rate)):
+        raise InputError(f"fps must be a positive number, got {rate!r}")
+    if max_frames is not None and max_frames < 1:
+        raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
+    out = prepare_output_dir(out_dir)
+    det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=detector_options)
+    tcfg = tracker_config or TrackerConfig()
+    tracker = Tracker(tcfg, px_per_mm=px_per_mm, fps=rate, frame_size=src.size)
+    t0 = time.perf_counter()
+    prepare = getattr(det, "prepare", None)
+    n_prep = max(1, int(round(prepare_s * rate)))
+    if max_frames is not None:
+        n_prep = min(n_prep, max_frames)
+    if prepare is not None:
+        prepare(src.frames(n_prep, step=2 if n_prep >= 32 else 1, prefetch=4))
+    t_prep = time.perf_counter() - t0
+    takes_hints = bool(getattr(det, "accepts_hints", False))
+    writer = OverlayWriter(out / "overlay.mp4", rate, scale=overlay_scale) if overlay else None
+    ring: collections.deque[tuple[int, np.ndarray]] = collections.deque()
+    det_rows = []
+    n_det = 0
+    total = max_frames if max_frames is not None else src.n_frames
+    frames = src.frames(max_frames, prefetch=4)
+    if progress:
+        from tqdm import tqdm
+
+        frames = tqdm(frames, total=total, unit="frame", desc="track")
+    k = -1
+    try:
+        for k, frame in enumerate(frames):
+            hints = tracker.predict()
+            d = det.detect(frame, hints=hints) if takes_hints else det.detect(frame)
+            tracker.update(d)
+            n_det += len(d)
+            det_rows.append(_det_rows(k, d, tracker.pad))
+            if writer is not None:
+                ring.append((k, writer.shrink(frame)))  # small frames wait for the lag
+                for f, rows in tracker.pop_final():
+                    while ring and ring[0][0] < f:
+                        ring.popleft()
+                    if ring and ring[0][0] == f:
+                        writer.write(ring.popleft()[1], rows, shrunk=True)
+        if k < 0:
+            raise InputError(f"{video}: no frame could be decoded")
+        if writer is not None:
+            for f, rows in tracker.flush():
+                while ring and ring[0][0] < f:
+                    ring.popleft()
+                if ring and ring[0][0] == f:
+                    writer.write(ring.popleft()[1], rows, shrunk=True)
+            writer.close()
+    except BaseException:
+        if writer is not None:
+            writer.abort()
+        raise
+    result = tracker.finish()
+    elapsed = time.perf_counter() - t0
+    dets = np.concatenate(det_rows) if det_rows else np.zeros((0, 10))
+    det_name = getattr(det, "name", detector or "classical")
+    attrs = {"detector": str(det_name), "frame_width": src.size[0], "frame_height": src.size[1]}
+    names = _write_outputs(
+        result, out, px_per_mm=px_per_mm, fps=rate, source=str(video), det_rows=dets, attrs=attrs
+    )
+    if writer is not None:
+        names.append("overlay.mp4")
+    summary = _summary(
+        result,
+        source=str(video),
+        fps=rate,
+        fps_source="user" if fps is not None else "video",
+        px_per_mm=px_per_mm,
+        tracker=tcfg,
+        detector=str(det_name),
+        model=model,
+        n_det=n_det,
+        elapsed=elapsed,
+        prepare=t_prep,
+        size=src.size,
+        outputs=names + ["summary.json"],
+        detector_options=_detector_info(det, detector_options),
+    )
+    atomic_write_json(out / "summary.json", summary)
+    return summary
+
+
+def _detector_info(det: Any, options: dict[str, Any] | None) -> dict[str, Any]:
+    info: dict[str, Any] = {"options": dict(options or {})}
+    for attr in ("threshold", "single_area", "length_px", "widening_px"):
+        if hasattr(det, attr):
+            info[attr] = getattr(det, attr)
+    if dataclasses.is_dataclass(getattr(det, "config", None)):
+        info["config"] = to_dict(det.config)
+    return info
+
+
+def _summary(
+    result: TrackResult,
+    *,
+    source: str,
+    fps: float,
+    fps_source: str,
+    px_per_mm: float,
+    tracker: TrackerConfig,
+    detector: str | None,
+    model: Any,
+    n_det: int,
+    elapsed: float,
+    prepare: float,
+    size: tuple[int, int] | None,
+    outputs: list[str],
+    detector_options: dict[str, Any] | None,
+) -> dict[str, Any]:
+    n = max(result.n_frames, 1)
+    return {
+        "source": source,
+        "n_frames": result.n_frames,
+        "fps": fps,
+        "fps_source": fps_source,
+        "px_per_mm": px_per_mm,
+        "frame_size": list(size) if size else None,
+        "detector": detector,
+        "model": None if model is None else str(model),
+        "n_detections": n_det,
+        "detections_per_frame": n_det / n,
+        "n_tracks": result.n_tracks,
+        "n_rows": int(result.frames.size),
+        "n_interpolated": int(result.interpolated.sum()),
+        "seconds": elapsed,
+        "prepare_seconds": prepare,
+        "frames_per_second": result.n_frames / elapsed if elapsed > 0 else None,
+        "tracker": to_dict(tracker),
+        "detector_info": detector_options,
+        "outputs": outputs,
+    }
+
+
+def detections_from_table(table: np.ndarray) -> list[FrameDetections]:
+    """Per-frame detections from MOT detection rows (frames 1-based; box centres as body
+    points, head and tail unknown)."""
+    frames = table[:, 0].astype(np.int64)
+    n = int(frames.max())
+    order = np.argsort(frames, kind="stable")
+    bounds = np.searchsorted(frames[order], np.arange(1, n + 2))
+    out = []
+    for f in range(n):
+        rows = table[order[bounds[f] : bounds[f + 1]]]
+        pts = np.full((len(rows), 3, 2), np.nan)
+        pts[:, 1, 0] = rows[:, 2] + rows[:, 4] / 2
+        pts[:, 1, 1] = rows[:, 3] + rows[:, 5] / 2
+        scores = np.clip(np.where(rows[:, 6] < 0, 1.0, rows[:, 6]), 0, 1)
+        out.append(FrameDetections(pts, scores, boxes=rows[:, 2:6]))
+    return out
+
+
+def track_detection_file(
+    detections: str | os.PathLike,
+    out_dir: str | os.PathLike,
+    *,
+    px_per_mm: float,
+    fps: float,
+    tracker_config: TrackerConfig | None = None,
+) -> dict[str, Any]:
+    """Track MOTChallenge detections (no video); write the outputs; return the summary."""
+    from thermoswarm.io.mot import read_mot_table
+
+    path = Path(detections)
+    table = read_mot_table(path)  # an empty file is an InputError naming it
+    if fps is None or not (fps > 0 and np.isfinite(fps)):
+        raise InputError(f"{path}: detections have frame numbers only; pass --fps")
+    out = prepare_output_dir(out_dir)
+    tcfg = tracker_config or TrackerConfig()
+    t0 = time.perf_counter()
+    tracker = Tracker(tcfg, px_per_mm=px_per_mm, fps=fps)
+    dets = detections_from_table(table)
+    for d in dets:
+        tracker.predict()
+        tracker.update(d)
+    result = tracker.finish()
+    elapsed = time.perf_counter() - t0
+    names = _write_outputs(
+        result,
+        out,
+        px_per_mm=px_per_mm,
+        fps=fps,
+        source=str(path),
+        det_rows=None,
+        attrs={"detector": "detections file"},
+    )
+    summary = _summary(
+        result,
+        source=str(path),
+        fps=fps,
+        fps_source="user",
+        px_per_mm=px_per_mm,
+        tracker=tcfg,
+        detector=None,
+        model=None,
+        n_det=int(table.shape[0]),
+        elapsed=elapsed,
+        prepare=0.0,
+        size=None,
+        outputs=names + ["summary.json"],
+        detector_options=None,
+    )
+    atomic_write_json(out / "summary.json", summary)
+    return summary

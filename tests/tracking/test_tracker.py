@@ -1,0 +1,227 @@
+"""Kalman filter and tracker, on detections made from the ground truth."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from tracking_fixtures import small_video
+
+from thermoswarm.errors import ConfigError
+from thermoswarm.tracking import kalman
+from thermoswarm.tracking.detect import FrameDetections
+from thermoswarm.tracking.evaluate import evaluate_tables
+from thermoswarm.tracking.tracker import Tracker, TrackerConfig, track_detections
+
+
+def _gt_detections(video, *, noise=0.0, drop=None, flip_rng=None, seed=0):
+    """Per-frame detections from the true keypoints (optionally noisy, with some ants
+    removed in some frames, or head and tail swapped at random)."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for k in range(video.n_frames):
+        kp = video.keypoints[k]
+        alive = np.flatnonzero(np.isfinite(kp[:, 1, 0]))
+        if drop is not None:
+            alive = np.array([i for i in alive if not drop(k, video.ids[i])], int)
+        pts = kp[alive] + noise * rng.standard_normal((alive.size, 3, 2))
+        hc = None
+        if flip_rng is not None:
+            flip = flip_rng.random(alive.size) < 0.5
+            pts[flip] = pts[flip][:, [2, 1, 0]]
+            hc = np.full(alive.size, 0.5)
+        out.append(FrameDetections(pts, np.ones(alive.size), head_confidence=hc))
+    return out
+
+
+def test_kalman_tracks_constant_velocity_and_nis_is_consistent():
+    rng = np.random.default_rng(3)
+    p = kalman.KalmanParams(r=0.5, q0=0.01, gain=0.0)
+    truth = np.array([10.0, 20.0]) + np.arange(200)[:, None] * np.array([1.5, -0.5])
+    z = truth + 0.5 * rng.standard_normal(truth.shape)
+    x, P = kalman.initial_state(z[:1], p)
+    q = np.array([p.q0])
+    nis = []
+    for k in range(1, 200):
+        x, P = kalman.predict(x, P, q)
+        x, P, n = kalman.update(x, P, z[k : k + 1], p.r)
+        nis.append(n[0])
+    np.testing.assert_allclose(x[0, 2:], [1.5, -0.5], atol=0.1)
+    assert np.linalg.norm(x[0, :2] - truth[-1]) < 0.5
+    # Mean NIS of a consistent filter is 2 (chi-square, 2 dof): 4 standard errors.
+    nis = np.array(nis[20:])
+    assert abs(nis.mean() - 2.0) < 4 * 2.0 / np.sqrt(nis.size)
+
+
+def test_process_noise_adapts_to_manoeuvres():
+    rng = np.random.default_rng(4)
+    p = kalman.KalmanParams(r=0.5, q0=0.05, q_min=0.001, q_max=50.0)
+
+    def run(accel_sd):
+        v = np.cumsum(accel_sd * rng.standard_normal((300, 2)), axis=0)
+        truth = np.cumsum(v, axis=0)
+        z = truth + 0.5 * rng.standard_normal(truth.shape)
+        x, P = kalman.initial_state(z[:1], p)
+        q, m = np.array([p.q0]), np.array([2.0])
+        for k in range(1, 300):
+            x, P = kalman.predict(x, P, q)
+            x, P, n = kalman.update(x, P, z[k : k + 1], p.r)
+            q, m = kalman.adapt(q, m, n, p)
+        return q[0]
+
+    q_steady, q_wild = run(0.01), run(2.0)
+    assert q_wild > 10 * q_steady
+    assert q_wild > p.q0 > q_steady
+
+
+def test_config_is_checked():
+    with pytest.raises(ConfigError, match="n_init"):
+        TrackerConfig(n_init=0)
+    with pytest.raises(ConfigError, match="max_speed_mm_s"):
+        TrackerConfig(max_speed_mm_s=-1)
+
+
+@pytest.fixture(scope="module")
+def video():
+    return small_video(seed=13, n_ants=10, n_frames=150)
+
+
+def test_perfect_detections_give_perfect_tracks(video):
+    res = track_detections(_gt_detections(video), px_per_mm=3.04, fps=30, frame_size=(480, 200))
+    m = evaluate_tables(video.mot_gt, res.mot_table())
+    assert m["mota"] > 0.995 and m["idf1"] > 0.98
+    # Tentative frames are written once a track is confirmed; only an ant that enters
+    # in the last n_init - 1 frames stays unconfirmed.
+    assert m["fn"] <= 2
+    assert m["idsw"] <= 2
+
+
+def test_noisy_detections(video):
+    res = track_detections(_gt_detections(video, noise=0.7, seed=1), px_per_mm=3.04, fps=30)
+    m = evaluate_tables(video.mot_gt, res.mot_table())
+    assert m["mota"] > 0.97 and m["idf1"] > 0.9
+
+
+def test_short_gaps_are_relinked_and_interpolated(video):
+    victim = int(video.ids[0])
+
+    def drop(k, ident):
+        return ident == victim and 40 <= k < 55  # 0.5 s < max_gap_s
+
+    res = track_detections(
+        _gt_detections(video, drop=drop), px_per_mm=3.04, fps=30, frame_size=(480, 200)
+    )
+    m = evaluate_tables(video.mot_gt, res.mot_table())
+    assert m["idsw"] <= 2 and m["fn"] <= 2
+    assert res.interpolated.sum() >= 14
+    # Interpolated body points stay near the truth over half a second.
+    rows = np.flatnonzero(res.interpolated)
+    gt_body = video.keypoints[res.frames[rows], 0, 1]
+    err = np.linalg.norm(res.points[rows, 1] - gt_body, axis=-1)
+    assert np.median(err) < 3.0
+
+
+def test_long_gaps_start_a_new_identity(video):
+    # An ant on the road throughout frames 30..120.
+    vi = int(np.flatnonzero(np.all(np.isfinite(video.keypoints[30:121, :, 1, 0]), axis=0))[0])
+    victim = int(video.ids[vi])
+
+    def drop(k, ident):
+        return ident == victim and 40 <= k < 100  # 2 s > max_gap_s
+
+    cfg = TrackerConfig(max_gap_s=0.5)
+    res = track_detections(_gt_detections(video, drop=drop), px_per_mm=3.04, fps=30, config=cfg)
+
+    def track_at(k):
+        sel = np.flatnonzero(res.frames == k)
+        d = np.linalg.norm(res.points[sel, 1] - video.keypoints[k, vi, 1], axis=-1)
+        return int(res.ids[sel][np.argmin(d)]) if d.min() < 1e-6 else None
+
+    before, after = track_at(39), track_at(110)
+    assert before is not None and after is not None and before != after
+    assert not np.any(res.interpolated)
+
+
+def test_spurious_detections_do_not_make_tracks(video):
+    rng = np.random.default_rng(2)
+    dets = _gt_detections(video)
+    noisy = []
+    for d in dets:
+        if rng.random() < 0.3:  # an isolated false detection, never repeated
+            junk = np.array([[[5.0, 5.0], [0.0, 5.0], [-5.0, 5.0]]]) + rng.uniform(
+                [0, 0], [480, 200]
+            )
+            d = FrameDetections(np.concatenate([d.points, junk]), np.append(d.scores, 1.0))
+        noisy.append(d)
+    res = track_detections(noisy, px_per_mm=3.04, fps=30)
+    m = evaluate_tables(video.mot_gt, res.mot_table())
+    assert m["fp"] == 0
+
+
+def test_head_and_tail_from_motion(video):
+    # The detector cannot tell head from tail (random order, confidence 0.5): the
+    # tracker orients the ants by their motion.
+    dets = _gt_detections(video, flip_rng=np.random.default_rng(5))
+    res = track_detections(dets, px_per_mm=3.04, fps=30)
+    gt_ax = video.keypoints[res.frames, :, 0] - video.keypoints[res.frames, :, 2]
+    body = video.keypoints[res.frames, :, 1]
+    nearest = np.nanargmin(np.linalg.norm(body - res.points[:, None, 1], axis=-1), axis=1)
+    gt_ax = gt_ax[np.arange(len(nearest)), nearest]
+    ax = res.points[:, 0] - res.points[:, 2]
+    agree = (gt_ax * ax).sum(-1) > 0
+    speed = video.tracks["speed"].values[res.frames, nearest]
+    moving = speed > 5.0  # mm/s
+    assert agree[moving].mean() > 0.95
+
+
+def test_output_is_final_after_the_lag(video):
+    dets = _gt_detections(video, noise=0.5, seed=3)
+    tr = Tracker(px_per_mm=3.04, fps=30)
+    popped = {}
+    for d in dets:
+        tr.predict()
+        tr.update(d)
+        for f, rows in tr.pop_final():
+            popped[f] = rows
+    for f, rows in tr.flush():
+        popped[f] = rows
+    res = tr.finish()
+    assert sorted(popped) == list(range(video.n_frames))
+    for f in (10, 75, 149):
+        sel = res.frames == f
+        got = sorted((i, tuple(p[1])) for i, p, _ in popped[f])
+        want = sorted((i, tuple(p[1])) for i, p in zip(res.ids[sel], res.points[sel], strict=True))
+        assert got == want
+
+
+def test_box_only_detections(video):
+    from thermoswarm.tracking.pipeline import detections_from_table
+
+    table = video.mot_gt.copy()
+    table[:, 1] = -1
+    res = track_detections(detections_from_table(table), px_per_mm=3.04, fps=30)
+    m = evaluate_tables(video.mot_gt, res.mot_table())
+    assert m["mota"] > 0.99
+    assert np.all(np.isnan(res.points[:, 0]))
+    ds = res.dataset(px_per_mm=3.04, fps=30)
+    assert ds["position"].sel(keypoints="body").notnull().any()
+
+
+def test_impossible_speeds_are_removed():
+    # One track moving 1 px/frame; row 5 misplaced by 30 px (a spike), and from row 12
+    # on the track sits 30 px away (a jump).  At 30 fps and 3.04 px/mm, 100 mm/s is
+    # 10.1 px/frame.
+    tr = Tracker(px_per_mm=3.04, fps=30)
+    n = 20
+    frames = np.arange(n)
+    ids = np.ones(n, np.int64)
+    body = np.column_stack([np.arange(n, dtype=float), np.zeros(n)])
+    body[5, 1] += 30
+    body[12:, 1] += 30
+    pts = np.repeat(body[:, None, :], 3, axis=1) + np.array([[4.0, 0], [0, 0], [-4.0, 0]])
+    boxes = np.column_stack([body - 5, np.full((n, 2), 10.0)])
+    scores = np.ones(n)
+    interp = np.zeros(n, bool)
+    drop = tr._fix_jumps(frames, ids, pts, boxes, scores, interp)
+    np.testing.assert_allclose(pts[5, 1], [5.0, 0.0])
+    assert interp[5] and scores[5] == 0 and interp.sum() == 1
+    assert np.flatnonzero(drop).tolist() == [12]
