@@ -1,0 +1,34 @@
+"""Analysis of trajectories from any source: kinematics, maximum-entropy fits, the study.
+
+- :mod:`~thermoswarm.analysis.kinematics`: speed, energy, heading, steering rate per step,
+  with every messy case of real tracks handled and counted;
+- :mod:`~thermoswarm.analysis.fit`: one and two exponentials, bootstrap goodness of fit,
+  bootstrap likelihood-ratio test, BIC;
+- :mod:`~thermoswarm.analysis.sampling`: the thinned test sample the tests run on;
+- :mod:`~thermoswarm.analysis.regions`: named polygons from TOML;
+- :mod:`~thermoswarm.analysis.study`: the paper's study (:func:`analyze_tracks`);
+- :mod:`~thermoswarm.analysis.figures`: paper-style panels and the HTML report;
+- :mod:`~thermoswarm.analysis.synthetic`: tracks drawn from known laws.
+"""
+
+from thermoswarm.analysis.fit import (
+    ExponentialFit,
+    ExponentialMixtureFit,
+    compare_phases,
+    goodness_of_fit,
+    likelihood_ratio_test,
+)
+from thermoswarm.analysis.kinematics import compute_kinematics
+from thermoswarm.analysis.study import analyze_file, analyze_tracks, run_study
+
+__all__ = [
+    "ExponentialFit",
+    "ExponentialMixtureFit",
+    "compare_phases",
+    "goodness_of_fit",
+    "likelihood_ratio_test",
+    "compute_kinematics",
+    "analyze_tracks",
+    "analyze_file",
+    "run_study",
+]

@@ -1,0 +1,294 @@
+"""``thermoswarm analyze``: the paper's statistics of any trajectories.
+
+Thin: parses the options, calls :func:`thermoswarm.analysis.study.analyze_file`, prints a
+summary.  Every option is documented in ``docs/analysis.md``.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import click
+
+from thermoswarm.errors import ConfigError
+
+#: Data-quality counters worth a line on the terminal when they are not zero.
+_NOTABLE = (
+    ("n_missing_timestamps", "rows without a timestamp dropped"),
+    ("n_decreasing_timestamps", "backward time steps (rows sorted)"),
+    ("n_repeated_timestamps", "rows with a repeated timestamp merged"),
+    ("n_irregular_steps", "irregular time steps"),
+    ("n_time_gaps", "time gaps (steps not used)"),
+    ("n_gaps", "gaps in tracks"),
+    ("n_interpolated_positions", "positions interpolated"),
+    ("n_steps_over_max_speed", "steps over --max-speed dropped"),
+    ("n_zero_speed", "steps at zero speed (heading undefined)"),
+    ("n_steering_near_wrap", "turns near half a circle (ambiguous)"),
+    ("n_stationary_periods", "long stationary periods"),
+)
+
+
+def parse_read_options(items: tuple[str, ...]) -> dict[str, Any]:
+    """``("key=value", ...)`` -> dict; values are TOML (``true``, ``3``, ``"a"``, ``[1, 2]``),
+    bare words are strings."""
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise ConfigError(f"--read-option {item!r}: expected KEY=VALUE")
+        try:
+            value = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text.strip()
+        if key in out:
+            raise ConfigError(f"--read-option {key!r} is given twice")
+        out[key] = value
+    return out
+
+
+def _thin(value: str) -> str | int:
+    if value == "auto":
+        return "auto"
+    try:
+        step = int(value)
+    except ValueError:
+        step = 0
+    if step < 1:
+        raise ConfigError(f"--thin must be 'auto' or an integer >= 1, got {value!r}")
+    return step
+
+
+def _fmt(v: Any, spec: str = ".4g") -> str:
+    return "-" if v is None else format(v, spec)
+
+
+@click.command("analyze")
+@click.argument("input", type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    "-o",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Output directory (its parent must exist).",
+)
+@click.option("--format", "fmt", default=None, help="Input format name (default: detected).")
+@click.option("--fps", type=float, default=None, help="Frame rate, for frame-numbered input.")
+@click.option(
+    "--px-per-mm",
+    default=None,
+    help="Scale of pixel-based input: a number or the preset 'paper' (3.04).",
+)
+@click.option(
+    "--regions",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="TOML file of named polygons in mm.",
+)
+@click.option(
+    "--group-by", multiple=True, help="A data variable, 'time:SECONDS' or 'region'; repeatable."
+)
+@click.option(
+    "--mass",
+    type=float,
+    default=None,
+    help="Mass in kg: energies m v^2/2 in J (default v^2/2 in mm^2/s^2).",
+)
+@click.option(
+    "--smooth",
+    type=float,
+    default=None,
+    metavar="SECONDS",
+    help="Savitzky-Golay smoothing window of positions.",
+)
+@click.option(
+    "--bootstrap",
+    "n_bootstrap",
+    type=int,
+    default=200,
+    show_default=True,
+    help="Bootstrap replicates of every test (0: none).",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of every draw.")
+@click.option(
+    "--allow-pickle", is_flag=True, help="Let readers load pickled data (trusted files)."
+)
+@click.option(
+    "--read-option",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="Option for the reader (TOML value); repeatable.",
+)
+@click.option(
+    "--energy-bins",
+    default="8",
+    show_default=True,
+    help="Steering bins: a count (equal-count) or comma-separated edges.",
+)
+@click.option(
+    "--steering-by",
+    type=click.Choice(["energy", "speed"]),
+    default="energy",
+    show_default=True,
+    help="Variable of the steering bins.",
+)
+@click.option(
+    "--test-size",
+    type=int,
+    default=10_000,
+    show_default=True,
+    help="Largest sample of the bootstrap tests.",
+)
+@click.option(
+    "--thin",
+    default="auto",
+    show_default=True,
+    help="Thinning step of the test sample: 'auto' (autocorrelation time) or N.",
+)
+@click.option(
+    "--alpha",
+    type=float,
+    default=0.05,
+    show_default=True,
+    help="Level of the LR test and the intervals.",
+)
+@click.option(
+    "--min-speed",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Heading undefined at or below this speed (mm/s).",
+)
+@click.option("--max-speed", type=float, default=None, help="Drop steps faster than this (mm/s).")
+@click.option(
+    "--max-gap",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Interpolate missing positions over gaps up to this long (s).",
+)
+@click.option(
+    "--gap-factor",
+    type=float,
+    default=2.0,
+    show_default=True,
+    help="Steps longer than this many median steps are gaps.",
+)
+@click.option("--keypoint", default=None, help="Keypoint to follow (default: the centroid).")
+@click.option(
+    "--min-confidence",
+    type=float,
+    default=None,
+    help="Treat positions with lower confidence as missing.",
+)
+@click.option(
+    "--drop-stationary", is_flag=True, help="Leave long stationary periods out of the energies."
+)
+@click.option("--no-report", is_flag=True, help="Skip report.html.")
+@click.option("--quiet", "-q", is_flag=True, help="No progress on stderr.")
+def analyze(
+    input: Path,
+    out: Path,
+    fmt: str | None,
+    fps: float | None,
+    px_per_mm: str | None,
+    regions: Path | None,
+    group_by: tuple[str, ...],
+    mass: float | None,
+    smooth: float | None,
+    n_bootstrap: int,
+    seed: int,
+    allow_pickle: bool,
+    read_option: tuple[str, ...],
+    energy_bins: str,
+    steering_by: str,
+    test_size: int,
+    thin: str,
+    alpha: float,
+    min_speed: float,
+    max_speed: float | None,
+    max_gap: float,
+    gap_factor: float,
+    keypoint: str | None,
+    min_confidence: float | None,
+    drop_stationary: bool,
+    no_report: bool,
+    quiet: bool,
+) -> None:
+    """Fit the maximum-entropy laws to the trajectories in INPUT.
+
+    Writes OUT/fits.json, OUT/report.html and OUT/kinematics.nc.
+    """
+    from thermoswarm.analysis.study import analyze_file
+
+    read_options = parse_read_options(read_option)
+    if allow_pickle:
+        read_options["allow_pickle"] = True
+    if fps is not None and not fps > 0:
+        raise ConfigError(f"--fps must be a positive number, got {fps!r}")
+
+    def progress(msg: str) -> None:
+        if not quiet:
+            click.echo(f"analyze: {msg}", err=True)
+
+    result = analyze_file(
+        input,
+        out,
+        format=fmt,
+        fps=fps,
+        px_per_mm=px_per_mm,
+        read_options=read_options,
+        regions=regions,
+        group_by=group_by,
+        mass=mass,
+        smooth=smooth,
+        n_bootstrap=n_bootstrap,
+        seed=seed,
+        energy_bins=energy_bins,
+        steering_by=steering_by,
+        test_size=test_size,
+        thin=_thin(thin),
+        alpha=alpha,
+        min_speed=min_speed,
+        max_speed=max_speed,
+        max_gap=max_gap,
+        gap_factor=gap_factor,
+        keypoint=keypoint,
+        min_confidence=min_confidence,
+        drop_stationary=drop_stationary,
+        report=not no_report,
+        progress=progress,
+    )
+    fits = result.fits
+    unit = fits["units"]["energy"]
+    click.echo(f"{fits['n_tracks']} tracks, {fits['n_samples']} energy samples ({unit})")
+    dq = fits["data_quality"]
+    notes = [f"{dq[k]} {text}" for k, text in _NOTABLE if dq.get(k)]
+    if notes:
+        click.echo("data quality: " + "; ".join(notes))
+    e = fits["energy"]
+    if "one_phase" in e:
+        two = e["two_phase"]
+        click.echo(
+            f"energy: {e['preferred']} preferred ({e['preferred_by']}; LR p = "
+            f"{_fmt(e['lr_p_value'], '.3g')}, n = {e['lr_n']}); one phase kT = "
+            f"{_fmt(e['one_phase']['kT'])}; two phases phi = {_fmt(two['phi'], '.3f')}, "
+            f"kT1 = {_fmt(two['kT1'])}, kT2 = {_fmt(two['kT2'])}"
+        )
+    else:
+        click.echo(f"energy: not fitted ({e.get('skipped')})")
+    tr = fits["steering"].get("trend", {})
+    if tr.get("slope") is not None:
+        click.echo(
+            f"steering: kT_theta {tr['direction']} with energy (slope {tr['slope']:.3g}, "
+            f"p = {_fmt(tr['p_value'], '.3g')}, {tr['k']} bins)"
+        )
+    for d in fits.get("regions", {}).get("differences", []):
+        click.echo(
+            f"regions: hot fraction {d['a']} - {d['b']} = {d['difference']:+.3f} "
+            f"(p = {_fmt(d['p_value'], '.3g')})"
+        )
+    files = ["fits.json", "kinematics.nc"] + ([] if no_report else ["report.html"])
+    click.echo("wrote " + ", ".join(str(out / f) for f in files))
