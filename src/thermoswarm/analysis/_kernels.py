@@ -197,3 +197,127 @@ def ks_sorted_exponential(zs, k):  # pragma: no cover - compiled
         if dm > d:
             d = dm
     return d
+
+
+# --------------------------------------------------------------------------------------
+# Weighted versions: sample ``z[i]`` counts ``c[i]`` times (groups of sorted data).
+
+
+@njit(cache=True, nogil=True)
+def em_steps_w(z, c, phi, k1, k2, n_steps, tol):  # pragma: no cover - compiled
+    """:func:`em_steps` on weighted samples."""
+    n = 0.0
+    sz = 0.0
+    for i in range(z.size):
+        n += c[i]
+        sz += c[i] * z[i]
+    ll_old = -np.inf
+    ll = -np.inf
+    steps = 0
+    for _ in range(n_steps):
+        lp1 = math.log(phi) - math.log(k1)
+        lp2 = math.log1p(-phi) - math.log(k2)
+        i1 = 1.0 / k1
+        i2 = 1.0 / k2
+        ll = 0.0
+        sr = 0.0
+        srz = 0.0
+        for i in range(z.size):
+            a = lp1 - z[i] * i1
+            b = lp2 - z[i] * i2
+            if a > b:
+                e = math.exp(b - a)
+                ll += c[i] * (a + math.log1p(e))
+                r = e / (1.0 + e)
+            else:
+                e = math.exp(a - b)
+                ll += c[i] * (b + math.log1p(e))
+                r = 1.0 / (1.0 + e)
+            sr += c[i] * r
+            srz += c[i] * r * z[i]
+        if ll - ll_old < tol:
+            break
+        ll_old = ll
+        steps += 1
+        if sr <= 0.0 or sr >= n:
+            break
+        phi_new = 1.0 - sr / n
+        k1_new = (sz - srz) / (n - sr)
+        k2_new = srz / sr
+        if not (0.0 < phi_new < 1.0 and k1_new > 0.0 and k2_new > 0.0):
+            break
+        phi, k1, k2 = phi_new, k1_new, k2_new
+    return phi, k1, k2, ll, steps
+
+
+@njit(cache=True, nogil=True)
+def loglik_w(z, c, phi, k1, k2):  # pragma: no cover - compiled
+    """:func:`loglik` on weighted samples."""
+    lp1 = math.log(phi) - math.log(k1)
+    lp2 = math.log1p(-phi) - math.log(k2)
+    i1 = 1.0 / k1
+    i2 = 1.0 / k2
+    ll = 0.0
+    for i in range(z.size):
+        a = lp1 - z[i] * i1
+        b = lp2 - z[i] * i2
+        if a > b:
+            ll += c[i] * (a + math.log1p(math.exp(b - a)))
+        else:
+            ll += c[i] * (b + math.log1p(math.exp(a - b)))
+    return ll
+
+
+@njit(cache=True, nogil=True)
+def grad_hess_w(z, c, phi, k1, k2):  # pragma: no cover - compiled
+    """:func:`grad_hess` on weighted samples."""
+    lp1 = math.log(phi) - math.log(k1)
+    lp2 = math.log1p(-phi) - math.log(k2)
+    i1 = 1.0 / k1
+    i2 = 1.0 / k2
+    pq = phi * (1.0 - phi)
+    ll = 0.0
+    g0 = g1 = g2 = 0.0
+    h00 = h01 = h02 = h11 = h12 = h22 = 0.0
+    d1a = 1.0 - phi
+    d2a = -phi
+    for i in range(z.size):
+        zi = z[i]
+        ci = c[i]
+        a = lp1 - zi * i1
+        b = lp2 - zi * i2
+        if a > b:
+            e = math.exp(b - a)
+            ll += ci * (a + math.log1p(e))
+            r = e / (1.0 + e)
+        else:
+            e = math.exp(a - b)
+            ll += ci * (b + math.log1p(e))
+            r = 1.0 / (1.0 + e)
+        s = 1.0 - r
+        d1u = zi * i1 - 1.0
+        d2w = zi * i2 - 1.0
+        ga = s * d1a + r * d2a
+        gu = s * d1u
+        gw = r * d2w
+        g0 += ci * ga
+        g1 += ci * gu
+        g2 += ci * gw
+        h00 += ci * (-pq + s * d1a * d1a + r * d2a * d2a - ga * ga)
+        h01 += ci * (s * d1a * d1u - ga * gu)
+        h02 += ci * (r * d2a * d2w - ga * gw)
+        h11 += ci * (s * (d1u * d1u - zi * i1) - gu * gu)
+        h12 += ci * (-gu * gw)
+        h22 += ci * (r * (d2w * d2w - zi * i2) - gw * gw)
+    g = np.empty(3)
+    g[0] = g0
+    g[1] = g1
+    g[2] = g2
+    H = np.empty((3, 3))
+    H[0, 0] = h00
+    H[0, 1] = H[1, 0] = h01
+    H[0, 2] = H[2, 0] = h02
+    H[1, 1] = h11
+    H[1, 2] = H[2, 1] = h12
+    H[2, 2] = h22
+    return ll, g, H

@@ -163,10 +163,10 @@ def regions_from_mapping(data: Mapping[str, Any], *, source: str = "regions") ->
         else:
             v = _vertices(item["polygon"], where)
         reg = Region(name, v)
-        if not reg.area > 0:
-            raise ConfigError(f"{where}.polygon has zero area")
         if _self_intersecting(v):
             raise ConfigError(f"{where}.polygon crosses itself")
+        if not reg.area > 0:
+            raise ConfigError(f"{where}.polygon has zero area")
         regions.append(reg)
     return regions
 

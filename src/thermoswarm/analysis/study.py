@@ -59,7 +59,12 @@ from thermoswarm.analysis.fit import (
 )
 from thermoswarm.analysis.kinematics import compute_kinematics, data_quality
 from thermoswarm.analysis.regions import OUTSIDE, Region, assign_regions, load_regions
-from thermoswarm.analysis.sampling import draw_test_sample, integrated_autocorr_time
+from thermoswarm.analysis.sampling import (
+    autocorrelation,
+    decorrelation_lag,
+    draw_test_sample,
+    integrated_autocorr_time,
+)
 from thermoswarm.errors import ConfigError, InputError
 
 __all__ = [
@@ -215,15 +220,29 @@ class StudyResult:
     regions: list[Region] = field(default_factory=list)
 
 
-def _test_sample_info(info: dict[str, Any]) -> dict[str, Any]:
-    return {k: info[k] for k in ("n", "n_available", "tau_int", "thinning_step", "max_n")}
+def _dependence(values: np.ndarray, valid: np.ndarray) -> dict[str, Any]:
+    """Within-track dependence of a variable: decorrelation lag and tau (in steps)."""
+    rho = autocorrelation(values, valid)
+    tau = integrated_autocorr_time(values, valid, rho=rho)
+    return {
+        "decorrelation_lag": decorrelation_lag(values, valid, rho=rho),
+        "tau_int": None if not np.isfinite(tau) else float(tau),
+    }
+
+
+def _test_sample_info(info: dict[str, Any], dep: dict[str, Any]) -> dict[str, Any]:
+    out = {k: info[k] for k in ("n", "n_available", "thinning_step", "max_n")}
+    out.update(dep)
+    if "note" in info:
+        out["note"] = info["note"]
+    return out
 
 
 def _phase_block(
     energy: np.ndarray,
     mask: np.ndarray,
     *,
-    tau: float,
+    dep: dict[str, Any],
     n_bootstrap: int,
     test_size: int | None,
     thin: str | int,
@@ -239,7 +258,9 @@ def _phase_block(
             "n": int(x.size),
             "skipped": f"fewer than {MIN_SAMPLES} positive energies ({n_pos})",
         }, None
-    tx, info = draw_test_sample(energy, mask, max_n=test_size, thin=thin, tau=tau, rng=rng)
+    tx, info = draw_test_sample(
+        energy, mask, max_n=test_size, thin=thin, step=dep["decorrelation_lag"], rng=rng
+    )
     reuse = info["thinning_step"] == 1 and info["n"] == info["n_available"]
     if not reuse and int((tx > 0).sum()) < MIN_SAMPLES:
         tx = None
@@ -253,7 +274,7 @@ def _phase_block(
         random_state=rng,
     )
     out = cmp_.to_dict()
-    out["test_sample"] = _test_sample_info(info)
+    out["test_sample"] = _test_sample_info(info, dep)
     return out, cmp_
 
 
@@ -460,8 +481,8 @@ def _steering_block(
     else:
         edges = np.asarray(bins, dtype=float)
     keep["edges"] = edges
-    tau = integrated_autocorr_time(mag, ok)
-    out["tau_int"] = None if not np.isfinite(tau) else float(tau)
+    dep = _dependence(mag, ok)
+    out.update(dep)
     codes = np.searchsorted(edges, xvar, side="right") - 1
     codes[xvar == edges[-1]] = edges.size - 2  # the last bin is closed on the right
     codes = np.where(ok & (codes >= 0) & (codes < edges.size - 1), codes, -1)
@@ -492,7 +513,12 @@ def _steering_block(
             continue
         fit = ExponentialFit().fit(pos)
         tx, info = draw_test_sample(
-            np.where(mag > 0, mag, np.nan), m, max_n=test_size, thin=thin, tau=tau, rng=rng
+            np.where(mag > 0, mag, np.nan),
+            m,
+            max_n=test_size,
+            thin=thin,
+            step=dep["decorrelation_lag"],
+            rng=rng,
         )
         if tx.size < MIN_SAMPLES:
             tx, info = pos, {**info, "n": int(pos.size), "thinning_step": 1}
@@ -500,7 +526,12 @@ def _steering_block(
         nks = naive_ks(pos, fit.law_)
         signs = rate[m][vals > 0]
         tsigns, _ = draw_test_sample(
-            np.where(mag > 0, rate, np.nan), m, max_n=test_size, thin=thin, tau=tau, rng=rng
+            np.where(mag > 0, rate, np.nan),
+            m,
+            max_n=test_size,
+            thin=thin,
+            step=dep["decorrelation_lag"],
+            rng=rng,
         )
         n_pos_sign = int((tsigns > 0).sum())
         sign_p = (
@@ -515,7 +546,7 @@ def _steering_block(
             naive=dict(zip(("ks", "p_value", "n"), nks, strict=True)),
             fraction_positive=float((signs > 0).mean()),
             sign_p_value=sign_p,
-            test_sample=_test_sample_info(info),
+            test_sample=_test_sample_info(info, dep),
         )
         out["bins"].append(entry)
         keep["fits"].append(fit)
@@ -849,9 +880,9 @@ def run_study(
     result = StudyResult(fits, kin, regions=regions)
 
     say("energy: one vs two phases")
-    tau_e = integrated_autocorr_time(energy, valid)
+    dep_e = _dependence(energy, valid)
     block, cmp_ = _phase_block(
-        energy, valid, tau=tau_e, n_bootstrap=n_bootstrap, test_size=test_size, thin=thin,
+        energy, valid, dep=dep_e, n_bootstrap=n_bootstrap, test_size=test_size, thin=thin,
         alpha=alpha, seed=s_energy,
     )  # fmt: skip
     block["unit"] = e_unit
@@ -875,7 +906,7 @@ def run_study(
         for j, (label, lseed) in enumerate(zip(labels, gseed.spawn(len(labels)), strict=True)):
             m = valid & (codes == j)
             blk, c = _phase_block(
-                energy, m, tau=tau_e, n_bootstrap=n_bootstrap, test_size=test_size,
+                energy, m, dep=dep_e, n_bootstrap=n_bootstrap, test_size=test_size,
                 thin=thin, alpha=alpha, seed=lseed,
             )  # fmt: skip
             blk["n_tracks"] = int(m.any(axis=0).sum())

@@ -1,0 +1,95 @@
+"""``thermoswarm analyze`` end to end through click, and its one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from thermoswarm.analysis.synthetic import synthetic_tracks
+from thermoswarm.cli import cli
+from thermoswarm.cli.analyze import parse_read_options
+from thermoswarm.errors import ConfigError
+from thermoswarm.io import write_tracks
+from thermoswarm.maxent import EnergyMixture
+
+
+@pytest.fixture(scope="module")
+def tracks_file(tmp_path_factory):
+    ds, _ = synthetic_tracks(12, 151, energy=EnergyMixture(0.6, 20.0, 80.0), fps=25.0, rng=5)
+    ds["colony"] = ("individuals", np.array(["A", "B"] * 6))
+    path = tmp_path_factory.mktemp("cli") / "tracks.nc"
+    write_tracks(ds, path)
+    return path
+
+
+def run(*args):
+    return CliRunner().invoke(cli, ["analyze", *map(str, args)])
+
+
+def test_analyze_writes_outputs_and_prints_a_summary(tracks_file, tmp_path):
+    regions = tmp_path / "regions.toml"
+    regions.write_text('[[region]]\nname = "all"\nrect = [-1e5, -1e5, 1e5, 1e5]\n')
+    out = tmp_path / "out"
+    res = run(tracks_file, "--out", out, "--bootstrap", 19, "--seed", 3, "--regions", regions,
+              "--group-by", "colony", "--group-by", "time:3", "--energy-bins", "4",
+              "--test-size", 1000, "-q")  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert "12 tracks, 1800 energy samples (mm^2/s^2)" in res.output
+    assert "wrote" in res.output
+    fits = json.loads((out / "fits.json").read_text())
+    assert list(fits["groups"]) == ["colony", "time:3"]
+    assert list(fits["groups"]["colony"]["levels"]) == ["A", "B"]
+    assert len(fits["steering"]["bins"]) == 4
+    assert fits["settings"]["seed"] == 3 and fits["settings"]["n_bootstrap"] == 19
+    assert (out / "kinematics.nc").stat().st_size > 0
+    assert (out / "report.html").read_text().count("data:image/png;base64,") >= 4
+
+
+def test_no_report_and_mass(tracks_file, tmp_path):
+    out = tmp_path / "o"
+    res = run(tracks_file, "--out", out, "--bootstrap", 0, "--mass", 1e-5, "--no-report", "-q")
+    assert res.exit_code == 0, res.output
+    assert not (out / "report.html").exists()
+    assert json.loads((out / "fits.json").read_text())["units"]["energy"] == "J"
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["--group-by", "nothing"], "no such data variable"),
+        (["--energy-bins", "x,y"], "edges must be numbers"),
+        (["--thin", "zero"], "--thin"),
+        (["--read-option", "novalue"], "KEY=VALUE"),
+        (["--read-option", "columns=3"], "netcdf takes no options"),
+        (["--fps", "-1"], "--fps"),
+        (["--smooth", "0"], "smooth"),
+        (["--regions", "missing.toml"], "does not exist"),
+        (["--format", "nosuch"], "unknown input format"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(tracks_file, tmp_path, args, match):
+    res = run(tracks_file, "--out", tmp_path / "o", "--bootstrap", 0, "-q", *args)
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), res.output
+    assert match in lines[0]
+    assert "Traceback" not in res.output
+
+
+def test_missing_input_and_missing_parent(tmp_path, tracks_file):
+    res = run(tmp_path / "none.nc", "--out", tmp_path / "o")
+    assert res.exit_code == 2 and "no such file" in res.output
+    res = run(tracks_file, "--out", tmp_path / "a" / "b")
+    assert res.exit_code == 2 and "does not exist" in res.output
+    assert not (tmp_path / "a").exists()
+
+
+def test_read_options_are_toml_values():
+    assert parse_read_options(("a=1", "b=true", 'c="x"', "d=word", "e=[1, 2]")) == {
+        "a": 1, "b": True, "c": "x", "d": "word", "e": [1, 2],
+    }  # fmt: skip
+    with pytest.raises(ConfigError, match="twice"):
+        parse_read_options(("a=1", "a=2"))
