@@ -31,6 +31,8 @@ def test_lr_and_one_phase_gof_are_calibrated_under_one_phase():
         lr += likelihood_ratio_test(x, n_bootstrap=B, random_state=rng).p_value <= 0.05
         gof += goodness_of_fit("one_phase", x, n_bootstrap=B, random_state=rng).p_value <= 0.05
         naive += naive_ks(x, EnergyLaw(x.mean()))[1] <= 0.05
+    print(f"\ncalibration, one phase, n=200: LR {lr / N_DATASETS:.3f}, KS {gof / N_DATASETS:.3f}, "
+          f"naive KS {naive / N_DATASETS:.3f}")  # fmt: skip
     assert abs(lr / N_DATASETS - 0.05) <= TOL, lr
     assert abs(gof / N_DATASETS - 0.05) <= TOL, gof
     # The paper's p-value (fitted law taken as known) hardly ever rejects: miscalibrated.
@@ -45,6 +47,7 @@ def test_two_phase_gof_is_calibrated_under_two_phases():
     for _ in range(N_DATASETS):
         x = law.sample(rng, 300)
         rej += goodness_of_fit("two_phase", x, n_bootstrap=B, random_state=rng).p_value <= 0.05
+    print(f"\ncalibration, two phases, n=300: KS {rej / N_DATASETS:.3f}")
     assert abs(rej / N_DATASETS - 0.05) <= TOL, rej
 
 
@@ -67,6 +70,8 @@ def test_thinning_keeps_the_test_calibrated_on_autocorrelated_tracks():
         thinned += p <= 0.05
         p = goodness_of_fit("one_phase", held.ravel(), n_bootstrap=B, random_state=rng).p_value
         raw += p <= 0.05
+    print(f"\ncalibration, held 5 frames: thinned {thinned / N_DATASETS:.3f}, "
+          f"all frames {raw / N_DATASETS:.3f}, median step {np.median(steps)}")  # fmt: skip
     assert np.median(steps) == 5
     assert abs(thinned / N_DATASETS - 0.05) <= TOL, thinned
     assert raw / N_DATASETS > 0.2, raw

@@ -10,7 +10,7 @@ import xarray as xr
 from analysis_helpers import MIXTURE, STEER_T
 
 from thermoswarm.analysis.regions import regions_from_mapping
-from thermoswarm.analysis.study import analyze_file, analyze_tracks, run_study
+from thermoswarm.analysis.study import analyze_file, analyze_tracks, high_T_fraction, run_study
 from thermoswarm.analysis.synthetic import synthetic_tracks
 from thermoswarm.errors import ConfigError
 from thermoswarm.fsutil import dumps_json
@@ -258,3 +258,21 @@ def test_analyze_file_writes_three_outputs(tmp_path, two_phase_tracks):
     assert html.startswith("<!DOCTYPE html>") and "data:image/png;base64," in html
     assert 'src="http' not in html and "<link" not in html  # self-contained
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporaries left
+
+
+def test_high_T_fraction_with_fixed_temperatures():
+    rng = np.random.default_rng(50)
+    x = EnergyMixture(0.7, 20.0, 80.0).sample(rng, 5000)
+    w, se = high_T_fraction(x, 20.0, 80.0)
+    assert within(w, 0.3, se)
+    assert se == pytest.approx(np.sqrt(0.3 * 0.7 / 5000), rel=1.0)  # same order as binomial
+    assert high_T_fraction(np.full(100, 1e-3), 20.0, 80.0)[0] == 0.0  # all cold-looking
+    assert high_T_fraction(np.full(100, 1e3), 20.0, 80.0)[0] == 1.0  # all hot-looking
+
+
+def test_few_tracks_are_cut_into_time_blocks_for_the_bootstrap():
+    ds, _ = synthetic_tracks(2, 2001, energy=MIXTURE, fps=25.0, rng=51)
+    reg = analyze_tracks(ds, regions=HALVES, n_bootstrap=50, test_size=500, seed=1)["regions"]
+    assert reg["bootstrap"]["clusters"].startswith("10 contiguous time blocks of each of 2")
+    present = [lv for lv in reg["levels"].values() if lv.get("high_T_fraction") is not None]
+    assert present and all(lv["se"] > 0 for lv in present)

@@ -771,7 +771,6 @@ class PhaseComparison:
         d_one = {
             "kT": one.kT_,
             "kT_se": one.kT_se_,
-            "mean_energy": one.kT_,
             "n_fit": one.n_,
             "loglik": one.loglik_,
             "aic": one.aic(),

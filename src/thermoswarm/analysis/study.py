@@ -258,14 +258,15 @@ def _phase_block(
             "n": int(x.size),
             "skipped": f"fewer than {MIN_SAMPLES} positive energies ({n_pos})",
         }, None
+    positive = mask & (energy > 0)
     tx, info = draw_test_sample(
-        energy, mask, max_n=test_size, thin=thin, step=dep["decorrelation_lag"], rng=rng
+        energy, positive, max_n=test_size, thin=thin, step=dep["decorrelation_lag"], rng=rng
     )
     reuse = info["thinning_step"] == 1 and info["n"] == info["n_available"]
-    if not reuse and int((tx > 0).sum()) < MIN_SAMPLES:
+    if not reuse and tx.size < MIN_SAMPLES:
         tx = None
         reuse = True
-        info = {**info, "n": int(x.size), "thinning_step": 1, "note": "too few to thin"}
+        info = {**info, "n": n_pos, "thinning_step": 1, "note": "too few to thin"}
     cmp_ = compare_phases(
         x,
         test_x=None if reuse else tx,
@@ -483,6 +484,7 @@ def _steering_block(
     keep["edges"] = edges
     dep = _dependence(mag, ok)
     out.update(dep)
+    nonzero = ok & (mag > 0)
     codes = np.searchsorted(edges, xvar, side="right") - 1
     codes[xvar == edges[-1]] = edges.size - 2  # the last bin is closed on the right
     codes = np.where(ok & (codes >= 0) & (codes < edges.size - 1), codes, -1)
@@ -512,31 +514,24 @@ def _steering_block(
             keep["masks"].append(m)
             continue
         fit = ExponentialFit().fit(pos)
-        tx, info = draw_test_sample(
-            np.where(mag > 0, mag, np.nan),
-            m,
+        # one thinned draw of signed rates: magnitudes for the KS test, signs for the
+        # sign test
+        ts, info = draw_test_sample(
+            rate,
+            m & nonzero,
             max_n=test_size,
             thin=thin,
             step=dep["decorrelation_lag"],
             rng=rng,
         )
-        if tx.size < MIN_SAMPLES:
-            tx, info = pos, {**info, "n": int(pos.size), "thinning_step": 1}
-        gof = goodness_of_fit("one_phase", tx, n_bootstrap=n_bootstrap, random_state=rng)
+        if ts.size < MIN_SAMPLES:
+            ts = rate[m & nonzero]
+            info = {**info, "n": int(ts.size), "thinning_step": 1, "note": "too few to thin"}
+        gof = goodness_of_fit("one_phase", np.abs(ts), n_bootstrap=n_bootstrap, random_state=rng)
         nks = naive_ks(pos, fit.law_)
         signs = rate[m][vals > 0]
-        tsigns, _ = draw_test_sample(
-            np.where(mag > 0, rate, np.nan),
-            m,
-            max_n=test_size,
-            thin=thin,
-            step=dep["decorrelation_lag"],
-            rng=rng,
-        )
-        n_pos_sign = int((tsigns > 0).sum())
-        sign_p = (
-            float(stats.binomtest(n_pos_sign, int(tsigns.size)).pvalue) if tsigns.size else None
-        )
+        n_left = int((ts > 0).sum())
+        sign_p = float(stats.binomtest(n_left, int(ts.size)).pvalue)
         entry.update(
             kT_theta=fit.kT_,
             kT_theta_se=fit.kT_se_,
