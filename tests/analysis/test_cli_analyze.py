@@ -10,8 +10,6 @@ from click.testing import CliRunner
 
 from thermoswarm.analysis.synthetic import synthetic_tracks
 from thermoswarm.cli import cli
-from thermoswarm.cli.analyze import parse_read_options
-from thermoswarm.errors import ConfigError
 from thermoswarm.io import write_tracks
 from thermoswarm.maxent import EnergyMixture
 
@@ -62,8 +60,9 @@ def test_no_report_and_mass(tracks_file, tmp_path):
         (["--group-by", "nothing"], "no such data variable"),
         (["--energy-bins", "x,y"], "edges must be numbers"),
         (["--thin", "zero"], "--thin"),
-        (["--read-option", "novalue"], "KEY=VALUE"),
-        (["--read-option", "columns=3"], "netcdf takes no options"),
+        (["--read-option", "novalue"], "expected key=value"),
+        (["--read-option", "columns=3"], "unknown option(s) columns"),
+        (["--read-option", "units=cm"], "contradicts the file's space_unit"),
         (["--fps", "-1"], "--fps"),
         (["--smooth", "0"], "smooth"),
         (["--regions", "missing.toml"], "does not exist"),
@@ -87,9 +86,34 @@ def test_missing_input_and_missing_parent(tmp_path, tracks_file):
     assert not (tmp_path / "a").exists()
 
 
-def test_read_options_are_toml_values():
-    assert parse_read_options(("a=1", "b=true", 'c="x"', "d=word", "e=[1, 2]")) == {
-        "a": 1, "b": True, "c": "x", "d": "word", "e": [1, 2],
-    }  # fmt: skip
-    with pytest.raises(ConfigError, match="twice"):
-        parse_read_options(("a=1", "a=2"))
+def test_messy_pixel_csv_end_to_end(tmp_path):
+    """A wide CSV in pixels with a repeated row, a backward step and a hole."""
+    t = np.arange(60) / 10.0
+    cols = {"time": t}
+    for i in range(3):  # 10 mm/s straight lines, in pixels at the paper's 3.04 px/mm
+        cols[f"x{i}"] = 3.04 * 10 * t * np.cos(i)
+        cols[f"y{i}"] = 3.04 * 10 * t * np.sin(i)
+    rows = np.array([cols[k] for k in cols]).T
+    order = np.r_[0:10, 12, 11, 10, 13:60, 30]  # 12-11-10 and 59-30: 3 steps back; 30 twice
+    rows = rows[order]
+    rows[20, 1] = np.nan
+    path = tmp_path / "messy.csv"
+    header = ",".join(cols)
+    path.write_text(header + "\n" + "\n".join(",".join(f"{v:.10g}" for v in r) for r in rows))
+    out = tmp_path / "o"
+    res = run(path, "--px-per-mm", "paper", "--out", out, "--bootstrap", 0, "-q")
+    assert res.exit_code == 0, res.output
+    assert "3 backward time steps" in res.output and "1 rows with a repeated" in res.output
+    fits = json.loads((out / "fits.json").read_text())
+    dq = fits["data_quality"]
+    assert dq["n_times_input"] == 61 and dq["n_times"] == 60
+    assert dq["n_missing_positions"] == 1 and dq["n_gaps"] == 1
+    assert fits["n_samples"] == 3 * 59 - 2
+    assert fits["energy"]["one_phase"]["kT"] == pytest.approx(50.0, rel=1e-9)  # v^2/2
+
+
+def test_read_options_and_allow_pickle_reach_the_reader(tracks_file, tmp_path):
+    # units="mm" agrees with the file; --allow-pickle is ignored by netCDF (never pickled)
+    res = run(tracks_file, "--out", tmp_path / "o", "--bootstrap", 0, "--no-report", "-q",
+              "--read-option", 'units="mm"', "--allow-pickle")  # fmt: skip
+    assert res.exit_code == 0, res.output

@@ -957,6 +957,7 @@ def analyze_file(
     format: str | None = None,
     px_per_mm: float | str | None = None,
     read_options: dict[str, Any] | None = None,
+    allow_pickle: bool = False,
     fps: float | None = None,
     regions: str | os.PathLike | None = None,
     report: bool = True,
@@ -964,14 +965,22 @@ def analyze_file(
 ) -> StudyResult:
     """Read trajectories, run the study, write ``fits.json``, ``kinematics.nc`` and
     ``report.html`` into directory ``out`` (its parent must exist; files are written
-    atomically).  Options as :func:`run_study`."""
+    atomically).  ``format``, ``px_per_mm``, ``allow_pickle`` and ``read_options`` go
+    to :func:`thermoswarm.io.read_tracks`; the other options as :func:`run_study`."""
     from thermoswarm.fsutil import atomic_write_json, atomic_write_text, prepare_output_dir
     from thermoswarm.io import read_tracks
 
     out = Path(out)
     regions_list = load_regions(regions) if regions is not None else None
     prepare_output_dir(out)
-    ds = read_tracks(path, format, fps=fps, px_per_mm=px_per_mm, **(read_options or {}))
+    ds = read_tracks(
+        path,
+        format,
+        fps=fps,
+        px_per_mm=px_per_mm,
+        allow_pickle=allow_pickle,
+        **(read_options or {}),
+    )
     if "position" not in ds:
         raise InputError(f"{path}: the reader returned no positions")
     result = run_study(ds, fps=fps, regions=regions_list, **options)

@@ -6,7 +6,6 @@ summary.  Every option is documented in ``docs/analysis.md``.
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -28,25 +27,6 @@ _NOTABLE = (
     ("n_steering_near_wrap", "turns near half a circle (ambiguous)"),
     ("n_stationary_periods", "long stationary periods"),
 )
-
-
-def parse_read_options(items: tuple[str, ...]) -> dict[str, Any]:
-    """``("key=value", ...)`` -> dict; values are TOML (``true``, ``3``, ``"a"``, ``[1, 2]``),
-    bare words are strings."""
-    out: dict[str, Any] = {}
-    for item in items:
-        key, sep, text = item.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise ConfigError(f"--read-option {item!r}: expected KEY=VALUE")
-        try:
-            value = tomllib.loads(f"v = {text.strip()}")["v"]
-        except tomllib.TOMLDecodeError:
-            value = text.strip()
-        if key in out:
-            raise ConfigError(f"--read-option {key!r} is given twice")
-        out[key] = value
-    return out
 
 
 def _thin(value: str) -> str | int:
@@ -222,10 +202,9 @@ def analyze(
     Writes OUT/fits.json, OUT/report.html and OUT/kinematics.nc.
     """
     from thermoswarm.analysis.study import analyze_file
+    from thermoswarm.io import parse_read_options
 
     read_options = parse_read_options(read_option)
-    if allow_pickle:
-        read_options["allow_pickle"] = True
     if fps is not None and not fps > 0:
         raise ConfigError(f"--fps must be a positive number, got {fps!r}")
 
@@ -240,6 +219,7 @@ def analyze(
         fps=fps,
         px_per_mm=px_per_mm,
         read_options=read_options,
+        allow_pickle=allow_pickle,
         regions=regions,
         group_by=group_by,
         mass=mass,
