@@ -153,6 +153,12 @@ def test_ks_matches_scipy_and_naive_p_is_kstest():
     assert p == pytest.approx(ref.pvalue, rel=1e-6) and n == 300
     mix = EnergyMixture(0.5, 1.0, 4.0)
     assert ks_statistic(x, mix) == pytest.approx(stats.kstest(x, mix.cdf).statistic, abs=1e-12)
+    big = np.random.default_rng(6).exponential(2.0, 30_000)
+    ref = stats.kstest(big, EnergyLaw(2.01).cdf)
+    d, p, _ = naive_ks(big, EnergyLaw(2.01))
+    assert d == pytest.approx(ref.statistic, abs=1e-12) and p == pytest.approx(
+        ref.pvalue, rel=1e-6
+    )
 
 
 def test_one_phase_goodness_of_fit_accepts_and_rejects():

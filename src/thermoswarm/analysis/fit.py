@@ -14,14 +14,20 @@ Two-phase fit
     :class:`ExponentialMixtureFit` maximises the likelihood of
     ``phi Exp(kT1) + (1 - phi) Exp(kT2)`` (the convention of
     :class:`~thermoswarm.maxent.EnergyMixture`: ``phi`` weighs the cold "liquid"
-    component; the result is sorted so that ``kT1 <= kT2``).  Several starts each get
-    a short EM warm-up, then a Newton ascent with a line search (the Hessian's
-    eigenvalues taken in absolute value, so that every step goes uphill); the EM step
-    is the fallback whenever Newton cannot improve.  EM alone converges linearly and
-    crawls when the components overlap (thousands of passes on data from a single
-    exponential); Newton finishes in a few.  On large data the starts run on a random
-    subsample (``start_sample``) and the best is refined on all the data, so the
-    result is the full-data maximum likelihood estimate.  Standard errors come from
+    component; the result is sorted so that ``kT1 <= kT2``).  Starting points split
+    the data at its quantiles 0.5, 0.25, 0.75, 0.05 and 0.95 (then random ones): data
+    from a single exponential often have their likelihood maximum at a *small* cold
+    or hot component, which only the extreme splits reach.  Each start gets a short
+    EM warm-up and a Newton ascent (line search; the Hessian's eigenvalues taken in
+    absolute value so that every step goes uphill; EM as the fallback when Newton
+    cannot improve) on 512 groups of the sorted samples, each group stood for by its
+    mean and count -- each component's log density is linear in the energy, so the
+    grouped likelihood is close to the exact one and 20 times cheaper on 10,000
+    samples.  The two best distinct maxima are then finished by Newton on the exact
+    samples, so the result is the exact maximum likelihood estimate.  (EM alone
+    converges linearly and crawls when the components overlap: thousands of passes on
+    data from one exponential.)  On large data the starts run on a random subsample
+    (``start_sample``); the finish always uses all samples.  Standard errors come from
     the observed information and assume independent samples.
 
 Tests
@@ -117,14 +123,14 @@ def ks_statistic(x: np.ndarray, law: EnergyLaw | EnergyMixture, *, presorted: bo
 def naive_ks(x: np.ndarray, law: EnergyLaw | EnergyMixture, *, presorted: bool = False):
     """KS distance and the p-value that treats the fitted law as known in advance.
 
-    This is the p-value of :func:`scipy.stats.kstest` (exact Kolmogorov distribution,
-    :data:`scipy.stats.kstwo`).  With parameters fitted to the same data it is too
-    large (the test is conservative and nearly powerless); it is reported because the
-    paper reports it.  Returns ``(ks, p_value, n)``.
+    This is the p-value of :func:`scipy.stats.kstest` (the exact Kolmogorov
+    distribution :data:`scipy.stats.kstwo`).  With parameters fitted to the
+    same data it is too large (the test is conservative and nearly powerless); it is
+    reported because the paper reports it.  Returns ``(ks, p_value, n)``.
     """
     d = ks_statistic(x, law, presorted=presorted)
     n = int(np.size(x))
-    return d, float(stats.kstwo.sf(d, n)), n
+    return d, min(max(float(stats.kstwo.sf(d, n)), 0.0), 1.0), n
 
 
 # --------------------------------------------------------------------------------------
