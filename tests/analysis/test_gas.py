@@ -13,10 +13,17 @@ from thermoswarm.scenarios import runner
 def test_inertial_gas_energy_is_one_phase_exponential_at_the_mean_energy(tmp_path):
     # frames at every step keep the finite-difference speeds exact between collisions
     # (a frame that contains a collision averages two velocities: ~0.5 % of frames here)
-    sets = ["mode='inertial'", "n=300", "packing_fraction=0.1", "duration=60",
-            "engine.dt=0.05", "record.interval=0.05"]
-    metrics = runner.run(runner.resolve("box", overrides=sets, seed=1), tmp_path / "gas",
-                         progress=False)
+    sets = [
+        "mode='inertial'",
+        "n=300",
+        "packing_fraction=0.1",
+        "duration=60",
+        "engine.dt=0.05",
+        "record.interval=0.05",
+    ]
+    metrics = runner.run(
+        runner.resolve("box", overrides=sets, seed=1), tmp_path / "gas", progress=False
+    )
     assert metrics["collisions_per_particle"] > 5  # a gas, not free flight
     mean_energy = metrics["energy_final"] / 300  # per particle, per unit mass: kT in 2D
     fits = analyze_tracks(xr.open_dataset(tmp_path / "gas" / "tracks.nc"), seed=0)
