@@ -139,19 +139,59 @@ def test_run_writes_metrics_phases_and_object_path(tmp_path):
     assert hot["kT_measured"] == pytest.approx(hot["kT_set"], rel=5 / math.sqrt(hot["samples"]))
 
 
-def test_photoresistor_sensing_runs_and_charges_turning(tmp_path):
-    """With photoresistors the robots' speeds are cut by the time spent turning, so the
-    mean recorded speed of the cold phase is below its Boltzmann mean."""
+@pytest.mark.parametrize("charge", [False, True])
+def test_photoresistor_sensing_and_turn_time_charge(charge):
+    """Photoresistor sensing runs; charging the turning time cuts the speeds of the cold
+    phase well below their Boltzmann mean, while without it they follow the law."""
     scen, setup, sim, state = _build(
-        "n=200", "width=800", "height=800", "sensor.mode=photoresistor", "heading_law=uniform"
+        "n=200",
+        "width=800",
+        "height=800",
+        "sensor.mode=photoresistor",
+        "heading_law=uniform",
+        f"sensor.charge_turn_time={'true' if charge else 'false'}",
     )
     _advance(scen, setup, sim, state, 50)
     cold = state.group != PHASE_HOT
     assert cold.sum() > 50
     from thermoswarm.maxent import SpeedLaw
 
-    full = SpeedLaw(scen.params.kT_cold).mean()
-    assert state.speed[cold].mean() < 0.8 * full
+    law = SpeedLaw(scen.params.kT_cold)
+    v = state.speed[cold]
+    se = math.sqrt(law.mean_square() - law.mean() ** 2) / math.sqrt(v.size)
+    if charge:
+        assert v.mean() < law.mean() - 6 * se
+    else:
+        assert abs(v.mean() - law.mean()) < 4 * se
+
+
+def test_warmup_holds_the_object_then_releases_it(tmp_path):
+    cfg = runner.resolve(
+        "transport-free",
+        overrides=[
+            "n=300",
+            "width=800",
+            "height=800",
+            "duration=30",
+            "warmup=10",
+            "mapping=lit_hot",
+            "target_y=401",
+            "record.interval=1",
+        ],
+    )
+    m = runner.run(cfg, tmp_path / "w")
+    tracks = runner.open_run_tracks(tmp_path / "w" / "tracks.zarr")
+    obj = tracks["object_position"].values
+    t = tracks["time"].values
+    held = t <= 10.0
+    assert np.all(obj[held] == obj[0])  # not a hair of motion while held
+    assert np.any(obj[~held] != obj[0])  # moves once released
+    assert m["force_held"]["batches"] == 20 and math.isfinite(m["force_held"]["se"])
+    assert m["warmup"] == 10.0
+    # the target 1 mm above the start is reached after the release, timed from it
+    assert m["time_to_target"] is not None and 0 < m["time_to_target"] <= 20.0
+    first = t[np.argmax(obj[:, 1] >= 401.0)]
+    assert first - 10.0 >= m["time_to_target"] - 1.0 - 1e-9
 
 
 @pytest.mark.parametrize(
@@ -166,6 +206,7 @@ def test_photoresistor_sensing_runs_and_charges_turning(tmp_path):
         (["variant=zigzag", "channel_width=80"], "channel_width"),
         (["variant=obstacle", "obstacle_dx=5000"], "obstacle_dx/obstacle_dy"),
         (["sensor.noise_add=-0.1"], "sensor.noise_add"),
+        (["warmup=700"], "warmup"),
     ],
 )
 def test_bad_config_is_a_one_line_error_naming_the_field(overrides, names):

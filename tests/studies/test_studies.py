@@ -99,11 +99,12 @@ def test_run_mechanism_end_to_end_tiny(tmp_path):
         "quick",
         seeds=2,
         grid={"mapping": ["lit_hot", "lit_cold"]},
-        overrides={"n": 40, "width": 500.0, "height": 500.0, "duration": 5.0},
+        overrides={"n": 40, "width": 500.0, "height": 500.0, "duration": 6.0, "warmup": 2.0},
         max_workers=1,
         progress=False,
     )
     assert len(res.runs) == 4 and len(res.summary) == 2
+    assert res.runs["force_held"].notna().all()  # held during the warm-up, then measured
     data = json.loads((tmp_path / "m" / "mechanism.json").read_text())
     assert len(data["runs"]) == 4 and data["setting"]["seeds"] == [0, 1]
     assert (tmp_path / "m" / "mechanism.md").read_text().startswith("| mapping |")
@@ -113,7 +114,7 @@ def test_run_mechanism_end_to_end_tiny(tmp_path):
         "quick",
         seeds=2,
         grid={"mapping": ["lit_hot", "lit_cold"]},
-        overrides={"n": 40, "width": 500.0, "height": 500.0, "duration": 5.0},
+        overrides={"n": 40, "width": 500.0, "height": 500.0, "duration": 6.0, "warmup": 2.0},
         max_workers=1,
         progress=False,
     )

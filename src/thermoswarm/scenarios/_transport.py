@@ -43,11 +43,10 @@ class TransportSensor:
     Attributes
     ----------
     mode : {"ideal", "photoresistor"}
-        ``"ideal"``: the exact light level at the robot and the exact light direction,
-        turns take no time (the idealisation).  ``"photoresistor"``: TurnToAngle
-        (Algorithm 1) on three simulated photoresistors (:mod:`thermoswarm.sim.light`),
-        the light level read through the sensor noise model, and the time spent turning
-        charged against the control period (``charge_turn_time``).
+        ``"ideal"``: the exact light level at the robot and the exact light direction.
+        ``"photoresistor"``: TurnToAngle (Algorithm 1) on three simulated photoresistors
+        (:mod:`thermoswarm.sim.light`) and the light level read through the sensor noise
+        model.  Turns take no time in either mode unless ``charge_turn_time``.
     noise_mult, noise_add : float
         Relative and absolute standard deviation of a reading (photoresistor mode).
     step_deg : float
@@ -58,8 +57,12 @@ class TransportSensor:
     sensor_angle_deg, fov_deg, dark_threshold : float
         As in :class:`thermoswarm.sim.light.SensingParams`.
     charge_turn_time : bool
-        Photoresistor mode: a robot's period includes its turning (see
-        :class:`thermoswarm.policy.TurnTimeCharged`).
+        Photoresistor mode: a robot's control period includes its turning (see
+        :class:`thermoswarm.policy.TurnTimeCharged`).  Off by default: with a fixed
+        period, headings near the light cost less turning after TurnToAngle and so carry
+        the robot farther, which biases every robot toward the light (a drift of the
+        whole swarm measured in ``docs/scenarios_transport.md``); a robot whose move
+        lasts a fixed time after turning has no such bias.
     """
 
     mode: Literal["ideal", "photoresistor"] = "ideal"
@@ -70,7 +73,7 @@ class TransportSensor:
     sensor_angle_deg: float = 30.0
     fov_deg: float = 160.0
     dark_threshold: float = 0.05
-    charge_turn_time: bool = True
+    charge_turn_time: bool = False
 
     def __post_init__(self) -> None:
         check(

@@ -64,6 +64,7 @@ from thermoswarm.scenarios._transport import (
     shadow_polygon,
 )
 from thermoswarm.scenarios.base import Numerics, Recording, Scenario, Setup, wrap
+from thermoswarm.sim import kernels as K
 from thermoswarm.sim.engine import Simulator, SwarmState, place_lattice
 from thermoswarm.sim.geometry import Shapes
 from thermoswarm.sim.world import Body, World, polygon_segments
@@ -102,7 +103,13 @@ class TransportFreeParams:
     width, height : float or None
         Arena size (mm); ``None``: 1800 x 1800 (free, obstacle), 2400 x 2400 (zigzag).
     duration : float
-        Simulated seconds.
+        Simulated seconds, warm-up included.
+    warmup : float
+        Seconds during which the object is held in place (its contact force measured:
+        ``metrics["force_held"]``) before it is released; displacement, time to target
+        and the free force count from the release.  0 (default): released at once, the
+        paper's protocol, so the first seconds carry the transient of the initial
+        placement (robots spread evenly, whatever their phase).
     diameter : float
         Robot diameter (the paper's robots: 33 mm).
     tau : float
@@ -151,6 +158,7 @@ class TransportFreeParams:
     width: float | None = None
     height: float | None = None
     duration: float = 600.0
+    warmup: float = 0.0
     diameter: float = 33.0
     tau: float = 1.0
     mapping: Literal["lit_cold", "lit_hot"] = "lit_cold"
@@ -194,6 +202,12 @@ class TransportFreeParams:
             if getattr(self, name) is not None:
                 positive(name, "mm")
         positive("duration", "s")
+        check(
+            math.isfinite(self.warmup) and 0 <= self.warmup < self.duration,
+            "warmup",
+            f"in [0, duration = {self.duration:g}) s",
+            self.warmup,
+        )
         positive("diameter", "mm")
         positive("tau", "s")
         positive("kT_hot", "mm^2/s^2")
@@ -438,7 +452,9 @@ class TransportFree(Scenario):
         g = geometry(p)
         r = p.diameter / 2
         W, H = p.arena
-        body = Body(g.start[0], g.start[1], radius=p.object_radius, drag=p.object_drag)
+        held = p.warmup > 0
+        body = Body(g.start[0], g.start[1], radius=p.object_radius,
+                    drag=math.inf if held else p.object_drag)  # fmt: skip
         obstacles = g.obstacles
         world = World(g.bounds, g.walls, obstacles, bodies=(body,))
         light = make_light(p.light, x=W / 2, top=H, distance=p.light_distance)
@@ -494,29 +510,45 @@ class TransportFree(Scenario):
 
     # -- online accumulation
     def init_acc(self, setup: Setup, sim: Simulator, state: SwarmState) -> dict[str, np.ndarray]:
-        total = int(math.floor(self.duration / sim.params.dt + 1e-9))
         return {
             "start": state.body_pos[0].copy(),
+            "released": np.array(0 if self.params.warmup > 0 else 1),
             "max_progress": np.array(0.0),
             "t_target": np.array(np.nan),
             "force_sum": np.zeros((FORCE_BATCHES, 2)),
             "force_count": np.zeros(FORCE_BATCHES),
+            "held_sum": np.zeros((FORCE_BATCHES, 2)),
+            "held_count": np.zeros(FORCE_BATCHES),
             "hot_sum": np.array(0.0),
-            "steps_per_batch": np.array(max(1, math.ceil(total / FORCE_BATCHES))),
+            "hot_count": np.array(0.0),
         }
 
     def observe(self, sim: Simulator, state: SwarmState, acc: dict[str, np.ndarray]) -> None:
+        p: TransportFreeParams = self.params
+        t = state.time
+        acc["hot_sum"][...] += np.count_nonzero(state.group == PHASE_HOT) / state.n
+        acc["hot_count"][...] += 1
+        if not acc["released"]:
+            # held: average the contact force over the second half of the warm-up
+            half = p.warmup / 2
+            if t > half:
+                b = min(int((t - half) / half * FORCE_BATCHES), FORCE_BATCHES - 1)
+                acc["held_sum"][b] += state.body_force[0]
+                acc["held_count"][b] += 1
+            if t >= p.warmup - 1e-9:
+                state.bodies[0, K.BDRAG] = p.object_drag
+                acc["released"][...] = 1
+            return
         y = state.body_pos[0, 1]
         prog = y - acc["start"][1]
         if prog > acc["max_progress"]:
             acc["max_progress"][...] = prog
-        ty = self._target_y
-        if np.isnan(acc["t_target"]) and y >= ty:
-            acc["t_target"][...] = state.time
-        b = min((state.step - 1) // int(acc["steps_per_batch"]), FORCE_BATCHES - 1)
-        acc["force_sum"][b] += state.body_force[0]
-        acc["force_count"][b] += 1
-        acc["hot_sum"][...] += np.count_nonzero(state.group == PHASE_HOT) / state.n
+        if np.isnan(acc["t_target"]) and y >= self._target_y:
+            acc["t_target"][...] = t - p.warmup
+        span = p.duration - p.warmup
+        b = min(int((t - p.warmup) / span * FORCE_BATCHES - 1e-9), FORCE_BATCHES - 1)
+        acc["force_sum"][max(b, 0)] += state.body_force[0]
+        acc["force_count"][max(b, 0)] += 1
 
     @property
     def _target_y(self) -> float:
@@ -557,7 +589,7 @@ class TransportFree(Scenario):
                 "samples": int(v.size),
             }
         t_target = float(acc["t_target"])
-        steps = max(state.step, 1)
+        held = batch_mean_se(acc["held_sum"][:, 1], acc["held_count"])
         out: dict[str, Any] = {
             "variant": p.variant,
             "n": p.n,
@@ -565,6 +597,7 @@ class TransportFree(Scenario):
             "heading_law": p.heading_law,
             "sensor_mode": p.sensor.mode,
             "duration": p.duration,
+            "warmup": p.warmup,
             "object_start": start.tolist(),
             "object_final": final.tolist(),
             "target_y": ty,
@@ -572,11 +605,15 @@ class TransportFree(Scenario):
             "displacement_toward_target": float(final[1] - start[1]),
             "max_displacement_toward_target": float(acc["max_progress"]),
             "time_to_target": None if math.isnan(t_target) else t_target,
-            "mean_velocity_toward_target": float(final[1] - start[1]) / float(state.time),
+            "mean_velocity_toward_target": float(final[1] - start[1])
+            / max(float(state.time) - p.warmup, 1e-300),
             "lateral_displacement": float(final[0] - start[0]),
             "force_toward_target": {"mean": fy[0], "se": fy[1], "batches": fy[2]},
             "force_lateral": {"mean": fx[0], "se": fx[1], "batches": fx[2]},
-            "hot_fraction_mean": float(acc["hot_sum"]) / steps,
+            "force_held": (
+                {"mean": held[0], "se": held[1], "batches": held[2]} if p.warmup > 0 else None
+            ),
+            "hot_fraction_mean": float(acc["hot_sum"]) / max(float(acc["hot_count"]), 1.0),
             "hot_fraction_final": float(np.mean(state.group == PHASE_HOT)),
             "speed_by_phase": by_phase,
             "object_path": {

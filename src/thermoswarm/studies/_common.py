@@ -32,22 +32,24 @@ class Record:
     error: str | None = None
 
 
-def _serial_grid(
+def _local_grid(
     scenario: str,
     out: Path,
     base: Mapping[str, Any],
     grid: Mapping[str, Sequence[Any]],
     seeds: Sequence[int],
     progress: bool | None,
+    max_workers: int | None = None,
 ) -> list[Record]:
     """Fallback when :mod:`thermoswarm.sweep` is not installed: the same layout
-    (``out/<hash of the resolved config>/``, finished runs skipped), run serially."""
+    (``out/<hash of the resolved config>/``, finished runs skipped), run in this process
+    or in a pool of ``max_workers`` processes."""
     import hashlib
     import itertools
 
     from thermoswarm.config import from_mapping
     from thermoswarm.scenarios import get
-    from thermoswarm.scenarios.runner import RunConfig, run
+    from thermoswarm.scenarios.runner import RunConfig
 
     def set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
         node = data
@@ -68,7 +70,8 @@ def _serial_grid(
         for seed in seeds:
             configs.append((point, int(seed), RunConfig(scenario, params, int(seed))))
     out.mkdir(exist_ok=True)
-    records = []
+    records: list[Record] = []
+    todo: list[tuple[int, str, Path]] = []
     for point, seed, cfg in configs:
         rid = hashlib.sha256(cfg.to_toml().encode()).hexdigest()[:16]
         rdir = out / rid
@@ -81,9 +84,41 @@ def _serial_grid(
             import shutil
 
             shutil.rmtree(rdir)  # an unfinished run: start it again
-        metrics = run(cfg, rdir, progress=progress)
-        records.append(Record(rid, point, seed, str(rdir), "done", metrics))
+        records.append(Record(rid, point, seed, str(rdir), "pending"))
+        todo.append((len(records) - 1, cfg.to_toml(), rdir))
+    workers = max_workers or 1
+    if workers <= 1 or len(todo) <= 1:
+        for i, text, rdir in todo:
+            records[i].metrics = _run_toml(text, str(rdir), progress)
+            records[i].status = "done"
+        return records
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    ctx = multiprocessing.get_context("spawn")  # no fork after OpenMP threads started
+    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        futs = {pool.submit(_run_toml, text, str(rdir), False): i for i, text, rdir in todo}
+        for fut, i in futs.items():
+            records[i].metrics = fut.result()
+            records[i].status = "done"
     return records
+
+
+def _run_toml(config_toml: str, out_dir: str, progress: bool | None) -> dict[str, Any]:
+    """Worker: run one resolved configuration (one Numba thread: the pool is parallel)."""
+    import tomllib
+
+    import numba
+
+    from thermoswarm.config import from_mapping
+    from thermoswarm.scenarios import get
+    from thermoswarm.scenarios.runner import RunConfig, run
+
+    numba.set_num_threads(1)
+    data = tomllib.loads(config_toml)
+    name, seed = data.pop("scenario"), data.pop("seed")
+    cfg = RunConfig(name, from_mapping(get(name).Params, data), seed)
+    return run(cfg, Path(out_dir), progress=progress)
 
 
 def run_grid(
@@ -110,7 +145,7 @@ def run_grid(
     try:
         from thermoswarm.sweep import SweepSpec, run_sweep
     except ImportError:
-        records = _serial_grid(scenario, out, base, grid, seeds, progress)
+        records = _local_grid(scenario, out, base, grid, seeds, progress, max_workers)
     else:
         spec = SweepSpec(scenario=scenario, out=out, base=dict(base), grid=dict(grid),
                          seeds=list(seeds))  # fmt: skip

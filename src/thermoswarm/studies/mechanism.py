@@ -54,7 +54,14 @@ _COMMON = {"record.interval": 10.0, "record.netcdf": False}
 #: Named settings: ``base`` parameters, ``grid`` and number of seeds.
 SETTINGS: dict[str, dict[str, Any]] = {
     "quick": {
-        "base": {**_COMMON, "n": 600, "width": 1270.0, "height": 1270.0, "duration": 300.0},
+        "base": {
+            **_COMMON,
+            "n": 600,
+            "width": 1270.0,
+            "height": 1270.0,
+            "duration": 400.0,
+            "warmup": 100.0,
+        },  # fmt: skip
         "grid": {
             "mapping": ["lit_hot", "lit_cold"],
             "heading_law": ["uniform", "persistent"],
@@ -63,7 +70,7 @@ SETTINGS: dict[str, dict[str, Any]] = {
         "seeds": 10,
     },
     "full": {
-        "base": {**_COMMON, "duration": 600.0},
+        "base": {**_COMMON, "duration": 700.0, "warmup": 100.0},
         "grid": {
             "mapping": ["lit_hot", "lit_cold"],
             "heading_law": ["uniform", "persistent"],
@@ -108,6 +115,7 @@ def _rows(records: Sequence[Any], factors: Sequence[str]) -> pd.DataFrame:
             max_displacement=m["max_displacement_toward_target"],
             time_to_target=m["time_to_target"],
             force=m["force_toward_target"]["mean"],
+            force_held=(m.get("force_held") or {}).get("mean"),
             force_se_within_run=m["force_toward_target"]["se"],
             lateral_displacement=m["lateral_displacement"],
             hot_fraction=m["hot_fraction_mean"],
@@ -124,14 +132,19 @@ def summarize(runs: pd.DataFrame, factors: Sequence[str]) -> pd.DataFrame:
     Columns: the factors, ``seeds``, ``disp_mean``, ``disp_sd``, ``disp_se``,
     ``disp_ci_low``, ``disp_ci_high`` (95 % t interval, mm), ``disp_d`` (Cohen's d),
     ``disp_p`` (two-sided t-test against 0), ``force_mean``, ``force_se``,
-    ``force_ci_low``, ``force_ci_high`` (robot drag units, mm/s), ``hot_fraction`` (mean
-    fraction of robots hot) and ``verdict`` (from the displacement interval).
+    ``force_ci_low``, ``force_ci_high`` (time-averaged net force on the moving object
+    along the target direction, robot drag units = mm/s), ``held_mean``, ``held_se``,
+    ``held_ci_low``, ``held_ci_high`` and ``held_verdict`` (the same for the force on the
+    object held during the warm-up's second half: the stall force of the mechanism),
+    ``hot_fraction`` (mean fraction of robots hot) and ``verdict`` (from the
+    displacement interval).
     """
     out = []
     for key, g in runs.groupby(list(factors), sort=True, dropna=False):
         key = key if isinstance(key, tuple) else (key,)
         d = effect(g["displacement"].tolist())
         f = effect(g["force"].tolist())
+        h = effect(g["force_held"].tolist()) if "force_held" in g else effect([])
         row = dict(zip(factors, key, strict=True))
         row.update(
             seeds=d["n"],
@@ -146,6 +159,11 @@ def summarize(runs: pd.DataFrame, factors: Sequence[str]) -> pd.DataFrame:
             force_se=f["se"],
             force_ci_low=f["ci_low"],
             force_ci_high=f["ci_high"],
+            held_mean=h["mean"],
+            held_se=h["se"],
+            held_ci_low=h["ci_low"],
+            held_ci_high=h["ci_high"],
+            held_verdict=verdict(h["ci_low"], h["ci_high"]) if h["n"] >= 2 else None,
             hot_fraction=float(g["hot_fraction"].mean()),
             verdict=verdict(d["ci_low"], d["ci_high"]),
         )
@@ -157,7 +175,7 @@ def markdown_table(summary: pd.DataFrame) -> str:
     """The summary as a Markdown table (displacement mm, force mm/s)."""
     factors = [c for c in summary.columns if c in ("n", "mapping", "heading_law", "sensor.mode")]
     head = [*factors, "seeds", "displacement (mm) mean ± se", "95 % CI", "d", "p",
-            "net force (mm/s) mean ± se", "verdict"]  # fmt: skip
+            "force, free (mm/s)", "force, held (mm/s)", "verdict"]  # fmt: skip
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
 
     def num(x: float, fmt: str) -> str:
@@ -172,6 +190,7 @@ def markdown_table(summary: pd.DataFrame) -> str:
             num(r["disp_d"], ".2f"),
             num(r["disp_p"], ".2g"),
             f"{num(r['force_mean'], '.3f')} ± {num(r['force_se'], '.3f')}",
+            f"{num(r.get('held_mean'), '.3f')} ± {num(r.get('held_se'), '.3f')}",
             str(r["verdict"]),
         ]
         lines.append("| " + " | ".join(cells) + " |")
@@ -255,10 +274,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=None)
     ap.add_argument("--variant", default="free", choices=["free", "obstacle", "zigzag"])
     ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a base parameter (repeatable)",
+    )
     args = ap.parse_args(argv)
     try:
+        from thermoswarm.config import parse_overrides
+
+        flat: dict[str, object] = {}
+
+        def walk(d: dict, prefix: str = "") -> None:
+            for k, v in d.items():
+                if isinstance(v, dict):
+                    walk(v, prefix + k + ".")
+                else:
+                    flat[prefix + k] = v
+
+        walk(parse_overrides(args.overrides))
         res = run_mechanism(args.out, args.setting, seeds=args.seeds, variant=args.variant,
-                            max_workers=args.workers)  # fmt: skip
+                            max_workers=args.workers, overrides=flat)  # fmt: skip
     except ThermoswarmError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -292,11 +292,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--target-distance", type=float, default=150.0)
     ap.add_argument("--variant", default="free", choices=["free", "obstacle", "zigzag"])
     ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a base parameter (repeatable)",
+    )
     args = ap.parse_args(argv)
     try:
+        from thermoswarm.config import parse_overrides
+
+        flat: dict[str, object] = {}
+
+        def walk(d: dict, prefix: str = "") -> None:
+            for k, v in d.items():
+                if isinstance(v, dict):
+                    walk(v, prefix + k + ".")
+                else:
+                    flat[prefix + k] = v
+
+        walk(parse_overrides(args.overrides))
         res = run_scaling(args.out, args.setting, seeds=args.seeds, variant=args.variant,
                           target_distance=args.target_distance,
-                          max_workers=args.workers)  # fmt: skip
+                          max_workers=args.workers, overrides=flat)  # fmt: skip
     except ThermoswarmError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
