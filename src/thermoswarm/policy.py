@@ -130,12 +130,13 @@ class BoltzmannUniform:
     speed_law: str = "boltzmann"
 
     def __post_init__(self) -> None:
-        speed_law(self.speed_law, self.kT)  # validates kT and the name
+        # validates kT and the name; kept, since act() runs every control period
+        object.__setattr__(self, "_law", speed_law(self.speed_law, self.kT))
         if not (0 < self.half_width <= math.pi):
             raise ValueError(f"half_width must be in (0, pi], got {self.half_width!r}")
 
     def act(self, obs: Observation, rng: np.random.Generator) -> Action:
-        v = speed_law(self.speed_law, self.kT).sample(rng, obs.n)
+        v = self._law.sample(rng, obs.n)
         theta = rng.uniform(-self.half_width, self.half_width, obs.n)
         theta += obs.zero_heading  # in place: millions of robots, no extra temporaries
         # headings need not be wrapped: the engine uses cos/sin, recordings wrap

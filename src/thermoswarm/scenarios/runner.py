@@ -16,6 +16,7 @@ identical to an uninterrupted run with the same seed.
 
 from __future__ import annotations
 
+import json
 import math
 import shutil
 import time
@@ -172,26 +173,26 @@ def run(cfg: RunConfig, out_dir: str | Path, *, progress: bool | None = None) ->
 def resume(out_dir: str | Path, *, progress: bool | None = None) -> dict[str, Any]:
     """Continue the run in ``out_dir`` from its last committed block."""
     out = Path(out_dir)
-    if not (out / "config.toml").is_file() or not (out / "tracks.zarr").is_dir():
-        raise InputError(f"{out}: no run to resume (config.toml or tracks.zarr missing)")
+    if not (out / "config.toml").is_file():
+        raise InputError(f"{out}: no run to resume (no config.toml)")
     cfg = resolve(config_file=out / "config.toml")
-    marker = read_marker(out / "tracks.zarr")
-    if marker.get("complete"):
-        metrics_path = out / "metrics.json"
-        if metrics_path.is_file():
-            import json
-
-            return json.loads(metrics_path.read_text())
-    scen, setup, sim, state0 = build(cfg)
+    store = out / "tracks.zarr"
+    marker = read_marker(store) if (store / "zarr.json").is_file() else {}
+    if marker.get("complete") and (out / "metrics.json").is_file():
+        return json.loads((out / "metrics.json").read_text())
+    scen, setup, sim, state = build(cfg)
     total, every = _steps(scen, sim)
     ck_file = marker.get("checkpoint_file")
-    if ck_file:
-        ck = load_checkpoint(out / ck_file)
-        state, acc = _restore(ck)
-    else:  # killed before the first block: start again
-        state, acc = state0, scen.init_acc(setup, sim, state0)
-        shutil.rmtree(out / "tracks.zarr")
+    # checkpoints other than the marker's are left-overs of a kill mid-commit
+    for stale in out.glob("checkpoint-*.npz"):
+        if stale.name != ck_file:
+            stale.unlink()
+    if not ck_file:  # killed before the first committed block: start again
+        if store.exists():
+            shutil.rmtree(store)
+        acc = scen.init_acc(setup, sim, state)
         return _loop(cfg, scen, setup, sim, state, acc, out, total, every, progress, fresh=True)
+    state, acc = _restore(load_checkpoint(out / ck_file))
     return _loop(cfg, scen, setup, sim, state, acc, out, total, every, progress, fresh=False)
 
 

@@ -45,7 +45,6 @@ paper) is +y unless a sensing model says otherwise.
 
 from __future__ import annotations
 
-import contextlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -126,12 +125,11 @@ class EngineParams:
         check(self.dt > 0 and math.isfinite(self.dt), "dt", "a positive number (s)", self.dt)
         check(self.tau > 0 and math.isfinite(self.tau), "tau", "a positive number (s)", self.tau)
         ratio = self.tau / self.dt
-        check(
-            abs(ratio - round(ratio)) < 1e-6 * max(1.0, ratio) and round(ratio) >= 1,
-            "tau",
-            f"a multiple of dt = {self.dt}",
-            self.tau,
-        )
+        if self.mode == "overdamped":  # elastic particles have no control period
+            check(
+                abs(ratio - round(ratio)) < 1e-6 * max(1.0, ratio) and round(ratio) >= 1,
+                "tau", f"a multiple of dt = {self.dt}", self.tau,
+            )  # fmt: skip
         check(self.radius > 0, "radius", "a positive number (mm)", self.radius)
         check(
             self.mode in ("overdamped", "inertial"),
@@ -304,7 +302,7 @@ def _unit_directions(heading: np.ndarray, out: np.ndarray | None = None) -> np.n
     Headings are wrapped first when large, so that float32 keeps their precision.
     """
     h = np.asarray(heading, dtype=np.float32)
-    if h.size and float(np.abs(h).max()) > 64.0:
+    if h.size and (h.max() > 64.0 or h.min() < -64.0):
         h = ((np.asarray(heading, dtype=np.float64) + np.pi) % (2 * np.pi) - np.pi).astype(
             np.float32
         )
@@ -315,10 +313,19 @@ def _unit_directions(heading: np.ndarray, out: np.ndarray | None = None) -> np.n
     return out
 
 
+_BROADCAST: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+
 def _default_sensing(state: SwarmState, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    # read-only broadcast views: no memory per robot
+    # read-only broadcast views: no memory per robot (cached: this runs every step)
     m = index.size
-    return np.broadcast_to(LIGHT_DIRECTION, (m,)), np.broadcast_to(1.0, (m,))
+    views = _BROADCAST.get(m)
+    if views is None:
+        if len(_BROADCAST) > 64:
+            _BROADCAST.clear()
+        views = _BROADCAST[m] = (np.broadcast_to(LIGHT_DIRECTION, (m,)),
+                                 np.broadcast_to(1.0, (m,)))  # fmt: skip
+    return views
 
 
 #: Swarms smaller than this are stepped on one thread: below it, waking a second
@@ -326,17 +333,15 @@ def _default_sensing(state: SwarmState, index: np.ndarray) -> tuple[np.ndarray, 
 SERIAL_BELOW = 5000
 
 
-@contextlib.contextmanager
-def _threads(n: int):
-    if n >= SERIAL_BELOW:
-        yield
-        return
-    prev = numba.get_num_threads()
-    numba.set_num_threads(1)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(prev)
+def _set_threads(n: int) -> None:
+    """One thread for small swarms, all threads otherwise (set every step, so that a
+    small simulation does not leave the process single-threaded)."""
+    want = 1 if n < SERIAL_BELOW else _MAX_THREADS
+    if numba.get_num_threads() != want:
+        numba.set_num_threads(want)
+
+
+_MAX_THREADS = numba.config.NUMBA_NUM_THREADS
 
 
 class _Workspace:
@@ -596,31 +601,13 @@ class Simulator:
             if due.size:
                 self._decide(state, due)
                 state.timer[due] = p.tau_steps
-            with _threads(state.n):
-                sweeps, seen, _ = K.overdamped_step(
-                    state.pos,
-                    state.fcols,
-                    state.icols,
-                    state.udir,
-                    ws.pos2,
-                    ws.fcols2,
-                    ws.icols2,
-                    ws.udir2,
-                    ws.gf,
-                    ws.gi,
-                    ws.pp,
-                    ws.cell,
-                    ws.cell_start,
-                    ws.perm,
-                    ws.nbr,
-                    ws.nnb,
-                    ws.moved,
-                    ws.cell_flag,
-                    self.world.segments,
-                    self.world.static_discs,
-                    state.bodies,
-                    state.pistons,
-                )
+            _set_threads(state.n)
+            sweeps, seen, _ = K.overdamped_step(
+                state.pos, state.fcols, state.icols, state.udir, ws.pos2, ws.fcols2,
+                ws.icols2, ws.udir2, ws.gf, ws.gi, ws.pp, ws.cell, ws.cell_start, ws.perm,
+                ws.nbr, ws.nnb, ws.moved, ws.cell_flag, self.world.segments,
+                self.world.static_discs, state.bodies, state.pistons,
+            )  # fmt: skip
             # the new state is in the second buffers: swap (no copy)
             state.pos, ws.pos2 = ws.pos2, state.pos
             state.fcols, ws.fcols2 = ws.fcols2, state.fcols

