@@ -20,7 +20,7 @@ top of the arena is too far for a 10-minute run at the drift speeds measured, se
 ``docs/scenarios_transport.md``).
 
 Settings: ``quick`` (n = 50, 200, 600, 1200; 5 seeds; 300 s) and ``full`` (n = 50,
-100, 200, 400, 800, 1200, 1600, 2000; 10 seeds; 1200 s).  Run:
+100, 200, 400, 800, 1200, 1600, 2000; 10 seeds; 600 s).  Run:
 ``python -m thermoswarm.studies.scaling --setting quick --out DIR`` writes
 ``DIR/scaling.json``, ``DIR/scaling.md`` and ``DIR/scaling.png``.
 """
@@ -51,7 +51,7 @@ __all__ = [
 
 SETTINGS: dict[str, dict[str, Any]] = {
     "quick": {"ns": [50, 200, 600, 1200], "seeds": 5, "duration": 300.0},
-    "full": {"ns": [50, 100, 200, 400, 800, 1200, 1600, 2000], "seeds": 10, "duration": 1200.0},
+    "full": {"ns": [50, 100, 200, 400, 800, 1200, 1600, 2000], "seeds": 10, "duration": 600.0},
 }
 
 
