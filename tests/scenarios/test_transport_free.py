@@ -326,3 +326,44 @@ def test_plot_frame_colours_robots_by_phase(tmp_path):
     red = np.all(np.isclose(colors, to_rgba("tab:red")), axis=1)
     assert np.array_equal(red, hot)
     plt.close(fig)
+
+
+@pytest.mark.parametrize("scenario", ["transport-free", "transport-connected"])
+def test_crash_then_resume_gives_the_uninterrupted_metrics(tmp_path, monkeypatch, scenario):
+    """Everything a transport scenario accumulates lives in the checkpointed ``acc``:
+    a run that dies mid-way (here after the warm-up's release) and is resumed writes
+    the same metrics as an uninterrupted run."""
+    from thermoswarm.scenarios import get
+
+    if scenario == "transport-free":
+        sets = [
+            "n=150",
+            "width=700",
+            "height=700",
+            "duration=40",
+            "warmup=10",
+            "mapping=lit_hot",
+            "record.interval=1",
+            "record.block=5",
+        ]
+    else:
+        sets = ["duration=40", "record.interval=1", "record.block=5"]
+    cfg = runner.resolve(scenario, overrides=sets, seed=4)
+    ref = runner.run(cfg, tmp_path / "ref")
+
+    cls = get(scenario)
+    original = cls.observe
+
+    def dying(self, sim, state, acc):
+        original(self, sim, state, acc)
+        if state.step == 237:
+            raise KeyboardInterrupt("simulated kill")
+
+    monkeypatch.setattr(cls, "observe", dying)
+    with pytest.raises(KeyboardInterrupt):
+        runner.run(cfg, tmp_path / "crashed")
+    monkeypatch.setattr(cls, "observe", original)
+    assert not (tmp_path / "crashed" / "metrics.json").exists()
+    resumed = runner.resume(tmp_path / "crashed")
+    ref.pop("performance"), resumed.pop("performance")
+    assert json.loads(json.dumps(resumed)) == json.loads(json.dumps(ref))
