@@ -206,7 +206,7 @@ def test_warmup_holds_the_object_then_releases_it(tmp_path):
         (["variant=zigzag", "channel_width=80"], "channel_width"),
         (["variant=obstacle", "obstacle_dx=5000"], "obstacle_dx/obstacle_dy"),
         (["sensor.noise_add=-0.1"], "sensor.noise_add"),
-        (["warmup=700"], "warmup"),
+        (["warmup=1300"], "warmup"),
     ],
 )
 def test_bad_config_is_a_one_line_error_naming_the_field(overrides, names):
@@ -367,3 +367,18 @@ def test_crash_then_resume_gives_the_uninterrupted_metrics(tmp_path, monkeypatch
     resumed = runner.resume(tmp_path / "crashed")
     ref.pop("performance"), resumed.pop("performance")
     assert json.loads(json.dumps(resumed)) == json.loads(json.dumps(ref))
+
+
+@pytest.mark.slow
+def test_default_moves_the_object_toward_the_target_over_ten_seeds(tmp_path):
+    """The brief's claim for the default configuration: over 10 seeds the mean
+    displacement toward the target is more than 3 standard errors above zero."""
+    disp = []
+    for seed in range(10):
+        cfg = runner.resolve(
+            "transport-free", overrides=["record.interval=20", "record.netcdf=false"], seed=seed
+        )
+        disp.append(runner.run(cfg, tmp_path / f"s{seed}")["displacement_toward_target"])
+    d = np.asarray(disp)
+    se = d.std(ddof=1) / math.sqrt(d.size)
+    assert d.mean() > 3 * se

@@ -86,7 +86,7 @@ class ScalingResult:
 
     def table(self) -> str:
         head = ["n", "seeds", "max displacement (mm) mean ± sd", "95 % CI", "min..max",
-                "reached", "median time to target (s)", "mean time | reached (s)"]  # fmt: skip
+                "reached", "median time to target (s)", "mean time if reached (s)"]  # fmt: skip
         lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
 
         def f(x: Any, fmt: str = ".1f") -> str:
