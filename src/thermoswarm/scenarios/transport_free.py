@@ -21,7 +21,8 @@ Modelling choices (see ``docs/scenarios_transport.md`` for the measurements):
   ``"persistent"`` (heading kept, steered by the exponential steering-rate law).  The
   default is the combination that moves the object toward the light in the mechanism
   study (``thermoswarm.studies.mechanism``): ``lit_cold`` with ``persistent`` headings.
-  Fresh uniform headings do not move it toward the light with either mapping.
+  Fresh uniform headings do not move it toward the light with either mapping, and the
+  captions' ``lit_hot`` pushes it away from the light with either heading law.
 - **Light**: directional from +y by default (a lamp far beyond the target: rays across a
   100 mm object are parallel to a few percent when the lamp is 2 m away), or a point
   lamp ``light_distance`` mm beyond the top wall.  Arena walls cast no shadow (the lamp

@@ -20,14 +20,15 @@ Student-t confidence interval, Cohen's d and a verdict, and the time-averaged ne
 on the object along the target direction (robot drag units, mm/s), also with a t
 interval over seeds.
 
-Settings (``SETTINGS``):
+Settings (``SETTINGS``); every run holds the object for a 100 s warm-up (its stall
+force is ``force_held``), then releases it:
 
-- ``quick``: 600 robots in a 1270 mm square arena (the default packing fraction 0.32 of
-  1,200 robots in 1800 mm), 300 s, 10 seeds, 8 combinations: 80 runs, a few minutes on
-  two cores.  It reduces the swarm size, the arena and the duration.
-- ``full``: the scenario's defaults (1,200 robots, 1800 mm, 600 s), plus the density
-  factor ``n`` in {300, 1200} in the same arena (packing 0.08 and 0.32), 10 seeds: 160
-  runs, the numbers in ``docs/scenarios_transport.md``.
+- ``quick``: 600 robots in a 1270 mm square arena (the packing fraction 0.32 of the
+  default 1,200 robots in 1800 mm), 300 s free, 10 seeds, 8 combinations: 80 runs, about
+  2 minutes on two cores.  It reduces the swarm size, the arena and the duration.
+- ``full``: 1,200 robots in 1800 mm, 600 s free, plus the density factor ``n`` in {300,
+  1200} in the same arena (packing 0.08 and 0.32), 10 seeds: 160 runs, the numbers in
+  ``docs/scenarios_transport.md``.
 
 Run: ``python -m thermoswarm.studies.mechanism --setting quick --out DIR`` writes
 ``DIR/mechanism.json`` and ``DIR/mechanism.md`` (runs in ``DIR/runs/``).
