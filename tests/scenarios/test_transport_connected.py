@@ -110,3 +110,25 @@ def test_bad_config_names_the_field(overrides, name):
     with pytest.raises(ConfigError, match=name) as exc:
         runner.resolve("transport-connected", overrides=overrides)
     assert "\n" not in str(exc.value)
+
+
+def test_plot_frame_draws_the_robots_and_their_drive(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from thermoswarm.scenarios.transport_connected import plot_frame
+
+    cfg = runner.resolve("transport-connected", overrides=["duration=3", "record.interval=1"])
+    runner.run(cfg, tmp_path / "r")
+    _, setup, _, _ = runner.build(cfg)
+    tracks = runner.open_run_tracks(tmp_path / "r" / "tracks.zarr")
+    fig, ax = plt.subplots()
+    q = plot_frame(ax, tracks, 2.0, setup.info)
+    h = tracks["heading"].values[2].astype(float)
+    v = tracks["speed"].values[2].astype(float)
+    np.testing.assert_allclose(q.U, v * np.cos(h), rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(q.V, v * np.sin(h), rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(q.X, tracks["position"].values[2, 0, 0, :])
+    plt.close(fig)
