@@ -141,3 +141,222 @@ class BoltzmannUniform:
         theta += obs.zero_heading  # in place: millions of robots, no extra temporaries
         # headings need not be wrapped: the engine uses cos/sin, recordings wrap
         return Action(heading=theta, speed=v)
+
+
+# --------------------------------------------------------------------------------------
+# Algorithms 4 and 5 (object transport)
+#
+# Algorithm 4 (transport with connection) is Algorithm 3 with the heading law narrowed to
+# the half plane facing the light: theta ~ U(-90, 90) deg.  Algorithm 5 (transport without
+# connection) switches the temperature of the speed law by the light level ``l`` against a
+# threshold.  The paper assigns hot and cold to light and shadow in opposite ways (its
+# equation: T_liquid where l > threshold; its captions and text: lit robots gas-like), so
+# the mapping is a parameter (PAPER_NOTES 6.3).  Besides the paper's fresh uniform heading,
+# Algorithm 5 offers a persistent heading steered by the exponential steering-rate law
+# (PAPER_NOTES 6.4): the mechanism study (``thermoswarm.studies.mechanism``) shows that the
+# heading law, not only the mapping, decides whether the object moves.
+
+__all__ += [
+    "ConnectedTransport",
+    "LightSwitchedTransport",
+    "TurnTimeCharged",
+    "PHASE_COLD",
+    "PHASE_HOT",
+]
+
+#: Phase codes of Algorithm 5 (recorded per robot by ``transport-free``).
+PHASE_COLD = 0
+PHASE_HOT = 1
+
+
+def _speeds(kind: str, kT: np.ndarray | float, rng: np.random.Generator, n: int) -> np.ndarray:
+    """Speeds (mm/s) at per-robot temperatures ``kT`` (mm^2/s^2).
+
+    Both laws scale with ``sqrt(kT)``: draw at unit temperature and scale, so that one
+    vectorised draw serves robots at different temperatures.
+    """
+    v = speed_law(kind, 1.0).sample(rng, n)
+    v *= np.sqrt(kT)
+    return v
+
+
+@dataclass(frozen=True)
+class ConnectedTransport:
+    """Algorithm 4 (transport with connection): Boltzmann speed at constant ``kT``,
+    heading ``theta ~ U(-half_width, half_width)`` relative to the light direction.
+
+    Parameters
+    ----------
+    kT : float
+        Temperature (mm^2/s^2 per unit mass).
+    half_width : float
+        Half width of the heading law (rad); the paper's ``pi / 2`` (90 deg).
+    speed_law : {"boltzmann", "half-normal"}
+        Speed law (PAPER_NOTES 6.1).
+
+    Notes
+    -----
+    With ideal sensing every robot's heading has mean component ``E[cos theta] =
+    sin(w) / w`` (``2 / pi`` for ``w = pi / 2``) along the light direction: ``k`` robots
+    rigidly attached to an object of drag ``g_o`` drive it toward the light at
+    ``k <v> sin(w) / (w (k + g_o))`` mm/s (robot drag 1).
+    """
+
+    kT: float
+    half_width: float = math.pi / 2
+    speed_law: str = "boltzmann"
+
+    def __post_init__(self) -> None:
+        speed_law(self.speed_law, self.kT)
+        if not (0 < self.half_width <= math.pi):
+            raise ValueError(f"half_width must be in (0, pi], got {self.half_width!r}")
+
+    def act(self, obs: Observation, rng: np.random.Generator) -> Action:
+        v = speed_law(self.speed_law, self.kT).sample(rng, obs.n)
+        theta = rng.uniform(-self.half_width, self.half_width, obs.n)
+        theta += obs.zero_heading
+        return Action(heading=theta, speed=v)
+
+    def mean_drive(self) -> float:
+        """Mean velocity component (mm/s) along the light of one robot (ideal sensing)."""
+        w = self.half_width
+        return speed_law(self.speed_law, self.kT).mean() * math.sin(w) / w
+
+
+@dataclass(frozen=True)
+class LightSwitchedTransport:
+    """Algorithm 5 (transport without connection): temperature switched by the light.
+
+    A robot whose light level ``l`` exceeds ``threshold`` is *lit*, otherwise *dark*;
+    ``mapping`` says which of the two is hot (``kT_hot``, gas-like) and which is cold
+    (``kT_cold``, liquid-like).  Speed: Boltzmann at that temperature.  Heading:
+
+    - ``"uniform"``: ``theta ~ U(-pi, pi)`` relative to the light, drawn fresh every
+      control period (Algorithm 5 as written);
+    - ``"persistent"``: the robot keeps its heading and turns by ``omega * tau`` with the
+      exponential steering law ``|omega| ~ Exponential(kT_theta)``, random sign
+      (PAPER_NOTES 6.4).  The heading is read back from ``obs.heading`` (world frame);
+      the light direction is not needed, only the light level.
+
+    Parameters
+    ----------
+    kT_hot, kT_cold : float
+        Temperatures (mm^2/s^2) of the gas-like and liquid-like phases.
+    mapping : {"lit_hot", "lit_cold"}
+        ``"lit_hot"``: lit robots are hot (the paper's captions and text);
+        ``"lit_cold"``: lit robots are cold (the paper's equation, T_liquid where
+        ``l > l_threshold``).
+    threshold : float
+        Light level (in [0, 1]) above which a robot is lit.
+    heading_law : {"uniform", "persistent"}
+    kT_theta : float
+        Steering temperature (rad/s) of the persistent law: the mean absolute turning
+        rate.  Per period the heading turns by a Laplace variable of scale
+        ``kT_theta * tau``; the heading correlation decays as ``(1 + (kT_theta tau)^2)^-k``
+        after ``k`` periods.
+    speed_law : {"boltzmann", "half-normal"}
+    """
+
+    kT_hot: float
+    kT_cold: float
+    mapping: str = "lit_cold"
+    threshold: float = 0.5
+    heading_law: str = "uniform"
+    kT_theta: float = 0.3
+    speed_law: str = "boltzmann"
+
+    def __post_init__(self) -> None:
+        speed_law(self.speed_law, self.kT_hot)
+        speed_law(self.speed_law, self.kT_cold)
+        if self.mapping not in ("lit_hot", "lit_cold"):
+            raise ValueError(f"mapping must be 'lit_hot' or 'lit_cold', got {self.mapping!r}")
+        if self.heading_law not in ("uniform", "persistent"):
+            raise ValueError(
+                f"heading_law must be 'uniform' or 'persistent', got {self.heading_law!r}"
+            )
+        if not (math.isfinite(self.threshold) and 0 <= self.threshold < 1):
+            raise ValueError(f"threshold must be in [0, 1), got {self.threshold!r}")
+        if not (math.isfinite(self.kT_theta) and self.kT_theta > 0):
+            raise ValueError(f"kT_theta must be a positive number (rad/s), got {self.kT_theta!r}")
+
+    def phase(self, light: np.ndarray) -> np.ndarray:
+        """Phase of robots at light levels ``light``: :data:`PHASE_HOT` (1) or
+        :data:`PHASE_COLD` (0), int8."""
+        lit = np.asarray(light) > self.threshold
+        hot = lit if self.mapping == "lit_hot" else ~lit
+        return hot.astype(np.int8)
+
+    def temperature(self, light: np.ndarray) -> np.ndarray:
+        """Temperature (mm^2/s^2) of robots at light levels ``light``."""
+        return np.where(self.phase(light) == PHASE_HOT, self.kT_hot, self.kT_cold)
+
+    def act(self, obs: Observation, rng: np.random.Generator) -> Action:
+        v = _speeds(self.speed_law, self.temperature(obs.light), rng, obs.n)
+        if self.heading_law == "uniform":
+            heading = rng.uniform(-math.pi, math.pi, obs.n)
+            heading += obs.zero_heading
+        else:
+            turn = rng.standard_exponential(obs.n)
+            turn *= self.kT_theta * obs.tau
+            turn[rng.random(obs.n) < 0.5] *= -1.0
+            heading = turn + obs.heading
+        return Action(heading=heading, speed=v)
+
+
+@dataclass(frozen=True)
+class TurnTimeCharged:
+    """Charge the time a robot spends turning in place against its control period.
+
+    The paper's robot turns in place before it moves: TurnToAngle (Algorithm 1) to face
+    the light, then to the sampled heading.  The engine holds one speed for a whole
+    period ``tau``; a robot that turns for ``t_turn`` seconds and then drives at ``v`` for
+    the rest covers ``v (tau - t_turn)``, which this wrapper reproduces by commanding
+    ``v * max(0, 1 - t_turn / tau)`` for the whole period (same displacement per period;
+    the within-period timing is not resolved).
+
+    ``t_turn = (|zero - h_prev| + |h_new - zero|) / turn_rate`` (short-way angles) for a
+    robot that sees light (``obs.light > dark_threshold``) and whose inner policy samples
+    relative to the light (``turns_to_light``); otherwise ``|h_new - h_prev| / turn_rate``
+    (TurnToAngle ends at once in the dark: PAPER_NOTES 4, ``docs/light.md``).  The
+    TurnToAngle part is the ideal count of steps; with noisy photoresistors the real
+    count differs by a few steps.
+
+    Parameters
+    ----------
+    inner : Policy
+    turn_rate : float
+        Turning speed (rad/s); :class:`thermoswarm.sim.light.SensingParams` assumes
+        130 deg/s.
+    dark_threshold : float
+        Light level at or below which TurnToAngle finds no light.
+    turns_to_light : bool
+        Whether the inner policy turns to the light before sampling its heading.
+    """
+
+    inner: Policy
+    turn_rate: float
+    dark_threshold: float = 0.05
+    turns_to_light: bool = True
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.turn_rate) and self.turn_rate > 0):
+            raise ValueError(f"turn_rate must be a positive number (rad/s), got {self.turn_rate}")
+
+    def act(self, obs: Observation, rng: np.random.Generator) -> Action:
+        act = self.inner.act(obs, rng)
+        h_prev = obs.heading
+        h_new = np.asarray(act.heading, dtype=np.float64)
+
+        def short(a: np.ndarray) -> np.ndarray:
+            return np.abs((a + np.pi) % (2 * np.pi) - np.pi)
+
+        if self.turns_to_light:
+            zero = obs.zero_heading
+            sees = np.asarray(obs.light) > self.dark_threshold
+            angle = np.where(
+                sees, short(zero - h_prev) + short(h_new - zero), short(h_new - h_prev)
+            )
+        else:
+            angle = short(h_new - h_prev)
+        factor = np.clip(1.0 - angle / (self.turn_rate * obs.tau), 0.0, 1.0)
+        return Action(heading=h_new, speed=np.asarray(act.speed, dtype=np.float64) * factor)

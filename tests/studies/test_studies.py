@@ -1,0 +1,146 @@
+"""Study statistics on constructed data with known answers, and tiny end-to-end runs."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+from thermoswarm.errors import ConfigError
+from thermoswarm.studies import effect, verdict
+from thermoswarm.studies.mechanism import markdown_table, run_mechanism, summarize
+from thermoswarm.studies.scaling import censored_median, run_scaling
+from thermoswarm.studies.scaling import summarize as scaling_summary
+
+
+def test_effect_on_known_values():
+    e = effect([1.0, 2.0, 3.0, 4.0, 5.0])
+    assert e["n"] == 5 and e["mean"] == 3.0
+    assert e["sd"] == pytest.approx(math.sqrt(2.5))
+    assert e["se"] == pytest.approx(math.sqrt(2.5 / 5))
+    q = 2.7764451051977987  # t(0.975, 4)
+    assert e["ci_low"] == pytest.approx(3.0 - q * math.sqrt(0.5))
+    assert e["ci_high"] == pytest.approx(3.0 + q * math.sqrt(0.5))
+    assert e["t"] == pytest.approx(3.0 / math.sqrt(0.5))
+    assert e["p"] == pytest.approx(stats.ttest_1samp([1, 2, 3, 4, 5], 0.0).pvalue)
+    assert e["d"] == pytest.approx(3.0 / math.sqrt(2.5))
+    # None and NaN are dropped; one value has no spread
+    e1 = effect([None, float("nan"), 2.0])
+    assert e1["n"] == 1 and e1["mean"] == 2.0 and math.isnan(e1["se"])
+    assert effect([])["n"] == 0
+
+
+def test_effect_interval_covers_the_truth_at_its_nominal_rate():
+    rng = np.random.default_rng(5)
+    hits = sum(
+        (e := effect(rng.normal(1.0, 2.0, 10)))["ci_low"] < 1.0 < e["ci_high"] for _ in range(2000)
+    )
+    # 95 % coverage; binomial sd over 2000 trials is 0.0049
+    assert abs(hits / 2000 - 0.95) < 4 * 0.0049
+
+
+def test_verdict():
+    assert verdict(0.1, 3.0) == "toward target"
+    assert verdict(-3.0, -0.2) == "away from target"
+    assert verdict(-1.0, 1.0) == "no detectable motion"
+
+
+def test_mechanism_summary_of_constructed_runs():
+    runs = pd.DataFrame(
+        {
+            "mapping": ["lit_hot"] * 4 + ["lit_cold"] * 4,
+            "displacement": [-10.0, -12.0, -8.0, -10.0, 5.0, -5.0, 10.0, -10.0],
+            "force": [-1.0, -1.0, -1.0, -1.0, 0.5, 0.5, 0.5, 0.5],
+            "hot_fraction": [0.9] * 4 + [0.1] * 4,
+        }
+    )
+    s = summarize(runs, ["mapping"]).set_index("mapping")
+    assert s.loc["lit_hot", "disp_mean"] == -10.0
+    assert s.loc["lit_hot", "disp_se"] == pytest.approx(np.std([-10, -12, -8, -10], ddof=1) / 2)
+    assert s.loc["lit_hot", "verdict"] == "away from target"
+    assert s.loc["lit_cold", "verdict"] == "no detectable motion"
+    assert s.loc["lit_cold", "force_mean"] == 0.5 and s.loc["lit_cold", "force_se"] == 0.0
+    table = markdown_table(s.reset_index())
+    assert "away from target" in table and table.count("\n") == 4
+
+
+def test_censored_median():
+    assert censored_median([10.0, 30.0, 20.0]) == 20.0
+    assert censored_median([10.0, None, 20.0]) == 20.0
+    assert censored_median([10.0, None, None]) is None
+    assert censored_median([10.0, 20.0, None, 40.0]) == 30.0
+    assert censored_median([10.0, 20.0, None, None]) is None
+    assert censored_median([]) is None
+
+
+def test_scaling_summary_of_constructed_runs():
+    runs = pd.DataFrame(
+        {
+            "n": [50, 50, 50, 200, 200, 200],
+            "max_displacement": [1.0, 2.0, 3.0, 10.0, 20.0, 30.0],
+            "displacement": [0.0, 1.0, 2.0, 5.0, 10.0, 15.0],
+            "time_to_target": [None, None, 100.0, 50.0, 70.0, None],
+        }
+    )
+    s = scaling_summary(runs).set_index("n")
+    assert s.loc[50, "maxdisp_mean"] == 2.0 and s.loc[200, "maxdisp_sd"] == 10.0
+    assert s.loc[50, "reached"] == 1 and pd.isna(s.loc[50, "time_median"])
+    assert s.loc[200, "reached"] == 2 and s.loc[200, "time_median"] == 70.0
+    assert s.loc[200, "time_mean_reached"] == 60.0
+
+
+def test_run_mechanism_end_to_end_tiny(tmp_path):
+    res = run_mechanism(
+        tmp_path / "m",
+        "quick",
+        seeds=2,
+        grid={"mapping": ["lit_hot", "lit_cold"]},
+        overrides={"n": 40, "width": 500.0, "height": 500.0, "duration": 6.0, "warmup": 2.0},
+        max_workers=1,
+        progress=False,
+    )
+    assert len(res.runs) == 4 and len(res.summary) == 2
+    assert res.runs["force_held"].notna().all()  # held during the warm-up, then measured
+    data = json.loads((tmp_path / "m" / "mechanism.json").read_text())
+    assert len(data["runs"]) == 4 and data["setting"]["seeds"] == [0, 1]
+    assert (tmp_path / "m" / "mechanism.md").read_text().startswith("| mapping |")
+    # restart: finished runs are reused, results identical
+    res2 = run_mechanism(
+        tmp_path / "m",
+        "quick",
+        seeds=2,
+        grid={"mapping": ["lit_hot", "lit_cold"]},
+        overrides={"n": 40, "width": 500.0, "height": 500.0, "duration": 6.0, "warmup": 2.0},
+        max_workers=1,
+        progress=False,
+    )
+    pd.testing.assert_frame_equal(res.summary, res2.summary)
+
+
+def test_run_scaling_end_to_end_tiny(tmp_path):
+    res = run_scaling(
+        tmp_path / "s",
+        "quick",
+        ns=[20, 60],
+        seeds=2,
+        duration=5.0,
+        target_distance=1.0,
+        overrides={"width": 500.0, "height": 500.0},
+        max_workers=1,
+        progress=False,
+    )
+    assert list(res.summary["n"]) == [20, 60]
+    assert res.setting["base"]["target_y"] == 251.0
+    assert (tmp_path / "s" / "scaling.png").stat().st_size > 1000
+    assert "| 20 |" in (tmp_path / "s" / "scaling.md").read_text()
+
+
+def test_bad_setting_and_missing_parent(tmp_path):
+    with pytest.raises(ConfigError, match="setting"):
+        run_mechanism(tmp_path / "m", "medium")
+    with pytest.raises(ConfigError, match="parent"):
+        run_scaling(tmp_path / "no" / "such", "quick")
