@@ -93,17 +93,34 @@ def test_narrow_road_headings_point_to_each_groups_goal():
 
 
 def test_light_switches_the_temperature_and_the_mapping_flips_it():
-    lit_hot = Controller(Config(algorithm="transport-free", v_max=None), seed=1)
-    lit_cold = Controller(
-        Config(algorithm="transport-free", mapping="lit_cold", v_max=None), seed=1
-    )
-    e_lit = np.mean([lit_hot.decide(0.9)[1] ** 2 / 2 for _ in range(N)])
-    e_dark = np.mean([lit_hot.decide(0.1)[1] ** 2 / 2 for _ in range(N)])
+    cfg = dict(algorithm="transport-free", v_max=None)
+    lit_hot = Controller(Config(mapping="lit_hot", **cfg), seed=1)
+    lit_cold = Controller(Config(mapping="lit_cold", **cfg), seed=1)
     c = Config()
-    se_hot = c.kT_hot / math.sqrt(N)
-    assert abs(e_lit - c.kT_hot) < 4 * se_hot and abs(e_dark - c.kT_cold) < 4 * se_hot
+    se = c.kT_hot / math.sqrt(N)
+    for ctrl, lit_T, dark_T in ((lit_hot, c.kT_hot, c.kT_cold), (lit_cold, c.kT_cold, c.kT_hot)):
+        e_lit = np.mean([ctrl.decide(0.9)[1] ** 2 / 2 for _ in range(N)])
+        e_dark = np.mean([ctrl.decide(0.1)[1] ** 2 / 2 for _ in range(N)])
+        assert abs(e_lit - lit_T) < 4 * se and abs(e_dark - dark_T) < 4 * se
     lit_cold.decide(0.9)
-    assert lit_cold.phase == 0 and (lit_hot.decide(0.9), lit_hot.phase)[1] == 1
+    assert lit_cold.phase == 0
+    lit_hot.decide(0.9)
+    assert lit_hot.phase == 1
+
+
+def test_persistent_heading_turns_by_the_exponential_steering_law():
+    # scale kT_theta * tau = 0.5 rad: turns beyond pi (wrapped) have probability e^-6.3
+    c = Controller(Config(algorithm="transport-free", kT_theta=0.25, tau=2.0), seed=8)
+    prev = c.theta
+    turns = []
+    for _ in range(N):
+        th, _ = c.decide(0.2)
+        turns.append(ctl.wrap(th - prev))
+        prev = th
+    turns = np.array(turns)
+    # |turn| ~ Exponential(kT_theta * tau) with a random sign (PAPER_NOTES 6.4)
+    assert stats.kstest(np.abs(turns), stats.expon(scale=0.5).cdf).pvalue > 1e-3
+    assert abs(np.mean(turns > 0) - 0.5) < 4 * 0.5 / math.sqrt(N)
 
 
 def test_v_max_clips_to_the_motors_limit():

@@ -19,9 +19,15 @@ Laws (PAPER_NOTES 6.1, 6.2, 6.4): the energy ``E ~ Exponential(kT)`` and the spe
 ==========================  ================================================
 ``compression`` (Alg. 3)    ``theta ~ U(-180, 180)``
 ``transport-connected`` (4) ``theta ~ U(-90, 90)``
-``transport-free`` (5)      ``theta ~ U(-180, 180)``, ``kT`` switched by light
+``transport-free`` (5)      ``kT`` switched by light; heading uniform, or kept
+                            and turned by the exponential steering law
 ``narrow-road`` (2)         ``theta ~ N(goal, sigma)``, goal 0 or 180 deg
 ==========================  ================================================
+
+Algorithm 5's defaults are the combination that the mechanism study found to move
+the object toward the light (``docs/scenarios_transport.md``): lit robots cold (the
+paper's equation) and persistent headings; the paper's captions (lit robots hot) with
+fresh uniform headings push the object away from the light.
 
 Hardware: the robot talks to its motors and photoresistors through a small "HAL"
 object that the board's ``main.py`` provides (see :class:`HAL`).  Units: mm, s, rad;
@@ -40,10 +46,12 @@ DEFAULTS = {
     "tau": 1.0,  # s, control period
     "v_max": 33.0,  # mm/s: N20 motors at 52 rpm on 12 mm wheels
     # Algorithm 5: the temperature switched by the light level
-    "kT_hot": 254.6,  # mean speed 20 mm/s
-    "kT_cold": 15.9,  # mean speed 5 mm/s
+    "kT_hot": 143.2,  # mean speed 15 mm/s
+    "kT_cold": 5.73,  # mean speed 3 mm/s
     "light_threshold": 0.5,
-    "mapping": "lit_hot",  # or "lit_cold" (PAPER_NOTES 6.3)
+    "mapping": "lit_cold",  # or "lit_hot" (PAPER_NOTES 6.3)
+    "heading_law": "persistent",  # or "uniform" (Algorithm 5 as written)
+    "kT_theta": 0.8,  # rad/s, steering temperature of the persistent law
     # Algorithm 2
     "group": 0,  # 0: goal at 0 deg (toward the light), 1: at 180 deg
     "sigma": 0.7854,  # rad (45 deg), the spread the paper does not give
@@ -55,24 +63,46 @@ DEFAULTS = {
 }
 
 
-class Rng:
-    """xorshift32 (Marsaglia 2003): 32-bit integer arithmetic only, so MicroPython
-    boards and CPython give the same sequence for a seed.
+M32 = 0xFFFFFFFF
 
-    Not for cryptography; its period (2^32 - 1) is ample for a robot's decisions.
+
+def _rotl(x, k):
+    return ((x << k) | (x >> (32 - k))) & M32
+
+
+class Rng:
+    """xoshiro128** (Blackman and Vigna 2018), seeded with splitmix32.
+
+    32-bit integer arithmetic only, so MicroPython boards and CPython give the same
+    sequence for a seed, and good statistical quality (a weaker xorshift32 showed
+    detectable structure in its every-other outputs in our tests).  Not for
+    cryptography.
     """
 
     def __init__(self, seed):
-        s = (int(seed) * 2654435761 + 0x6D2B79F5) & 0xFFFFFFFF
-        self.state = s if s else 0x9E3779B9
+        z = int(seed) & M32
+        s = []
+        for _ in range(4):  # splitmix32: spreads any seed over the four state words
+            z = (z + 0x9E3779B9) & M32
+            t = z
+            t = ((t ^ (t >> 16)) * 0x85EBCA6B) & M32
+            t = ((t ^ (t >> 13)) * 0xC2B2AE35) & M32
+            s.append(t ^ (t >> 16))
+        if not any(s):
+            s[0] = 1
+        self.s = s
 
     def u32(self):
-        x = self.state
-        x ^= (x << 13) & 0xFFFFFFFF
-        x ^= x >> 17
-        x ^= (x << 5) & 0xFFFFFFFF
-        self.state = x
-        return x
+        s = self.s
+        result = (_rotl((s[1] * 5) & M32, 7) * 9) & M32
+        t = (s[1] << 9) & M32
+        s[2] ^= s[0]
+        s[3] ^= s[1]
+        s[1] ^= s[2]
+        s[0] ^= s[3]
+        s[2] ^= t
+        s[3] = _rotl(s[3], 11)
+        return result
 
     def random(self):
         """Uniform on the open interval (0, 1)."""
@@ -108,11 +138,13 @@ class Config:
             setattr(self, k, settings.get(k, v))
         if self.algorithm not in ALGORITHMS:
             raise ValueError("algorithm must be one of " + ", ".join(ALGORITHMS))
-        for k in ("kT", "tau", "kT_hot", "kT_cold", "sigma", "step"):
+        for k in ("kT", "tau", "kT_hot", "kT_cold", "sigma", "step", "kT_theta"):
             if not getattr(self, k) > 0:
                 raise ValueError(k + " must be positive")
         if self.mapping not in ("lit_hot", "lit_cold"):
             raise ValueError("mapping must be 'lit_hot' or 'lit_cold'")
+        if self.heading_law not in ("uniform", "persistent"):
+            raise ValueError("heading_law must be 'uniform' or 'persistent'")
         if self.group not in (0, 1):
             raise ValueError("group must be 0 or 1")
         if self.v_max is not None and not self.v_max > 0:
@@ -150,6 +182,7 @@ class Controller:
         self.hal = hal
         self.rng = Rng(seed)
         self.phase = 0  # 1: hot ("gas"), 0: cold ("liquid"); Algorithm 5 only
+        self.theta = self.rng.uniform(-math.pi, math.pi)  # last heading vs the light
 
     def temperature(self, light):
         """``kT`` of this period: constant, or switched by the light (Algorithm 5)."""
@@ -161,8 +194,12 @@ class Controller:
         self.phase = 1 if hot else 0
         return c.kT_hot if hot else c.kT_cold
 
-    def decide(self, light=1.0):
-        """Sample ``(theta, v)``: heading relative to the light (rad) and speed (mm/s)."""
+    def decide(self, light=1.0, previous=None):
+        """Sample ``(theta, v)``: heading relative to the light (rad) and speed (mm/s).
+
+        ``previous`` is the last heading relative to the light (the persistent law of
+        Algorithm 5 turns from it); by default the controller's own memory.
+        """
         c = self.config
         kT = self.temperature(light)
         energy = self.rng.exponential(kT)
@@ -175,8 +212,15 @@ class Controller:
         elif a == "narrow-road":
             goal = 0.0 if c.group == 0 else math.pi
             theta = wrap(goal + c.sigma * self.rng.normal())
+        elif a == "transport-free" and c.heading_law == "persistent":
+            # keep the heading; turn by omega * tau, |omega| ~ Exponential(kT_theta)
+            turn = self.rng.exponential(c.kT_theta * c.tau)
+            if self.rng.random() < 0.5:
+                turn = -turn
+            theta = wrap((self.theta if previous is None else previous) + turn)
         else:
             theta = self.rng.uniform(-math.pi, math.pi)
+        self.theta = theta
         return theta, v
 
     def turn_to_light(self):

@@ -41,11 +41,13 @@ class ControllerPolicy:
         seeds = rng.integers(0, 2**32, obs.n, dtype=np.uint64)
         light = np.asarray(obs.light, dtype=float)
         group = np.asarray(obs.group)
+        # the heading each robot held, relative to the light (the persistent law's memory)
+        previous = np.asarray(obs.heading) - np.asarray(obs.zero_heading)
         theta = np.empty(obs.n)
         speed = np.empty(obs.n)
         for k in range(obs.n):
             ctrl = Controller(self._configs[int(group[k]) & 1], seed=int(seeds[k]))
-            theta[k], speed[k] = ctrl.decide(float(light[k]))
+            theta[k], speed[k] = ctrl.decide(float(light[k]), float(previous[k]))
         return Action(heading=np.asarray(obs.zero_heading) + theta, speed=speed)
 
 
