@@ -1,0 +1,360 @@
+"""narrow-road: Algorithm 2's laws, the road, re-entry bookkeeping, metrics, the claim."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+from scipy import stats
+
+from thermoswarm.errors import ConfigError
+from thermoswarm.maxent import kT_for_mean_speed
+from thermoswarm.policy import NarrowRoad, Observation
+from thermoswarm.scenarios import runner
+from thermoswarm.scenarios.narrow_road import (
+    NarrowRoadParams,
+    flow_series,
+    longest_gap,
+    road_geometry,
+    road_n,
+    section_index,
+    section_samples,
+    section_stats,
+)
+
+KT10 = kT_for_mean_speed(10.0)
+
+
+def _obs(group, zero=0.0, tau=1.0):
+    group = np.asarray(group)
+    n = group.size
+    return Observation(
+        time=0.0,
+        index=np.arange(n),
+        tau=tau,
+        group=group,
+        zero_heading=np.full(n, zero),
+        light=np.ones(n),
+    )
+
+
+def _wrap(a):
+    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+
+
+# ------------------------------------------------------------------ Algorithm 2 policy
+
+
+def test_normal_law_heads_each_group_to_its_own_end():
+    """Group 0: N(0, sigma) around heading 0; group 1: N(pi, sigma); Rayleigh speeds."""
+    n = 20_000
+    sigma = math.radians(30)
+    zero = 0.7  # heading 0 need not be the world's +x: the law is relative to it
+    pol = NarrowRoad(kT=KT10, sigma=sigma)
+    group = np.repeat([0, 1], n // 2)
+    a = pol.act(_obs(group, zero=zero), np.random.default_rng(5))
+    for g, goal in ((0, 0.0), (1, math.pi)):
+        dev = _wrap(a.heading[group == g] - zero - goal)
+        m = dev.size
+        # mean deviation 0 and spread sigma, within 4 standard errors
+        assert abs(dev.mean()) < 4 * sigma / math.sqrt(m)
+        assert abs(dev.std() - sigma) < 4 * sigma / math.sqrt(2 * m)
+        assert stats.kstest(dev / sigma, "norm").pvalue > 1e-3
+    # speed: energy v^2/2 exponential with mean kT (Rayleigh speeds)
+    e = a.speed**2 / 2
+    assert abs(e.mean() - KT10) < 4 * KT10 / math.sqrt(n)
+
+
+def test_exponential_steering_law_is_laplace_with_speed_dependent_temperature():
+    """delta / tau = w with |w| ~ Exp(T(v)), T(v) = Tmin + (Tmax - Tmin) exp(-v/vs)."""
+    n = 40_000
+    tau = 2.0
+    pol = NarrowRoad(kT=KT10, steering="exponential", T_theta_max=1.5, T_theta_min=0.1,
+                     v_scale=8.0)  # fmt: skip
+    a = pol.act(_obs(np.zeros(n, int), tau=tau), np.random.default_rng(9))
+    w = a.heading / tau  # goal 0, heading 0 = 0: the heading is delta (not wrapped)
+    T = 0.1 + 1.4 * np.exp(-a.speed / 8.0)
+    u = np.abs(w) / T  # Exp(1) if the law holds
+    assert abs(u.mean() - 1) < 4 / math.sqrt(n)
+    assert stats.kstest(u, "expon").pvalue > 1e-3
+    # random sign
+    assert abs((w > 0).mean() - 0.5) < 4 * 0.5 / math.sqrt(n)
+    # slow robots steer more: mean |w| in the slowest quartile far above the fastest
+    q = np.quantile(a.speed, [0.25, 0.75])
+    slow, fast = np.abs(w[a.speed < q[0]]).mean(), np.abs(w[a.speed > q[1]]).mean()
+    assert slow > 2 * fast
+
+
+def test_policy_rejects_bad_groups_and_laws():
+    with pytest.raises(ValueError, match="steering"):
+        NarrowRoad(kT=KT10, steering="zigzag")
+    with pytest.raises(ValueError, match="sigma"):
+        NarrowRoad(kT=KT10, sigma=-1.0)
+    with pytest.raises(ValueError, match="group 2"):
+        NarrowRoad(kT=KT10).act(_obs([0, 2]), np.random.default_rng(0))
+
+
+# ------------------------------------------------------------------ road geometry
+
+
+def test_default_road_follows_the_paper_numbers():
+    """381 mm long, 40:20 widths scaled by 3.81, N from the occupation ratio 80/448."""
+    p = NarrowRoadParams()
+    geo = road_geometry(p)
+    wide, narrow = 40 * 3.81, 20 * 3.81
+    area = 381 / 2 * wide + 381 / 2 * narrow
+    assert geo.area == pytest.approx(area, rel=1e-12)
+    assert list(geo.widths) == pytest.approx([wide, narrow])
+    n = round(80 / 448 * area / (math.pi * 16.5**2))
+    assert road_n(p) == n == 9
+    # re-entry spots: inside the road, a radius from every wall, near their start wall
+    for g, spots in enumerate(geo.entry_spots):
+        assert spots.shape[0] > 100
+        dist_to_start = spots[:, 0] if g == 0 else 381 - spots[:, 0]
+        assert dist_to_start.min() >= 16.5 and dist_to_start.max() <= p.entry_depth
+        half = (wide if g == 0 else narrow) / 2
+        assert np.abs(spots[:, 1]).max() <= half - 16.5
+
+
+def test_tapered_road_area():
+    p = NarrowRoadParams(taper=40.0)
+    geo = road_geometry(p)
+    # a linear taper replaces two 20 mm strips of the step by a trapezoid of the same area
+    assert geo.area == pytest.approx(190.5 * 152.4 + 190.5 * 76.2, rel=1e-12)
+    assert len(geo.segments) == 8
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "named"),
+    [
+        ("section_widths", [152.4, 30.0], "section_widths"),
+        ("section_fractions", [0.5, 0.6], "section_fractions"),
+        ("steering", "zigzag", "steering"),
+        ("kT", -1.0, "kT"),
+        ("n", 1, "n"),
+        ("arrive_depth", 10.0, "arrive_depth"),
+        ("sensing.mode", "psychic", "sensing.mode"),
+        ("section_names", ["a", "a"], "section_names"),
+    ],
+)
+def test_bad_config_is_one_line_error_naming_the_key(key, value, named):
+    with pytest.raises(ConfigError) as exc:
+        runner.resolve("narrow-road", overrides=[f"{key}={json.dumps(value)}"])
+    msg = str(exc.value)
+    assert named in msg and "\n" not in msg
+
+
+# ------------------------------------------------------------------ metric functions
+
+
+def test_longest_gap_counts_from_start_and_to_end():
+    assert longest_gap(np.array([10.0, 20.0, 50.0]), 0.0, 100.0) == 50.0
+    assert longest_gap(np.array([70.0, 20.0]), 0.0, 100.0) == 50.0  # unsorted input
+    assert longest_gap(np.array([]), 0.0, 100.0) == 100.0
+    assert longest_gap(np.array([5.0, 500.0]), 0.0, 100.0) == 95.0  # outside ignored
+
+
+def test_flow_series_is_crossings_per_minute_per_bin():
+    starts, flow = flow_series(np.array([5.0, 10.0, 70.0, 130.0]), 150.0, 60.0)
+    assert starts.tolist() == [0.0, 60.0, 120.0]
+    # last bin is 30 s long: one crossing in it is 2 per minute
+    assert flow.tolist() == pytest.approx([2.0, 1.0, 2.0])
+
+
+def test_section_index():
+    edges = np.array([0.0, 190.5, 381.0])
+    x = np.array([0.0, 100.0, 190.5, 380.9, 381.0, 400.0, -5.0])
+    assert section_index(x, edges).tolist() == [0, 0, 1, 1, 1, 1, 0]
+
+
+def _tracks(pos, section, lap, group, speed, dt=1.0):
+    """pos (time, individuals, 2) -> a minimal trajectory dataset."""
+    pos = np.asarray(pos, float)
+    t = np.arange(pos.shape[0]) * dt
+    return xr.Dataset(
+        {
+            "position": (
+                ("time", "space", "keypoints", "individuals"),
+                pos.transpose(0, 2, 1)[:, :, None, :],
+            ),
+            "section": (("time", "individuals"), np.asarray(section, np.int8)),
+            "lap": (("time", "individuals"), np.asarray(lap, np.int32)),
+            "group": (("time", "individuals"), np.asarray(group, np.int8)),
+            "speed": (("time", "individuals"), np.asarray(speed, float)),
+        },
+        coords={"time": t},
+    )
+
+
+def test_section_samples_drop_reentry_jumps_and_waits():
+    # robot 0 moves 3 mm per 0.5 s along x (6 mm/s); robot 1 moves 4 mm, then jumps back
+    # to the start (new lap), then waits off the road (section -1)
+    pos = [
+        [[10, 0], [300, 0]],
+        [[13, 0], [296, 0]],
+        [[16, 0], [20, 0]],
+        [[19, 0], [20, -200]],
+    ]
+    section = [[0, 1], [0, 1], [0, 0], [0, -1]]
+    lap = [[0, 0], [0, 0], [0, 1], [0, 1]]
+    group = [[0, 1]] * 4
+    tr = _tracks(pos, section, lap, group, np.full((4, 2), 7.0), dt=0.5)
+    s = section_samples(tr)
+    order = np.lexsort((s["time"], s["id"]))
+    assert s["id"][order].tolist() == [0, 0, 0, 1]
+    assert s["speed"][order] == pytest.approx([6.0, 6.0, 6.0, 8.0])
+    assert s["energy"][order] == pytest.approx([18.0, 18.0, 18.0, 32.0])
+    assert s["section"][order].tolist() == [0, 0, 0, 1]
+    st = section_stats(tr, ("wide", "narrow"), np.array([100.0, 50.0]))
+    # occupancy: section 0 holds 5 robot-frames in 4 frames, section 1 holds 2
+    assert st["wide"]["occupancy_mean"] == pytest.approx(5 / 4)
+    assert st["narrow"]["occupancy_mean"] == pytest.approx(2 / 4)
+    assert st["narrow"]["density_per_mm2"] == pytest.approx(0.5 / 50)
+    assert st["wide"]["measured"]["speed_mean"] == pytest.approx(6.0)
+    assert st["narrow"]["by_direction"]["-x"]["measured"]["energy_mean"] == pytest.approx(32.0)
+    assert st["narrow"]["by_direction"]["+x"]["measured"]["n"] == 0
+    assert st["wide"]["commanded"]["speed_mean"] == pytest.approx(7.0)
+
+
+# ------------------------------------------------------------------ re-entry mechanics
+
+
+def _built(**over):
+    sets = [f"{k}={json.dumps(v)}" for k, v in over.items()]
+    cfg = runner.resolve("narrow-road", overrides=sets, seed=3)
+    scen, setup, sim, state = runner.build(cfg)
+    acc = scen.init_acc(setup, sim, state)
+    return scen, setup, sim, state, acc
+
+
+def test_arrival_reenters_at_the_start_or_waits_and_counts():
+    scen, setup, sim, state, acc = _built(n=4)
+    geo = setup.info["geometry"]
+    # ids 0, 1 are group 0 (toward +x), ids 2, 3 group 1
+    assert state.by_id(state.group).tolist() == [0, 0, 1, 1]
+    row = {int(a): i for i, a in enumerate(state.ids)}
+    # robot 0 in its arrival zone (within 66 mm of x = 381); robot 1 near its start
+    state.pos[row[0]] = (381 - 40.0, 0.0)
+    state.pos[row[2]] = (300.0, 30.0)
+    state.pos[row[3]] = (300.0, -30.0)
+    state.pos[row[1]] = (33.0, 0.0)
+    state.time = 12.0
+    scen.observe(sim, state, acc)
+    assert int(acc["n_events"]) == 1
+    t, a, g, transit = acc["events"][0]
+    assert (t, a, g) == (12.0, 0, 0) and math.isnan(transit)  # first lap: no transit
+    assert acc["lap"].tolist() == [1, 0, 0, 0]
+    p0 = state.pos[row[0]]
+    spots = geo.entry_spots[0]
+    # a free spot existed: re-entered there at once, clear of robot 1
+    assert p0[1] > geo.depot_line
+    assert np.min(np.hypot(*(spots - p0).T)) < 1e-9
+    assert np.hypot(*(p0 - state.pos[row[1]])) >= 33.0
+    assert acc["entries"][0] == 1 and acc["waited"][0] == 0
+    assert state.timer[row[0]] == 0  # decides at the next step
+    # now fill the whole start zone: robot 0 must wait when it arrives again
+    state.pos[row[0]] = (381 - 40.0, 0.0)
+    blockers = [(33.0, 45.0), (33.0, -45.0), (33.0, 0.0)]
+    for a, xy in zip((1, 2, 3), blockers, strict=True):
+        state.pos[row[a]] = xy
+    # robots 2 and 3 (group 1) sit at x = 33: they would arrive too; relabel them group 0
+    state.group[row[2]] = 0
+    state.group[row[3]] = 0
+    # ... but group-0 robots at x = 33 are not arriving (their far end is x = 381)
+    state.time = 40.0
+    scen.observe(sim, state, acc)
+    assert int(acc["n_events"]) == 2
+    assert acc["events"][1][3] == pytest.approx(40.0 - 12.0)  # a complete lap
+    assert state.pos[row[0]][1] < geo.depot_line  # waiting off the road
+    assert state.speed[row[0]] == 0.0
+    assert acc["park_since"][0] == 40.0
+    # the spot frees up 5 s later: the robot re-enters, the wait is counted
+    state.pos[row[1]] = (200.0, 0.0)
+    state.pos[row[2]] = (250.0, 0.0)
+    state.pos[row[3]] = (300.0, 0.0)
+    state.time = 45.0
+    scen.observe(sim, state, acc)
+    assert state.pos[row[0]][1] > geo.depot_line
+    assert acc["waited"][0] == 1 and acc["wait_total"][0] == pytest.approx(5.0)
+    assert acc["wait_max"][0] == pytest.approx(5.0)
+    assert math.isnan(acc["park_since"][0]) and acc["entry_time"][0] == 45.0
+
+
+def test_waiting_robot_stands_still():
+    """The policy wrapper stops robots in the depot."""
+    scen, setup, sim, state, acc = _built(n=4)
+    geo = setup.info["geometry"]
+    i = 0
+    a = int(state.ids[i])
+    state.pos[i] = geo.depot_slots[a]
+    state.timer[i] = 0
+    before = state.pos[i].copy()
+    sim.step(state)
+    j = int(np.flatnonzero(state.ids == a)[0])
+    assert state.speed[j] == 0.0
+    assert np.array_equal(state.pos[j], before)
+
+
+# ------------------------------------------------------------------ runs
+
+
+def test_scenario_builds_runs_and_writes_its_metrics(tmp_path):
+    cfg = runner.resolve("narrow-road", overrides=["duration=120", "record.interval=1.0"],
+                         seed=2)  # fmt: skip
+    m = runner.run(cfg, tmp_path / "run", progress=False)
+    for key in ("flow_per_direction", "longest_zero_flow_s", "crossings", "flow_over_time",
+                "transit_times", "sections", "waiting", "road"):  # fmt: skip
+        assert key in m
+    assert set(m["flow_per_direction"]) == {"+x", "-x"}
+    assert set(m["longest_zero_flow_s"]) == {"+x", "-x", "overall"}
+    tr = xr.open_dataset(tmp_path / "run" / "tracks.nc")
+    on = tr["section"].values >= 0
+    pos = tr["position"].isel(keypoints=0).values  # (time, space, individuals)
+    x, y = pos[:, 0][on], pos[:, 1][on]
+    assert x.min() >= 16.5 - 0.7 and x.max() <= 381 - 16.5 + 0.7
+    # recorded sections agree with x
+    geo = road_geometry(NarrowRoadParams())
+    assert np.array_equal(section_index(x, geo.edges), tr["section"].values[on])
+    half = np.where(x < 190.5, 76.2, 38.1)
+    assert np.all(np.abs(y) <= half - 16.5 + 0.7)
+    assert m["max_overlap_fraction"] < 0.02
+    # crossings = arrivals = lap increments
+    assert m["crossings"]["total"] == int(tr["lap"].values[-1].sum())
+
+
+def test_photoresistor_sensing_runs(tmp_path):
+    cfg = runner.resolve(
+        "narrow-road",
+        overrides=["duration=30", "sensing.mode='photoresistor'", "steering='exponential'"],
+    )
+    m = runner.run(cfg, tmp_path / "run", progress=False)
+    assert m["max_overlap_fraction"] < 0.02
+
+
+def test_resume_gives_the_same_metrics(tmp_path, monkeypatch):
+    """A run killed mid-way and resumed ends exactly as an uninterrupted one (the
+    re-entry bookkeeping and its random draws are checkpointed)."""
+    sets = ["duration=400", "record.interval=1.0", "record.block=50", "n=12"]
+    cfg = runner.resolve("narrow-road", overrides=sets, seed=4)
+    full = runner.run(cfg, tmp_path / "full", progress=False)
+    from thermoswarm.scenarios.narrow_road import NarrowRoadScenario
+
+    real = NarrowRoadScenario.observe
+
+    def dying(self, sim, state, acc):
+        real(self, sim, state, acc)
+        if state.step == 2730:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(NarrowRoadScenario, "observe", dying)
+    with pytest.raises(KeyboardInterrupt):
+        runner.run(cfg, tmp_path / "cut", progress=False)
+    monkeypatch.setattr(NarrowRoadScenario, "observe", real)
+    resumed = runner.resume(tmp_path / "cut", progress=False)
+    full.pop("performance")
+    resumed.pop("performance")
+    assert full["crossings"]["total"] > 5  # something happened before and after the cut
+    assert json.dumps(full, sort_keys=True) == json.dumps(resumed, sort_keys=True)
