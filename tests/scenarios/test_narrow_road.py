@@ -119,12 +119,17 @@ def test_default_road_follows_the_paper_numbers():
         assert np.abs(spots[:, 1]).max() <= half - 16.5
 
 
-def test_tapered_road_area():
+def test_tapered_road_area_and_open_or_walled_ends():
     p = NarrowRoadParams(taper=40.0)
     geo = road_geometry(p)
     # a linear taper replaces two 20 mm strips of the step by a trapezoid of the same area
     assert geo.area == pytest.approx(190.5 * 152.4 + 190.5 * 76.2, rel=1e-12)
-    assert len(geo.segments) == 8
+    # open ends: side walls and tapers only (2 x 3 segments); end walls add 2
+    assert len(geo.segments) == 6
+    assert not np.any((geo.segments[:, 0] == geo.segments[:, 2]) & (geo.segments[:, 0] == 0))
+    walled = road_geometry(NarrowRoadParams(taper=40.0, ends="walls"))
+    assert len(walled.segments) == 8
+    assert walled.arrive_depth == 66.0 and geo.arrive_depth == 0.0
 
 
 @pytest.mark.parametrize(
@@ -135,7 +140,8 @@ def test_tapered_road_area():
         ("steering", "zigzag", "steering"),
         ("kT", -1.0, "kT"),
         ("n", 1, "n"),
-        ("arrive_depth", 10.0, "arrive_depth"),
+        ("arrive_depth", -1.0, "arrive_depth"),
+        ("ends", "ajar", "ends"),
         ("sensing.mode", "psychic", "sensing.mode"),
         ("section_names", ["a", "a"], "section_names"),
     ],
@@ -145,6 +151,13 @@ def test_bad_config_is_one_line_error_naming_the_key(key, value, named):
         runner.resolve("narrow-road", overrides=[f"{key}={json.dumps(value)}"])
     msg = str(exc.value)
     assert named in msg and "\n" not in msg
+
+
+def test_arrival_line_must_be_reachable_with_end_walls():
+    # a centre cannot come closer than a radius to an end wall
+    with pytest.raises(ConfigError, match="arrive_depth"):
+        runner.resolve("narrow-road", overrides=["ends='walls'", "arrive_depth=10"])
+    runner.resolve("narrow-road", overrides=["arrive_depth=10"])  # fine with open ends
 
 
 # ------------------------------------------------------------------ metric functions
@@ -231,7 +244,7 @@ def _built(**over):
 
 
 def test_arrival_reenters_at_the_start_or_waits_and_counts():
-    scen, setup, sim, state, acc = _built(n=4)
+    scen, setup, sim, state, acc = _built(n=4, ends="walls")
     geo = setup.info["geometry"]
     # ids 0, 1 are group 0 (toward +x), ids 2, 3 group 1
     assert state.by_id(state.group).tolist() == [0, 0, 1, 1]
@@ -244,8 +257,8 @@ def test_arrival_reenters_at_the_start_or_waits_and_counts():
     state.time = 12.0
     scen.observe(sim, state, acc)
     assert int(acc["n_events"]) == 1
-    t, a, g, transit = acc["events"][0]
-    assert (t, a, g) == (12.0, 0, 0) and math.isnan(transit)  # first lap: no transit
+    t, a, g, transit, kind = acc["events"][0]
+    assert (t, a, g, kind) == (12.0, 0, 0, 1) and math.isnan(transit)  # first lap
     assert acc["lap"].tolist() == [1, 0, 0, 0]
     p0 = state.pos[row[0]]
     spots = geo.entry_spots[0]
@@ -283,6 +296,31 @@ def test_arrival_reenters_at_the_start_or_waits_and_counts():
     assert math.isnan(acc["park_since"][0]) and acc["entry_time"][0] == 45.0
 
 
+def test_open_ends_count_arrivals_and_robots_leaving_backward():
+    scen, setup, sim, state, acc = _built(n=4)
+    geo = setup.info["geometry"]
+    row = {int(a): i for i, a in enumerate(state.ids)}
+    for a, xy in zip(range(4), [(380.0, 0.0), (100.0, 0.0), (200.0, 0.0), (250.0, 0.0)],
+                     strict=True):  # fmt: skip
+        state.pos[row[a]] = xy
+    state.time = 5.0
+    scen.observe(sim, state, acc)
+    assert int(acc["n_events"]) == 0  # centres still on the road: nobody left
+    state.pos[row[0]] = (381.5, 0.0)  # group 0 crosses its far end line: a crossing
+    state.pos[row[2]] = (381.2, 0.0)  # group 1 leaves across its own start end
+    state.time = 6.0
+    scen.observe(sim, state, acc)
+    ev = acc["events"][: int(acc["n_events"])]
+    kinds = {int(e[1]): int(e[4]) for e in ev}
+    assert kinds == {0: 1, 2: 0}
+    assert math.isnan(ev[ev[:, 1] == 2][0, 3])  # leaving backward has no transit time
+    # both are back at their own start ends, on the road
+    p0, p2 = state.pos[row[0]], state.pos[row[2]]
+    assert p0[1] > geo.depot_line and p0[0] <= NarrowRoadParams().entry_depth
+    assert p2[1] > geo.depot_line and p2[0] >= 381 - NarrowRoadParams().entry_depth
+    assert acc["lap"].tolist() == [1, 0, 1, 0]
+
+
 def test_waiting_robot_stands_still():
     """The policy wrapper stops robots in the depot."""
     scen, setup, sim, state, acc = _built(n=4)
@@ -310,19 +348,22 @@ def test_scenario_builds_runs_and_writes_its_metrics(tmp_path):
         assert key in m
     assert set(m["flow_per_direction"]) == {"+x", "-x"}
     assert set(m["longest_zero_flow_s"]) == {"+x", "-x", "overall"}
+    assert set(m["left_backward"]) == {"+x", "-x"}
     tr = xr.open_dataset(tmp_path / "run" / "tracks.nc")
     on = tr["section"].values >= 0
     pos = tr["position"].isel(keypoints=0).values  # (time, space, individuals)
     x, y = pos[:, 0][on], pos[:, 1][on]
-    assert x.min() >= 16.5 - 0.7 and x.max() <= 381 - 16.5 + 0.7
+    # open ends: a robot is recorded on the road until its centre crosses an end line
+    assert x.min() >= 0.0 and x.max() <= 381.0
     # recorded sections agree with x
     geo = road_geometry(NarrowRoadParams())
     assert np.array_equal(section_index(x, geo.edges), tr["section"].values[on])
     half = np.where(x < 190.5, 76.2, 38.1)
     assert np.all(np.abs(y) <= half - 16.5 + 0.7)
     assert m["max_overlap_fraction"] < 0.02
-    # crossings = arrivals = lap increments
-    assert m["crossings"]["total"] == int(tr["lap"].values[-1].sum())
+    # every lap ends in a crossing or in leaving backward
+    laps = int(tr["lap"].values[-1].sum())
+    assert m["crossings"]["total"] + sum(m["left_backward"].values()) == laps
 
 
 def test_photoresistor_sensing_runs(tmp_path):

@@ -14,8 +14,9 @@ section 20 mm wide.  The simulated road is 381 mm long ("road length in simulati
 ``40 x 3.81 = 152.4`` mm wide and the narrow one ``20 x 3.81 = 76.2`` mm wide, two
 robots abreast.  The paper does not give the sections' lengths (its figure is missing);
 by default each is half the road (``section_fractions``), wide first.  The road runs
-along +x from ``x = 0`` to ``x = length``, symmetric about ``y = 0``, closed by walls at
-both ends; steps between sections are square unless ``taper`` > 0.
+along +x from ``x = 0`` to ``x = length``, symmetric about ``y = 0``; its ends are open
+(``ends = "open"``, the default: robots leave the road across them) or closed by walls
+(``ends = "walls"``).  Steps between sections are square unless ``taper`` > 0.
 
 Number of robots.  The paper keeps the ants' occupation ratio (robot area / road area)
 0.17857 = 80 ants / 448 ant places.  With the default road the area is
@@ -30,13 +31,30 @@ at the narrow end.  ``sensing.mode = "ideal"`` (default) takes the exact directi
 ``"photoresistor"`` runs the simulated sensors and the stepwise turn
 (:mod:`thermoswarm.sim.light`).
 
-Re-entry.  A robot whose centre comes within ``end_zone`` of its far end wall has
-arrived: a crossing is counted, the robot leaves the road and is put back at its start
-end, at a random free spot whose centre lies within ``end_zone`` of the start wall
-(clear of every robot and wall).  If there is none it waits off the road -- in a depot
-below the road, standing still -- and is put back as soon as a spot frees up (first
-come, first served); such waits are counted.  A re-entered robot starts a new control
-period at once.
+Re-entry.  A robot has arrived when its centre comes within ``arrive_depth`` of its far
+end (default: with open ends, when its centre crosses the end line).  A crossing is
+counted, the robot leaves the road and is put back at its start end, at a random free
+spot whose centre lies within ``entry_depth`` (default 33 mm) of the start end, clear
+of every robot and wall.  If there is none it waits off the road -- in a depot below
+the road, standing still -- and is put back as soon as a spot frees up (first come,
+first served); such waits are counted, and ``entry_clearance`` can further hold a robot
+back while robots heading the other way are near its start.  A re-entered robot starts
+a new control period at once.  With open ends a robot can also leave across its own
+start end (pushed back by oncoming robots, or wandering): that is not a crossing; it
+is counted (``left_backward``) and put back at its start the same way.
+
+Why open ends by default: the real test had a person lift robots that "reached the
+opposite end", and the ants' road opens onto the nest and the forage area.  With end
+walls, robots just put back at an end are pinned against the wall by a stream arriving
+there, and the road locks: with the arrival line one diameter from the wall, zero-flow
+periods lasted up to the whole 5,600 s run; two diameters (the walls default) still
+gives jams of about 60-170 s (``docs/scenarios_road_compression.md``).
+
+Defaults the paper does not give (measured in ``docs/scenarios_road_compression.md``):
+heading spread ``sigma_deg = 45`` and mean speed 20 mm/s (``kT = 254.65``; the robots
+top out near 33 mm/s) with ``tau = 1`` s.  Narrower spreads jam the narrow section
+(robots rarely back off), wider ones cross slowly; slower robots give proportionally
+longer zero-flow periods.
 
 Recorded per frame (besides position): ``heading``, ``speed`` (commanded), ``section``
 (index into ``metrics["road"]["sections"]``, -1 while waiting off the road), ``lap``
@@ -92,6 +110,8 @@ __all__ = [
     "section_samples",
     "section_stats",
     "plot_frame",
+    "plot_flow",
+    "regions_toml",
 ]
 
 #: The ants' occupation ratio: 80 ants on 448 ant places (PAPER_NOTES section 5).
@@ -125,7 +145,8 @@ class NarrowRoadParams:
     diameter : float
         Robot diameter (mm).
     kT : float
-        Speed temperature (mm^2/s^2 per unit mass); default: mean speed 10 mm/s.
+        Speed temperature (mm^2/s^2 per unit mass); default: mean speed 20 mm/s (the
+        robots top out near 33 mm/s; see the module docstring for the choice).
     tau : float
         Control period (s).
     steering : {"normal", "exponential"}
@@ -138,12 +159,17 @@ class NarrowRoadParams:
         Speed scale (mm/s) of the fall of the steering temperature.
     speed_law : {"boltzmann", "half-normal"}
         The speed law (PAPER_NOTES 6.1).
-    arrive_depth : float
-        A robot whose centre comes this close (mm) to its far end wall has arrived.
-        Default two diameters: a robot pressed against robots that have just entered
-        at its far end has reached the end (see the module docstring).
+    ends : {"open", "walls"}
+        Open road ends (robots leave the road across them) or end walls.
+    arrive_depth : float or None
+        A robot whose centre comes this close (mm) to its far end has arrived.
+        Default 0 with open ends (the centre crosses the end line) and two diameters
+        with end walls (see the module docstring).
     entry_depth : float
         Re-entry spots are centres within this distance (mm) of the start wall.
+    entry_clearance : float
+        A robot is put back only while no robot heading the other way has its centre
+        within this distance (mm) of the start wall (0: no such rule).
     flow_bin : float
         Width (s) of the bins of ``flow_over_time``.
     duration : float
@@ -160,16 +186,18 @@ class NarrowRoadParams:
     occupation: float = round(PAPER_OCCUPATION, 5)
     n: int | None = None
     diameter: float = 33.0
-    kT: float = field(default_factory=lambda: round(kT_for_mean_speed(10.0), 6))
+    kT: float = field(default_factory=lambda: round(kT_for_mean_speed(20.0), 6))
     tau: float = 1.0
     steering: Literal["normal", "exponential"] = "normal"
-    sigma_deg: float = 30.0
+    sigma_deg: float = 45.0
     T_theta_max: float = 1.0
     T_theta_min: float = 0.2
     v_scale: float = 10.0
     speed_law: Literal["boltzmann", "half-normal"] = "boltzmann"
-    arrive_depth: float = 66.0
+    ends: Literal["open", "walls"] = "open"
+    arrive_depth: float | None = None
     entry_depth: float = 33.0
+    entry_clearance: float = 0.0
     flow_bin: float = 60.0
     duration: float = 5600.0
     sensing: SensingParams = SensingParams(mode="ideal")
@@ -217,15 +245,25 @@ class NarrowRoadParams:
             f"in [0, {shortest:g}) mm (shorter than the shortest section)",
             self.taper,
         )
-        for name, most in (("arrive_depth", self.length / 3), ("entry_depth", self.length / 4)):
-            v = getattr(self, name)
-            check(
-                fin(v) and self.diameter / 2 + 1 < v <= most,
-                name,
-                f"in ({self.diameter / 2 + 1:g}, {most:g}] mm (more than a robot radius + 1 mm, "
-                f"at most {'a third' if most == self.length / 3 else 'a quarter'} of the road)",
-                v,
-            )
+        check(self.ends in ("open", "walls"), "ends", "'open' or 'walls'", self.ends)
+        lo = self.diameter / 2 + 1
+        check(
+            fin(self.entry_depth) and lo < self.entry_depth <= self.length / 4,
+            "entry_depth",
+            f"in ({lo:g}, {self.length / 4:g}] mm (more than a robot radius + 1 mm, at most a "
+            "quarter of the road)",
+            self.entry_depth,
+        )
+        if self.arrive_depth is not None:
+            a = self.arrive_depth
+            if self.ends == "walls":
+                ok = fin(a) and lo < a <= self.length / 3
+                want = f"in ({lo:g}, {self.length / 3:g}] mm with end walls (a centre cannot come "
+                want += "closer than a radius to a wall)"
+            else:
+                ok = fin(a) and 0 <= a <= self.length / 3
+                want = f"in [0, {self.length / 3:g}] mm"
+            check(ok, "arrive_depth", want, a)
         check(
             fin(self.occupation) and 0 < self.occupation < 0.6,
             "occupation",
@@ -234,6 +272,12 @@ class NarrowRoadParams:
         )
         if self.n is not None:
             check(self.n >= 2, "n", "an integer >= 2 (two groups)", self.n)
+        check(
+            fin(self.entry_clearance) and 0 <= self.entry_clearance <= self.length / 2,
+            "entry_clearance",
+            f"in [0, {self.length / 2:g}] mm",
+            self.entry_clearance,
+        )
         check(fin(self.kT) and self.kT > 0, "kT", "a positive number (mm^2/s^2)", self.kT)
         check(fin(self.tau) and self.tau > 0, "tau", "a positive number of seconds", self.tau)
         check(
@@ -274,6 +318,13 @@ class NarrowRoadParams:
     def radius(self) -> float:
         return self.diameter / 2
 
+    @property
+    def arrival(self) -> float:
+        """``arrive_depth``, or its default for the kind of ends (mm)."""
+        if self.arrive_depth is not None:
+            return self.arrive_depth
+        return 0.0 if self.ends == "open" else 2 * self.diameter
+
 
 # --------------------------------------------------------------------------------------
 # Geometry
@@ -302,7 +353,9 @@ class RoadGeometry:
         Where each robot (by id) waits.
     bounds : (xmin, ymin, xmax, ymax)
     radius : float
+    open_ends : bool
     arrive_depth : float
+    entry_clearance : float
     entry_spots : (ndarray (m0, 2), ndarray (m1, 2))
         Candidate re-entry spots of group 0 (at ``x = 0``) and group 1 (at ``x = length``):
         a 1 mm grid of centres within ``entry_depth`` of the start wall, clear of every wall.
@@ -319,7 +372,9 @@ class RoadGeometry:
     depot_slots: np.ndarray
     bounds: tuple[float, float, float, float]
     radius: float
+    open_ends: bool
     arrive_depth: float
+    entry_clearance: float
     entry_spots: tuple[np.ndarray, np.ndarray]
 
     def section_areas(self) -> np.ndarray:
@@ -339,7 +394,9 @@ class RoadGeometry:
             "depot_line": self.depot_line,
             "bounds": list(self.bounds),
             "radius": self.radius,
+            "open_ends": self.open_ends,
             "arrive_depth": self.arrive_depth,
+            "entry_clearance": self.entry_clearance,
         }
 
 
@@ -375,6 +432,9 @@ def road_geometry(p: NarrowRoadParams, n: int | None = None) -> RoadGeometry:
     outline = np.array(bottom + top[::-1])
     outline = outline[np.r_[True, np.any(np.diff(outline, axis=0) != 0, axis=1)]]
     segments = polygon_segments(outline, closed=True)
+    if p.ends == "open":  # no walls across the ends
+        vertical_end = (segments[:, 0] == segments[:, 2]) & np.isin(segments[:, 0], (0.0, L))
+        segments = segments[~vertical_end]
     area = _shoelace(outline)
     r = p.radius
     if n is None:
@@ -388,6 +448,7 @@ def road_geometry(p: NarrowRoadParams, n: int | None = None) -> RoadGeometry:
         [2.0 + r + (ids % per_row) * pitch, depot_top - (ids // per_row) * pitch]
     )
     ymin = depot_top - (rows - 1) * pitch - r - 4.0
+    margin = p.diameter if p.ends == "open" else 0.0  # room for robots leaving the road
     spots = []
     for xs0, w in ((0.0, widths[0]), (L, widths[-1])):
         xs = np.arange(r + 0.5, p.entry_depth + 1e-9, 1.0)
@@ -405,9 +466,11 @@ def road_geometry(p: NarrowRoadParams, n: int | None = None) -> RoadGeometry:
         area=area,
         depot_line=-widths.max() / 2 - p.diameter / 2,
         depot_slots=slots,
-        bounds=(0.0, ymin, L, float(widths.max() / 2)),
+        bounds=(-margin, ymin, L + margin, float(widths.max() / 2)),
         radius=r,
-        arrive_depth=p.arrive_depth,
+        open_ends=p.ends == "open",
+        arrive_depth=p.arrival,
+        entry_clearance=p.entry_clearance,
         entry_spots=(spots[0], spots[1]),
     )
     clear = tuple(sp[_inside(geo, sp, r * 1.001)] for sp in spots)
@@ -631,8 +694,7 @@ class NarrowRoadScenario(Scenario):
         r = p.radius
         world = World(geo.bounds, geo.segments)
         engine = p.engine.engine(tau=p.tau, radius=r)
-        x0, _, x1, _ = geo.bounds
-        road_box = (x0, -geo.widths.max() / 2, x1, geo.widths.max() / 2)
+        road_box = (0.0, -geo.widths.max() / 2, geo.length, geo.widths.max() / 2)
         pos = place_lattice(road_box, n, r, rng, inside=lambda q: _inside(geo, q, r * 1.001))
         group = np.zeros(n, np.int32)
         group[(n + 1) // 2 :] = 1
@@ -692,7 +754,8 @@ class NarrowRoadScenario(Scenario):
             "entry_time": np.full(n, np.nan),  # NaN: still on the lap it started on
             "lap": np.zeros(n, np.int64),
             "park_since": np.full(n, np.nan),  # NaN: on the road
-            "events": np.zeros((64, 4)),  # time, id, group, transit (NaN: partial lap)
+            # time, id, group, transit (NaN: partial lap), kind (1 arrived, 0 pushed back)
+            "events": np.zeros((64, 5)),
             "n_events": np.array(0),
             "entries": np.zeros(2, np.int64),
             "waited": np.zeros(2, np.int64),
@@ -704,24 +767,30 @@ class NarrowRoadScenario(Scenario):
         geo = self._geo()
         x = state.pos[:, 0]
         g = state.group
+        L = geo.length
         ad = geo.arrive_depth
-        arrived = ((g == 0) & (x >= geo.length - ad)) | ((g == 1) & (x <= ad))
-        if arrived.any():
-            arrived &= state.pos[:, 1] > geo.depot_line
-            for i in np.flatnonzero(arrived):
-                self._arrive(state, acc, geo, int(i))
+        arrived = ((g == 0) & (x >= L - ad)) | ((g == 1) & (x <= ad))
+        backed = ((g == 0) & (x < 0.0)) | ((g == 1) & (x > L))  # open ends only
+        leaving = arrived | backed
+        if leaving.any():
+            leaving &= state.pos[:, 1] > geo.depot_line
+            for i in np.flatnonzero(leaving):
+                self._leave(state, acc, geo, int(i), arrived=bool(arrived[i]))
         if np.isfinite(acc["park_since"]).any():
             self._reenter(state, acc, geo)
 
-    def _arrive(self, state: SwarmState, acc: dict[str, np.ndarray], geo: RoadGeometry,
-                i: int) -> None:  # fmt: skip
+    def _leave(self, state: SwarmState, acc: dict[str, np.ndarray], geo: RoadGeometry,
+               i: int, *, arrived: bool) -> None:  # fmt: skip
+        """Robot ``i`` leaves the road: it arrived (a crossing) or was pushed back out of
+        its start end (open ends); either way it is put back at its start."""
         a = int(state.ids[i])
         g = int(state.group[i])
         t = state.time
         k = int(acc["n_events"])
         if k == acc["events"].shape[0]:
             acc["events"] = np.vstack([acc["events"], np.zeros_like(acc["events"])])
-        acc["events"][k] = (t, a, g, t - acc["entry_time"][a])
+        transit = t - acc["entry_time"][a] if arrived else np.nan
+        acc["events"][k] = (t, a, g, transit, 1.0 if arrived else 0.0)
         acc["n_events"] = np.array(k + 1)
         acc["lap"][a] += 1
         acc["park_since"][a] = t
@@ -742,6 +811,11 @@ class NarrowRoadScenario(Scenario):
             g = int(state.group[i])
             on_road = state.pos[:, 1] > geo.depot_line
             others = state.pos[on_road]
+            if geo.entry_clearance > 0:
+                x = others[:, 0] if g == 0 else geo.length - others[:, 0]
+                oncoming = state.group[on_road] != g
+                if np.any(oncoming & (x < geo.entry_clearance)):
+                    continue
             spot = self._free_spot(geo.entry_spots[g], others, d, state.rng)
             if spot is None:
                 continue
@@ -783,7 +857,8 @@ class NarrowRoadScenario(Scenario):
         geo: RoadGeometry = setup.info["geometry"]
         n = int(setup.info["n"])
         T = float(state.time)
-        ev = acc["events"][: int(acc["n_events"])]
+        ev_all = acc["events"][: int(acc["n_events"])]
+        ev = ev_all[ev_all[:, 4] == 1.0]  # crossings; the rest left backward
         ev_t, ev_g, ev_transit = ev[:, 0], ev[:, 2].astype(int), ev[:, 3]
         group = state.by_id(state.group)
         robot_area = math.pi * p.radius**2
@@ -799,6 +874,10 @@ class NarrowRoadScenario(Scenario):
             "crossings": {
                 **{d: int(np.sum(ev_g == g)) for g, d in enumerate(DIRECTIONS)},
                 "total": int(ev.shape[0]),
+            },
+            "left_backward": {
+                d: int(np.sum((ev_all[:, 4] == 0.0) & (ev_all[:, 2] == g)))
+                for g, d in enumerate(DIRECTIONS)
             },
             "flow_per_direction": {
                 d: float(np.sum(ev_g == g) * 60.0 / T) for g, d in enumerate(DIRECTIONS)
@@ -909,3 +988,32 @@ def plot_frame(
         title += f" ({waiting} waiting off the road)"
     ax.set_title(title)
     return coll
+
+
+def plot_flow(ax: Any, metrics: dict[str, Any]) -> None:
+    """Crossings per minute per direction over time (``metrics["flow_over_time"]``)."""
+    f = metrics["flow_over_time"]
+    t = np.asarray(f["t_start"], dtype=float) + 0.5 * float(f["bin_s"])
+    for d in DIRECTIONS:
+        ax.step(t, f[d], where="mid", label=f"{d} ({metrics['flow_per_direction'][d]:.2f}/min)")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("crossings per minute")
+    ax.legend()
+
+
+def regions_toml(geometry: dict[str, Any] | RoadGeometry) -> str:
+    """The road's sections as a regions file for ``thermoswarm analyze --regions``.
+
+    One ``rect`` per section, ``[x0, -width/2, x1, width/2]`` (mm); exact for square
+    steps, and with a taper the boundary lies at the taper's middle.
+    """
+    import tomli_w
+
+    info = geometry.info() if isinstance(geometry, RoadGeometry) else geometry
+    edges, widths, names = info["edges"], info["widths"], info["names"]
+    regions = [
+        {"name": str(nm), "rect": [float(edges[k]), -widths[k] / 2, float(edges[k + 1]),
+                                   widths[k] / 2]}
+        for k, nm in enumerate(names)
+    ]  # fmt: skip
+    return "# narrow-road sections, mm\n" + tomli_w.dumps({"region": regions})
