@@ -179,20 +179,25 @@ class NarrowRoad:
             )
         if not (math.isfinite(self.sigma) and self.sigma > 0):
             raise ValueError(f"sigma must be a positive angle (rad), got {self.sigma!r}")
-        DecayingTemperature(self.T_theta_max, self.T_theta_min, self.v_scale)  # validates
+        steer = SteeringLaw(DecayingTemperature(self.T_theta_max, self.T_theta_min, self.v_scale))
         goals = tuple(float(g) for g in self.goals)
         if not goals or not all(math.isfinite(g) for g in goals):
             raise ValueError(f"goals must be finite angles (rad), got {self.goals!r}")
         object.__setattr__(self, "goals", goals)
+        # built once: act() runs every control period for a handful of robots, where
+        # constructing and validating the laws would cost more than the draws
+        object.__setattr__(self, "_speed", speed_law(self.speed_law, self.kT))
+        object.__setattr__(self, "_steer", steer)
+        object.__setattr__(self, "_goals", np.asarray(goals))
 
     @property
     def steering_law(self) -> SteeringLaw:
         """The exponential steering-rate law (rad/s) as a function of speed."""
-        return SteeringLaw(DecayingTemperature(self.T_theta_max, self.T_theta_min, self.v_scale))
+        return self._steer
 
     def act(self, obs: Observation, rng: np.random.Generator) -> Action:
         n = obs.n
-        v = speed_law(self.speed_law, self.kT).sample(rng, n)
+        v = self._speed.sample(rng, n)
         group = np.asarray(obs.group)
         if n and (group.min() < 0 or group.max() >= len(self.goals)):
             bad = group[(group < 0) | (group >= len(self.goals))][0]
@@ -204,9 +209,9 @@ class NarrowRoad:
             delta = rng.standard_normal(n)
             delta *= self.sigma
         else:
-            delta = self.steering_law.sample(rng, v, n)
+            delta = self._steer.sample(rng, v, n)
             delta *= obs.tau
-        delta += np.asarray(self.goals)[group]
+        delta += self._goals[group]
         delta += obs.zero_heading
         return Action(heading=delta, speed=v)
 

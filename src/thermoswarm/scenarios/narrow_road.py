@@ -710,6 +710,9 @@ class NarrowRoadScenario(Scenario):
             speed_law=p.speed_law,
         )
         self._geometry = geo
+        reach = 1.01 * p.diameter + 1e-6  # as in _free_spot's clearance test
+        self._boxes = [(sp.min(axis=0) - reach, sp.max(axis=0) + reach)
+                       for sp in geo.entry_spots]  # fmt: skip
         return Setup(
             world=world,
             engine=engine,
@@ -754,6 +757,7 @@ class NarrowRoadScenario(Scenario):
             "entry_time": np.full(n, np.nan),  # NaN: still on the lap it started on
             "lap": np.zeros(n, np.int64),
             "park_since": np.full(n, np.nan),  # NaN: on the road
+            "n_parked": np.array(0),
             # time, id, group, transit (NaN: partial lap), kind (1 arrived, 0 pushed back)
             "events": np.zeros((64, 5)),
             "n_events": np.array(0),
@@ -769,14 +773,18 @@ class NarrowRoadScenario(Scenario):
         g = state.group
         L = geo.length
         ad = geo.arrive_depth
-        arrived = ((g == 0) & (x >= L - ad)) | ((g == 1) & (x <= ad))
-        backed = ((g == 0) & (x < 0.0)) | ((g == 1) & (x > L))  # open ends only
-        leaving = arrived | backed
-        if leaving.any():
+        # cheap test first (every step, a handful of robots): anyone near an end line?
+        if x.min() <= ad or x.max() >= L - ad:
+            arrived = ((g == 0) & (x >= L - ad)) | ((g == 1) & (x <= ad))
+            backed = ((g == 0) & (x < 0.0)) | ((g == 1) & (x > L))  # open ends only
+            leaving = arrived | backed
+        else:
+            leaving = None
+        if leaving is not None and leaving.any():
             leaving &= state.pos[:, 1] > geo.depot_line
             for i in np.flatnonzero(leaving):
                 self._leave(state, acc, geo, int(i), arrived=bool(arrived[i]))
-        if np.isfinite(acc["park_since"]).any():
+        if acc["n_parked"] > 0:
             self._reenter(state, acc, geo)
 
     def _leave(self, state: SwarmState, acc: dict[str, np.ndarray], geo: RoadGeometry,
@@ -794,6 +802,7 @@ class NarrowRoadScenario(Scenario):
         acc["n_events"] = np.array(k + 1)
         acc["lap"][a] += 1
         acc["park_since"][a] = t
+        acc["n_parked"] = np.array(int(acc["n_parked"]) + 1)
         state.pos[i] = geo.depot_slots[a]
         state.speed[i] = 0.0
 
@@ -816,7 +825,7 @@ class NarrowRoadScenario(Scenario):
                 oncoming = state.group[on_road] != g
                 if np.any(oncoming & (x < geo.entry_clearance)):
                     continue
-            spot = self._free_spot(geo.entry_spots[g], others, d, state.rng)
+            spot = self._free_spot(geo.entry_spots[g], self._boxes[g], others, d, state.rng)
             if spot is None:
                 continue
             state.pos[i] = spot
@@ -824,6 +833,7 @@ class NarrowRoadScenario(Scenario):
             state.timer[i] = 0  # a new control period starts at the next step
             wait = t - acc["park_since"][a]
             acc["park_since"][a] = np.nan
+            acc["n_parked"] = np.array(int(acc["n_parked"]) - 1)
             acc["entry_time"][a] = t
             acc["entries"][g] += 1
             if wait > 0:
@@ -833,9 +843,18 @@ class NarrowRoadScenario(Scenario):
 
     @staticmethod
     def _free_spot(
-        spots: np.ndarray, others: np.ndarray, d: float, rng: np.random.Generator
+        spots: np.ndarray,
+        box: tuple[np.ndarray, np.ndarray],
+        others: np.ndarray,
+        d: float,
+        rng: np.random.Generator,
     ) -> np.ndarray | None:
-        """A random spot among ``spots`` (mm) clear of every robot in ``others``, or None."""
+        """A random spot among ``spots`` (mm) clear of every robot in ``others``, or None;
+        ``box`` = (lower, upper corner) of the spots widened by ``d``."""
+        # only robots within reach of the zone matter
+        lo, hi = box
+        near = np.all((others >= lo) & (others <= hi), axis=1)
+        others = others[near]
         if others.shape[0]:
             dx = spots[:, None, 0] - others[None, :, 0]
             dy = spots[:, None, 1] - others[None, :, 1]
