@@ -8,6 +8,9 @@ Subcommands (each prints a table; ``--json`` prints the rows as JSON):
 ``wall-layer``
     compression with held walls at packing fraction 0.01 for several free heights h:
     Z = P A_free / (n kT_eff) against h / l, with l = <v> tau the persistence length.
+``claims``
+    the configurations of the two compression tests (dilute ideal-gas law; pressure
+    proportional to temperature with held walls), with their numbers.
 ``compression``
     the paper's three compression studies: an isotherm (force varied at fixed T),
     pressure against temperature with held walls (fixed density), and the temperature
@@ -63,8 +66,15 @@ def _dilute(n: int, phi: float, h_free: float, mean_speed: float, tau: float) ->
     kT = kT_for_mean_speed(mean_speed)
     kT_eff = 2 * kT * tau / 4
     width = n * math.pi * 16.5**2 / phi / (h_free + 33.0)
-    return [f"n={n}", f"width={width}", f"kT={kT}", f"tau={tau}",
-            f"force={n * kT_eff / h_free}", "record.netcdf=false", "record.interval=100.0"]  # fmt: skip
+    return [
+        f"n={n}",
+        f"width={width}",
+        f"kT={kT}",
+        f"tau={tau}",
+        f"force={n * kT_eff / h_free}",
+        "record.netcdf=false",
+        "record.interval=100.0",
+    ]
 
 
 def wall_layer(heights: list[float], out: Path, n: int, duration: float) -> list[dict]:
@@ -89,18 +99,54 @@ def wall_layer(heights: list[float], out: Path, n: int, duration: float) -> list
     return rows
 
 
+def claims(out: Path) -> dict:
+    """The two compression tests' configurations, with their numbers."""
+    from thermoswarm.scenarios import compression as C
+
+    sets = _dilute(700, 0.01, 100.0, 20.0, 0.1) + ["duration=3600"]
+    cfg = runner.resolve("compression", overrides=sets, seed=1)
+    m = runner.run(cfg, out / "dilute", progress=False)
+    keys = ("packing_fraction", "pressure", "pressure_se", "pressure_applied", "Z", "Z_se",
+            "kT_eff", "kT_eff_theory", "height", "ideal_height", "t_relax", "n_batches",
+            "se_reliable")  # fmt: skip
+    dilute = {k: m[k] for k in keys}
+    rows = []
+    for k, v in enumerate((16.0, 20.0, 24.0, 28.0)):
+        sets = _dilute(300, 0.01, 100.0, 20.0, 0.1)
+        sets = [s for s in sets if not s.startswith("kT=")]
+        sets += [f"kT={kT_for_mean_speed(v)}", "walls='held'", "height=133.0", "duration=1600"]
+        cfg = runner.resolve("compression", overrides=sets, seed=k)
+        m = runner.run(cfg, out / f"held-{k}", progress=False)
+        rows.append(
+            {
+                "mean_speed": v,
+                "kT_eff": m["kT_eff"],
+                "pressure": m["pressure"],
+                "pressure_se": m["pressure_se"],
+                "Z": m["Z"],
+                "free_area": m["free_area"],
+            }
+        )
+    fit = C.linear_fit([r["kT_eff"] for r in rows], [r["pressure"] for r in rows])
+    fit["ideal_slope"] = 300 / rows[0]["free_area"]
+    return {"dilute_force_driven": [dilute], "held_pressure_vs_temperature": rows,
+            "held_fit": fit}  # fmt: skip
+
+
 def compression(out: Path) -> dict:
     from thermoswarm.scenarios import compression as C
 
-    base = {"n": 200, "width": 4000.0, "duration": 4000.0, "tau": 1.0}
-    kT = kT_for_mean_speed(10.0)
-    iso = C.isotherm([5.0, 10.0, 20.0, 40.0, 80.0], kT=kT, out=out / "isotherm", base=base)
+    # 200 robots, walls 8 m wide, heading re-drawn every 0.2 s: persistence length
+    # <v> tau = 4 mm at 20 mm/s, relaxation times up to ~1000 s (free height ~500 mm)
+    base = {"n": 200, "width": 8000.0, "duration": 20000.0, "tau": 0.2}
+    kT = kT_for_mean_speed(20.0)
+    iso = C.isotherm([10.0, 20.0, 40.0, 80.0, 160.0], kT=kT, out=out / "isotherm", base=base)
     temp = C.temperature_series(
-        [kT_for_mean_speed(v) for v in (8.0, 10.0, 12.0, 14.0, 16.0)],
+        [kT_for_mean_speed(v) for v in (10.0, 15.0, 20.0, 25.0, 30.0)],
         force=20.0, walls="held", out=out / "temperature", base=base,
     )  # fmt: skip
     dens = C.temperature_for_density(
-        [10.0, 20.0, 30.0, 40.0], packing_fraction=0.1, out=out / "density", base=base
+        [10.0, 20.0, 40.0, 80.0], packing_fraction=0.1, out=out / "density", base=base
     )
     fig = C.study_figure(iso, temp, dens)
     fig.savefig(out / "compression_study.png", dpi=120)
@@ -141,7 +187,8 @@ def main(argv: list[str] | None = None) -> int:
     b.add_argument("--n", type=int, default=1000)
     b.add_argument("--duration", type=float, default=4000.0)
     c = sub.add_parser("compression")
-    for p in (a, b, c):
+    e = sub.add_parser("claims")
+    for p in (a, b, c, e):
         p.add_argument("--out", type=Path, default=None, help="keep the runs here")
         p.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
@@ -152,6 +199,8 @@ def main(argv: list[str] | None = None) -> int:
             res = road(args.seeds, args.sets, out)
         elif args.cmd == "wall-layer":
             res = wall_layer(args.heights, out, args.n, args.duration)
+        elif args.cmd == "claims":
+            res = claims(out)
         else:
             res = compression(out)
     if args.json:

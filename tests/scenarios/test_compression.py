@@ -289,3 +289,14 @@ def test_plots_draw(tmp_path):
     coll = C.plot_frame(ax, tr, 20.0, m["geometry"])
     assert len(coll.get_offsets()) == 30
     plt.close(fig)
+
+
+def test_temperature_series_holds_one_area_for_all_temperatures(tmp_path):
+    base = {"n": 20, "width": 800.0, "duration": 60.0, "kT": 50.0}
+    t = C.temperature_series([40.0, 90.0], force=10.0, out=tmp_path / "T", base=base)
+    assert t["walls"].tolist() == ["held", "held"]
+    assert t["kT"].tolist() == [40.0, 90.0]
+    # one height for both: the ideal-gas height at the force and the first temperature
+    h = C.ideal_height(20, 2 * 40.0 * 1.0 / 4, 10.0, 33.0)
+    assert t["height"].to_numpy() == pytest.approx([h, h], abs=1e-9)
+    assert t["pressure"].iloc[1] > t["pressure"].iloc[0]

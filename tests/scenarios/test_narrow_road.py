@@ -232,6 +232,37 @@ def test_section_samples_drop_reentry_jumps_and_waits():
     assert st["wide"]["commanded"]["speed_mean"] == pytest.approx(7.0)
 
 
+def test_regions_file_matches_the_sections():
+    import tomllib
+
+    from thermoswarm.scenarios.narrow_road import regions_toml
+
+    doc = tomllib.loads(regions_toml(road_geometry(NarrowRoadParams())))
+    assert [r["name"] for r in doc["region"]] == ["wide", "narrow"]
+    assert doc["region"][0]["rect"] == pytest.approx([0.0, -76.2, 190.5, 76.2])
+    assert doc["region"][1]["rect"] == pytest.approx([190.5, -38.1, 381.0, 38.1])
+
+
+def test_plot_frame_draws_robots_on_the_road_only():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from thermoswarm.scenarios.narrow_road import plot_frame
+
+    pos = [[[50, 0], [300, 10], [20, -200]], [[53, 0], [297, 10], [20, -200]]]
+    tr = _tracks(pos, [[0, 1, -1]] * 2, [[0, 0, 1]] * 2, [[0, 1, 0]] * 2, np.full((2, 3), 9.0))
+    geo = road_geometry(NarrowRoadParams())
+    fig, ax = plt.subplots()
+    coll = plot_frame(ax, tr, 1.0, geo.info())
+    assert np.asarray(coll.get_offsets()).tolist() == [[53.0, 0.0], [297.0, 10.0]]
+    assert "1 waiting" in ax.get_title()
+    coll = plot_frame(ax, tr, 0.0, geo, color_by="speed")
+    assert np.asarray(coll.get_array()).tolist() == [9.0, 9.0]
+    plt.close(fig)
+
+
 # ------------------------------------------------------------------ re-entry mechanics
 
 

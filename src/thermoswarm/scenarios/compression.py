@@ -725,9 +725,9 @@ def temperature_series(
         b["force"] = float(force)
     b["walls"] = walls
     if walls == "held" and b.get("height") is None:
-        p0 = CompressionParams(**{k: v for k, v in b.items() if k not in ("engine", "record")},
-                               kT=float(kTs[0]))  # fmt: skip
-        b["height"] = p0.initial_height
+        first = {k: v for k, v in b.items() if k not in ("engine", "record", "walls")}
+        first["kT"] = float(kTs[0])
+        b["height"] = CompressionParams(**first).initial_height
     recs = _run_sweep(b, {"kT": [float(t) for t in kTs]}, seeds, out, executor)
     return sweep_table(recs)
 

@@ -202,7 +202,7 @@ class NarrowRoadParams:
     duration: float = 5600.0
     sensing: SensingParams = SensingParams(mode="ideal")
     engine: Numerics = Numerics()
-    record: Recording = Recording(block=500)
+    record: Recording = Recording(interval=0.1, block=1000)
 
     def __post_init__(self) -> None:
         fin = math.isfinite
