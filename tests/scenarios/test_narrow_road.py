@@ -263,6 +263,19 @@ def test_plot_frame_draws_robots_on_the_road_only():
     plt.close(fig)
 
 
+def test_energy_standard_error_comes_from_time_blocks():
+    from thermoswarm.scenarios.narrow_road import SE_BLOCKS, _speed_energy
+
+    assert SE_BLOCKS == 20
+    # 50 correlated samples of energy 2 in one block, 50 of energy 8 in another
+    v = np.r_[np.full(50, 2.0), np.full(50, 4.0)]
+    t = np.r_[np.full(50, 0.5), np.full(50, 10.5)]
+    st = _speed_energy(v, t, (0.0, 20.0))
+    assert st["energy_mean"] == pytest.approx(5.0)
+    assert st["energy_se"] == pytest.approx(np.std([2.0, 8.0], ddof=1) / math.sqrt(2))
+    assert _speed_energy(v[:50], t[:50], (0.0, 20.0))["energy_se"] is None
+
+
 # ------------------------------------------------------------------ re-entry mechanics
 
 

@@ -18,9 +18,11 @@ wall like an ideal gas at ``kT_eff = drag D``: ``P A_free = n kT_eff`` with the 
 walls settle at ``Ly - d = n kT_eff / F``, where the walls start (no long settling).
 
 Two corrections to the ideal gas, both measured (``docs/scenarios_road_compression.md``):
-robots pile up against a wall for the rest of a run (persistence length ``l = <v> tau``),
-which lowers ``Z = P A_free / (n kT_eff)`` by about ``7 l / h`` (``h = Ly - d``); and the
-discs' own area raises it at higher packing fractions, as in any hard-disc gas.
+a robot that reaches a wall stays pressed against it for the rest of its run (persistence
+length ``l = <v> tau``), so robots pile up at the walls and ``Z = P A_free / (n kT_eff)``
+falls below 1 by about ``0.73 l / h`` (``h = Ly - d``; measured for h / l = 5-20 at packing
+fraction 0.01); and the discs' own area raises ``Z`` at higher packing fractions, as in
+any hard-disc gas.  Choose ``h`` well above ``l`` (or a short ``tau``) for the ideal gas.
 
 Measurement
 -----------
@@ -125,7 +127,9 @@ class CompressionParams:
         Drag of each moving wall (drag units): a free wall moves at ``F / wall_drag``.
     max_height : float or None
         Largest wall separation the walls may reach (mm); default
-        ``max(3 height, height + 10 d)``.  Each wall travels in its own half.
+        ``max(4 height, height + 20 d)``.  Each wall travels in its own half, so this
+        also bounds how far the whole column may drift (it diffuses slowly: both walls
+        move); ``at_limit_fraction`` reports steps with a wall at a limit.
     settle : float or None
         Seconds left out of the averages; default ``min(duration / 5, 3 t_relax)``
         with the expected relaxation time.
@@ -237,7 +241,7 @@ class CompressionParams:
         if self.max_height is not None:
             return self.max_height
         h = self.initial_height
-        return max(3 * h, h + 10 * self.diameter)
+        return max(4 * h, h + 20 * self.diameter)
 
 
 def ideal_height(n: int, kT_eff: float, force: float, diameter: float) -> float:

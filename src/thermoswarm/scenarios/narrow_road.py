@@ -638,7 +638,9 @@ def section_stats(
     sec_all = tracks["section"].values
     cmd = tracks["speed"].values.astype(float)
     grp_all = tracks["group"].values
+    t_all = np.broadcast_to(tracks["time"].values.astype(float)[:, None], sec_all.shape)
     nframes = max(sec_all.shape[0], 1)
+    span = (float(t_all[0, 0]), float(t_all[-1, 0])) if sec_all.size else (0.0, 0.0)
     out: dict[str, Any] = {}
     for k, name in enumerate(names):
         here = s["section"] == k
@@ -646,31 +648,51 @@ def section_stats(
         entry: dict[str, Any] = {
             "occupancy_mean": occ,
             "density_per_mm2": occ / float(areas[k]),
-            "measured": _speed_energy(s["speed"][here]),
-            "commanded": _speed_energy(cmd[sec_all == k]),
+            "measured": _speed_energy(s["speed"][here], s["time"][here], span),
+            "commanded": _speed_energy(cmd[sec_all == k], t_all[sec_all == k], span),
             "by_direction": {},
         }
         for g, d in enumerate(DIRECTIONS):
+            sel = here & (s["group"] == g)
+            sel_all = (sec_all == k) & (grp_all == g)
             entry["by_direction"][d] = {
-                "measured": _speed_energy(s["speed"][here & (s["group"] == g)]),
-                "commanded": _speed_energy(cmd[(sec_all == k) & (grp_all == g)]),
+                "measured": _speed_energy(s["speed"][sel], s["time"][sel], span),
+                "commanded": _speed_energy(cmd[sel_all], t_all[sel_all], span),
             }
         out[name] = entry
     return out
 
 
-def _speed_energy(v: np.ndarray) -> dict[str, Any]:
+#: Time blocks for the standard error of per-section energies.
+SE_BLOCKS = 20
+
+
+def _speed_energy(v: np.ndarray, t: np.ndarray, span: tuple[float, float]) -> dict[str, Any]:
+    """Speed and energy statistics of samples ``v`` (mm/s) taken at times ``t`` (s).
+
+    ``energy_se`` comes from the means of :data:`SE_BLOCKS` equal time blocks over
+    ``span`` (samples a fraction of a control period apart are not independent); null
+    with fewer than 2 blocks holding samples.
+    """
     v = np.asarray(v, dtype=float)
-    v = v[np.isfinite(v)]
+    t = np.asarray(t, dtype=float)
+    ok = np.isfinite(v)
+    v, t = v[ok], t[ok]
     if v.size == 0:
         return {"n": 0}
     e = 0.5 * v**2
+    edges = np.linspace(span[0], span[1], SE_BLOCKS + 1)
+    blk = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, SE_BLOCKS - 1)
+    cnt = np.bincount(blk, minlength=SE_BLOCKS)
+    sums = np.bincount(blk, weights=e, minlength=SE_BLOCKS)
+    means = sums[cnt > 0] / cnt[cnt > 0]
+    se = float(means.std(ddof=1) / math.sqrt(means.size)) if means.size > 1 else None
     return {
         "n": int(v.size),
         "speed_mean": float(v.mean()),
         "speed_std": float(v.std(ddof=1)) if v.size > 1 else 0.0,
         "energy_mean": float(e.mean()),
-        "energy_se": float(e.std(ddof=1) / math.sqrt(v.size)) if v.size > 1 else 0.0,
+        "energy_se": se,
         "stopped_fraction": float(np.mean(v < 0.5)),
     }
 
