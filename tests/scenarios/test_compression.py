@@ -237,17 +237,38 @@ def test_too_many_robots_for_the_space_is_a_config_error(tmp_path):
 # ------------------------------------------------------------------ sweeps
 
 
+def _in_process():
+    # the sweep's default is a pool of spawned processes; one thread keeps tests lean
+    from concurrent.futures import ThreadPoolExecutor
+
+    return ThreadPoolExecutor(max_workers=1)
+
+
 def test_isotherm_table_and_restart_skips_finished_runs(tmp_path):
     base = {"n": 20, "width": 800.0, "duration": 60.0}
-    t1 = C.isotherm([10.0, 20.0], out=tmp_path / "iso", base=base)
-    assert t1["force"].tolist() == [10.0, 20.0]
-    assert t1["pressure"].notna().all()
-    assert (t1["pressure_applied"] == t1["force"] / (800.0 - 33.0)).all()
-    runs = sorted(p.name for p in (tmp_path / "iso").iterdir())
-    assert len(runs) == 2
-    t2 = C.isotherm([10.0, 20.0], out=tmp_path / "iso", base=base)
-    assert sorted(p.name for p in (tmp_path / "iso").iterdir()) == runs
+    with _in_process() as ex:
+        t1 = C.isotherm([10.0, 20.0], out=tmp_path / "iso", base=base, executor=ex)
+        assert t1["force"].tolist() == [10.0, 20.0]
+        assert t1["status"].tolist() == ["done", "done"]
+        assert t1["pressure"].notna().all()
+        assert (t1["pressure_applied"] == t1["force"] / (800.0 - 33.0)).all()
+        runs = sorted(p.name for p in (tmp_path / "iso").iterdir() if p.is_dir())
+        assert len(runs) == 2 and runs == sorted(t1["run_id"])
+        t2 = C.isotherm([10.0, 20.0], out=tmp_path / "iso", base=base, executor=ex)
+    assert t2["status"].tolist() == ["skipped", "skipped"]
     assert t2["pressure"].tolist() == t1["pressure"].tolist()
+
+
+def test_failed_runs_stop_the_density_search(tmp_path, monkeypatch):
+    from thermoswarm.errors import ThermoswarmError
+
+    def failing(base, grid, seeds, out, executor=None):
+        return [{"run_id": "abc", "seed": 0, "status": "failed", "metrics": None,
+                 "error": "worker process died"}]  # fmt: skip
+
+    monkeypatch.setattr(C, "_run_sweep", failing)
+    with pytest.raises(ThermoswarmError, match="abc.*worker process died"):
+        C.temperature_for_density([5.0], packing_fraction=0.05, out=tmp_path / "w")
 
 
 def test_temperature_for_density_iterates_to_the_target(tmp_path, monkeypatch):
@@ -293,7 +314,10 @@ def test_plots_draw(tmp_path):
 
 def test_temperature_series_holds_one_area_for_all_temperatures(tmp_path):
     base = {"n": 20, "width": 800.0, "duration": 60.0, "kT": 50.0}
-    t = C.temperature_series([40.0, 90.0], force=10.0, out=tmp_path / "T", base=base)
+    with _in_process() as ex:
+        t = C.temperature_series(
+            [40.0, 90.0], force=10.0, out=tmp_path / "T", base=base, executor=ex
+        )
     assert t["walls"].tolist() == ["held", "held"]
     assert t["kT"].tolist() == [40.0, 90.0]
     # one height for both: the ideal-gas height at the force and the first temperature

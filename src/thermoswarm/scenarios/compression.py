@@ -49,14 +49,13 @@ force balance), ``series`` (time, pressure and height, averaged over sub-batches
 ``geometry`` (what :func:`plot_frame` needs), overlap diagnostics.
 
 Sweeps (:func:`isotherm`, :func:`temperature_series`, :func:`temperature_for_density`)
-run many configurations through :func:`thermoswarm.sweep.run_sweep` and return tidy
-tables; :func:`study_figure` draws them.
+run many configurations through :func:`thermoswarm.sweep.run_sweep` (any executor: a
+local process pool by default) and return tidy tables; :func:`study_figure` draws them.
 """
 
 from __future__ import annotations
 
-import hashlib
-import itertools
+import dataclasses
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -67,7 +66,7 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm.config import check
-from thermoswarm.errors import ConfigError
+from thermoswarm.errors import ConfigError, ThermoswarmError
 from thermoswarm.maxent import kT_for_mean_speed, speed_law
 from thermoswarm.policy import BoltzmannUniform
 from thermoswarm.scenarios import register
@@ -607,53 +606,15 @@ def _run_sweep(
     out: str | Path,
     executor: Any = None,
 ) -> list[dict[str, Any]]:
-    """:func:`thermoswarm.sweep.run_sweep` over ``grid`` x ``seeds``; where that module is
-    not installed, the same runs one after another (same run directories and records)."""
-    try:
-        from thermoswarm.sweep import SweepSpec, run_sweep
-    except ImportError:
-        SweepSpec = run_sweep = None  # noqa: N806
-    seeds = [int(s) for s in seeds]
-    if run_sweep is not None:
-        spec = SweepSpec(scenario="compression", base=base, grid=grid, seeds=seeds, out=Path(out))
-        return [dict(r) if isinstance(r, dict) else vars(r) for r in run_sweep(spec, executor)]
-    import json
+    """:func:`thermoswarm.sweep.run_sweep` of ``compression`` over ``grid`` x ``seeds``;
+    the records as dicts (``run_id``, ``params``, ``seed``, ``out``, ``status``,
+    ``metrics``, ``error``)."""
+    from thermoswarm.sweep import SweepSpec, run_sweep
 
-    from thermoswarm.config import apply_overrides, from_mapping, parse_overrides
-    from thermoswarm.scenarios import runner
-
-    out = Path(out)
-    out.mkdir(parents=False, exist_ok=True)
-    keys = list(grid)
-    records = []
-    for values in itertools.product(*(grid[k] for k in keys)):
-        point = dict(zip(keys, values, strict=True))
-        nested = parse_overrides([])
-        for k, v in point.items():
-            node = nested
-            parts = k.split(".")
-            for part in parts[:-1]:
-                node = node.setdefault(part, {})
-            node[parts[-1]] = v
-        params = from_mapping(CompressionParams, apply_overrides(base, nested))
-        for seed in seeds:
-            cfg = runner.RunConfig("compression", params, seed)
-            run_id = hashlib.sha256(cfg.to_toml().encode()).hexdigest()[:16]
-            run_dir = out / run_id
-            mpath = run_dir / "metrics.json"
-            if mpath.is_file():
-                metrics, status = json.loads(mpath.read_text()), "skipped"
-            else:
-                if run_dir.exists():
-                    import shutil
-
-                    shutil.rmtree(run_dir)
-                metrics, status = runner.run(cfg, run_dir, progress=False), "done"
-            records.append(
-                {"run_id": run_id, "params": point, "seed": seed, "metrics": metrics,
-                 "status": status}
-            )  # fmt: skip
-    return records
+    spec = SweepSpec(
+        scenario="compression", out=Path(out), base=base, grid=grid, seeds=[int(s) for s in seeds]
+    )
+    return [dataclasses.asdict(r) for r in run_sweep(spec, executor)]
 
 
 #: Columns of the tidy tables the sweeps return.
@@ -665,17 +626,18 @@ TABLE_COLUMNS = (
 
 
 def sweep_table(records: Iterable[dict[str, Any]]) -> Any:
-    """A :class:`pandas.DataFrame` with one row per run: ``run_id``, ``seed``, ``status``
-    and the metrics in :data:`TABLE_COLUMNS` (runs without metrics are kept, with NaN)."""
+    """A :class:`pandas.DataFrame` with one row per run: ``run_id``, ``seed``, ``status``,
+    ``error`` and the metrics in :data:`TABLE_COLUMNS` (failed runs are kept, with NaN)."""
     import pandas as pd
 
     rows = []
     for r in records:
         m = r.get("metrics") or {}
-        row = {"run_id": r.get("run_id"), "seed": r.get("seed"), "status": r.get("status")}
+        row = {"run_id": r.get("run_id"), "seed": r.get("seed"), "status": r.get("status"),
+               "error": r.get("error")}  # fmt: skip
         row.update({c: m.get(c) for c in TABLE_COLUMNS})
         rows.append(row)
-    return pd.DataFrame(rows, columns=["run_id", "seed", "status", *TABLE_COLUMNS])
+    return pd.DataFrame(rows, columns=["run_id", "seed", "status", "error", *TABLE_COLUMNS])
 
 
 def _base(base: dict[str, Any] | None) -> dict[str, Any]:
@@ -776,6 +738,13 @@ def temperature_for_density(
             frames.append(sweep_table(recs))
         table = pd.concat(frames, ignore_index=True)
         table["iteration"] = it
+        failed = table[table["status"] == "failed"]
+        if len(failed):
+            row = failed.iloc[0]
+            raise ThermoswarmError(
+                f"temperature_for_density: run {row['run_id']} (force {row['force']}) "
+                f"failed: {row['error']}"
+            )
         means = table.groupby("force")[["height", "kT"]].mean()
         for F in kTs:
             hf = float(means.loc[F, "height"]) - p0.diameter
