@@ -81,6 +81,7 @@ __all__ = [
     "ideal_height",
     "place_uniform",
     "batch_means",
+    "measure",
     "linear_fit",
     "isotherm",
     "temperature_series",
@@ -586,17 +587,6 @@ def measure(
 
 # --------------------------------------------------------------------------------------
 # Sweeps
-
-
-def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for k, v in d.items():
-        key = f"{prefix}{k}"
-        if isinstance(v, dict):
-            out.update(_flatten(v, key + "."))
-        else:
-            out[key] = v
-    return out
 
 
 def _run_sweep(
