@@ -127,9 +127,9 @@ class CompressionParams:
         Drag of each moving wall (drag units): a free wall moves at ``F / wall_drag``.
     max_height : float or None
         Largest wall separation the walls may reach (mm); default
-        ``max(4 height, height + 20 d)``.  Each wall travels in its own half, so this
-        also bounds how far the whole column may drift (it diffuses slowly: both walls
-        move); ``at_limit_fraction`` reports steps with a wall at a limit.
+        ``max(4 height, height + 20 d)``.  The walls start in the middle; this bounds
+        how far the whole column may drift (it diffuses slowly: both walls move);
+        ``at_limit_fraction`` reports steps with a wall at a limit.
     settle : float or None
         Seconds left out of the averages; default ``min(duration / 5, 3 t_relax)``
         with the expected relaxation time.
@@ -363,10 +363,11 @@ class Compression(Scenario):
         y0 = 0.5 * (H - h0)
         drag = math.inf if p.walls == "held" else p.wall_drag
         force = 0.0 if p.walls == "held" else p.force
+        # travel limits: the box [0, H]; the robots between the walls keep them apart
         top = Piston(axis=1, position=y0 + h0, side=-1, lo=0.0, hi=Lx, force=force,
-                     drag=drag, limits=(H / 2 + r, H))  # fmt: skip
+                     drag=drag, limits=(2 * r, H))  # fmt: skip
         bottom = Piston(axis=1, position=y0, side=+1, lo=0.0, hi=Lx, force=force,
-                        drag=drag, limits=(0.0, H / 2 - r))  # fmt: skip
+                        drag=drag, limits=(0.0, H - 2 * r))  # fmt: skip
         world = box_world(Lx, H, pistons=(top, bottom))
         engine = p.engine.engine(tau=p.tau, radius=r)
         pos = place_uniform((0.0, y0, Lx, y0 + h0), p.n, r, rng)
