@@ -47,8 +47,9 @@ Why open ends by default: the real test had a person lift robots that "reached t
 opposite end", and the ants' road opens onto the nest and the forage area.  With end
 walls, robots just put back at an end are pinned against the wall by a stream arriving
 there, and the road locks: with the arrival line one diameter from the wall, zero-flow
-periods lasted up to the whole 5,600 s run; two diameters (the walls default) still
-gives jams of about 60-170 s (``docs/scenarios_road_compression.md``).
+periods lasted 950-3,900 s of the 5,600 s run; with two diameters (the walls default)
+the longest per direction was 52-90 s against 36-65 s with open ends on the same seeds
+(``docs/scenarios_road_compression.md``).
 
 Defaults the paper does not give (measured in ``docs/scenarios_road_compression.md``):
 heading spread ``sigma_deg = 45`` and mean speed 20 mm/s (``kT = 254.65``; the robots
