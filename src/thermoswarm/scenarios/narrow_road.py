@@ -48,7 +48,8 @@ opposite end", and the ants' road opens onto the nest and the forage area.  With
 walls, robots just put back at an end are pinned against the wall by a stream arriving
 there, and the road locks: with the arrival line one diameter from the wall, zero-flow
 periods lasted 950-3,900 s of the 5,600 s run; with two diameters (the walls default)
-the longest per direction was 52-90 s against 36-65 s with open ends on the same seeds
+the longest gap in the slower direction was 56-90 s against 42-65 s with open ends
+(seeds 0-2)
 (``docs/scenarios_road_compression.md``).
 
 Defaults the paper does not give (measured in ``docs/scenarios_road_compression.md``):
