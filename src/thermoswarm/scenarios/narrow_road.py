@@ -49,8 +49,7 @@ walls, robots just put back at an end are pinned against the wall by a stream ar
 there, and the road locks: with the arrival line one diameter from the wall, zero-flow
 periods lasted 950-3,900 s of the 5,600 s run; with two diameters (the walls default)
 the longest gap in the slower direction was 56-90 s against 42-65 s with open ends
-(seeds 0-2)
-(``docs/scenarios_road_compression.md``).
+(seeds 0-2; ``docs/scenarios_road_compression.md``).
 
 Defaults the paper does not give (measured in ``docs/scenarios_road_compression.md``):
 heading spread ``sigma_deg = 45`` and mean speed 20 mm/s (``kT = 254.65``; the robots
