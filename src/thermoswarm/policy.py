@@ -24,7 +24,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from thermoswarm.maxent import speed_law
+from thermoswarm.maxent import DecayingTemperature, SteeringLaw, speed_law
 
 __all__ = ["Observation", "Action", "Policy", "BoltzmannUniform"]
 
@@ -104,6 +104,119 @@ class Policy(Protocol):
     """``act(obs, rng) -> Action`` for the robots in ``obs``; must draw only from ``rng``."""
 
     def act(self, obs: Observation, rng: np.random.Generator) -> Action: ...
+
+
+# ---------------------------------------------------------------------------------------
+# Algorithm 2 (narrow road)
+
+#: The steering laws of Algorithm 2 (:class:`NarrowRoad`).
+STEERING_LAWS = ("normal", "exponential")
+
+
+@dataclass(frozen=True)
+class NarrowRoad:
+    """Algorithm 2 (narrow road): Boltzmann speed at constant ``kT``, heading toward the
+    robot's own goal end of the road.
+
+    Each control period a robot of group ``g`` draws its energy ``E ~ Exponential(kT)``
+    and moves at ``v = sqrt(2E)`` (Rayleigh; PAPER_NOTES 6.1), at the heading
+    ``theta = goals[g] + delta`` relative to the light direction (heading 0), where
+    ``delta`` follows one of two laws (PAPER_NOTES 6.2):
+
+    ``"normal"``
+        The Methods' equation: ``delta ~ N(0, sigma)``.  The paper writes ``N(0, 180)``
+        for both groups, a typo: one group's mean is 0 deg, the other's 180 deg
+        (``goals = (0, pi)``); the spread ``sigma`` is not given and is a parameter.
+    ``"exponential"``
+        The Discussion's table: robots crossing the road steer as ants do, with a
+        steering-angle *rate* ``w`` whose magnitude is exponential with a temperature
+        that falls with speed, ``|w| ~ Exponential(mean T_theta(v))``, random sign
+        (PAPER_NOTES 6.4), ``T_theta(v) = T_min + (T_max - T_min) exp(-v / v_scale)``
+        (:class:`~thermoswarm.maxent.DecayingTemperature`) evaluated at the speed ``v``
+        drawn for the same period.  How a rate becomes a heading: the robot re-aligns
+        with the light at the start of every period (TurnToAngle), so it carries no
+        heading over from the last period; it leaves along its goal direction and its
+        steering rate acts for the period ``tau``, so its heading deviates from the goal
+        by ``delta = w tau`` (a Laplace law of scale ``T_theta(v) tau``).  The deviation
+        per unit time ``delta / tau`` is then exactly the paper's exponential steering law
+        with temperature ``T_theta(v)``; fast robots keep closer to their goal.
+
+    Parameters
+    ----------
+    kT : float
+        Speed temperature (mm^2/s^2 per unit mass); mean speed ``sqrt(pi kT / 2)``.
+    steering : {"normal", "exponential"}
+        The heading law (above).
+    sigma : float
+        Standard deviation of the normal law (rad).
+    T_theta_max, T_theta_min : float
+        Steering temperatures (rad/s) of the exponential law at speed 0 and at high
+        speed; equal values give a speed-independent law.
+    v_scale : float
+        Speed scale (mm/s) over which ``T_theta`` falls.
+    goals : tuple of float
+        Goal heading of each group relative to the light (rad): ``goals[g]`` for group
+        ``g``.  Default ``(0, pi)``: group 0 heads to the light end, group 1 away from it.
+    speed_law : {"boltzmann", "half-normal"}
+        As in :class:`BoltzmannUniform`.
+    """
+
+    kT: float
+    steering: str = "normal"
+    sigma: float = math.radians(30.0)
+    T_theta_max: float = 1.0
+    T_theta_min: float = 0.2
+    v_scale: float = 10.0
+    goals: tuple[float, ...] = (0.0, math.pi)
+    speed_law: str = "boltzmann"
+
+    def __post_init__(self) -> None:
+        speed_law(self.speed_law, self.kT)  # validates kT and the name
+        if self.steering not in STEERING_LAWS:
+            raise ValueError(
+                f"steering must be one of {', '.join(map(repr, STEERING_LAWS))}, "
+                f"got {self.steering!r}"
+            )
+        if not (math.isfinite(self.sigma) and self.sigma > 0):
+            raise ValueError(f"sigma must be a positive angle (rad), got {self.sigma!r}")
+        steer = SteeringLaw(DecayingTemperature(self.T_theta_max, self.T_theta_min, self.v_scale))
+        goals = tuple(float(g) for g in self.goals)
+        if not goals or not all(math.isfinite(g) for g in goals):
+            raise ValueError(f"goals must be finite angles (rad), got {self.goals!r}")
+        object.__setattr__(self, "goals", goals)
+        # built once: act() runs every control period for a handful of robots, where
+        # constructing and validating the laws would cost more than the draws
+        object.__setattr__(self, "_speed", speed_law(self.speed_law, self.kT))
+        object.__setattr__(self, "_steer", steer)
+        object.__setattr__(self, "_goals", np.asarray(goals))
+
+    @property
+    def steering_law(self) -> SteeringLaw:
+        """The exponential steering-rate law (rad/s) as a function of speed."""
+        return self._steer
+
+    def act(self, obs: Observation, rng: np.random.Generator) -> Action:
+        n = obs.n
+        v = self._speed.sample(rng, n)
+        group = np.asarray(obs.group)
+        if n and (group.min() < 0 or group.max() >= len(self.goals)):
+            bad = group[(group < 0) | (group >= len(self.goals))][0]
+            raise ValueError(
+                f"robot group {int(bad)} has no goal: goals are given for groups "
+                f"0..{len(self.goals) - 1}"
+            )
+        if self.steering == "normal":
+            delta = rng.standard_normal(n)
+            delta *= self.sigma
+        else:
+            delta = self._steer.sample(rng, v, n)
+            delta *= obs.tau
+        delta += self._goals[group]
+        delta += obs.zero_heading
+        return Action(heading=delta, speed=v)
+
+
+__all__ += ["NarrowRoad", "STEERING_LAWS"]
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,8 @@ from thermoswarm.scenarios.base import Scenario
 # name -> module that defines and registers it
 _MODULES: dict[str, str] = {
     "box": "thermoswarm.scenarios.box",
+    "narrow-road": "thermoswarm.scenarios.narrow_road",
+    "compression": "thermoswarm.scenarios.compression",
     "transport-connected": "thermoswarm.scenarios.transport_connected",
     "transport-free": "thermoswarm.scenarios.transport_free",
 }

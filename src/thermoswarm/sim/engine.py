@@ -182,8 +182,9 @@ class SwarmState:
         ``body_pos``, ``body_force`` (mean contact force robots exerted during the last
         step) and ``body_ext_force`` (an external force a scenario may set)
     pistons : (P, 12) packed force-driven walls; views ``piston_pos`` and
-        ``piston_force`` (contact force of the last step along the axis, positive =
-        away from the robots)
+        ``piston_force`` (contact force robots exerted in the last step, as its
+        component along the world's +axis: it points away from the robots, so it is
+        positive for a piston with ``side = -1`` and negative for ``side = +1``)
     step : int; time : float (s); rng : the run's only random generator
     counters : int64 (2,) overdamped: total sweeps, largest overlap left (in 1e-6 mm);
         inertial: pair collisions, wall collisions

@@ -1,0 +1,849 @@
+"""``compression``: Algorithm 3 between two walls pushed by a constant force.
+
+The paper's second robot experiment (PAPER_NOTES sections 4, 5 and 6.5): ``n`` robots
+run Algorithm 3 (Boltzmann speed at constant ``kT``, uniform heading, re-drawn every
+``tau``) between static side walls and an upper and a lower wall, each pushed toward
+the robots by a constant force ``F`` and free to slide vertically (``walls = "force"``),
+or held in place (``walls = "held"``: a fixed area, for pressure versus temperature).
+The claim to reproduce: the swarm's pressure-volume relation is that of an ideal gas,
+and at fixed density the pressure grows in proportion to the temperature.
+
+Physics and units
+-----------------
+Forces are in units of the robot drag (drag 1: force = mm/s); pressure is force per
+unit length of wall.  A robot that re-draws a uniform heading every ``tau`` diffuses
+with ``D = <v^2> tau / 4`` (mm^2/s), and a dilute swarm of drag-1 robots presses on a
+wall like an ideal gas at ``kT_eff = drag D``: ``P A_free = n kT_eff`` with the free area
+``A_free = (Lx - d) (Ly - d)`` that the disc centres can reach (PAPER_NOTES 6.5).  So the
+walls settle at ``Ly - d = n kT_eff / F``, where the walls start (no long settling).
+
+Two corrections to the ideal gas, both measured (``docs/scenarios_road_compression.md``):
+a robot that reaches a wall stays pressed against it for the rest of its run (persistence
+length ``l = <v> tau``), so robots pile up at the walls and ``Z = P A_free / (n kT_eff)``
+falls below 1 by about ``0.73 l / h`` (``h = Ly - d``; measured for h / l = 5-20 at packing
+fraction 0.01); and the discs' own area raises ``Z`` at higher packing fractions, as in
+any hard-disc gas.  Choose ``h`` well above ``l`` (or a short ``tau``) for the ideal gas.
+
+Measurement
+-----------
+Every step the scenario accumulates the walls' contact forces (the force robots exert,
+from the engine's bookkeeping), the wall separation and the mean ``v^2`` of the speeds
+the robots are holding (the draws of Algorithm 3), in sub-batches of equal length.
+After ``settle`` seconds, sub-batches are merged into batches ``batch_relaxations``
+times longer than the relaxation time ``t_relax = h^2 / (pi^2 D)`` of the density
+profile (at least ``min_batches`` batches; when the run is too short for batches that
+long, ``se_reliable`` is false: short batches underestimate the error several-fold).
+Means are over the window; standard errors are batch-means errors.
+
+Metrics (``metrics.json``): ``n``, ``walls``, ``force``, ``kT``, ``tau``, ``width``,
+``pressure`` (mean of the two walls, force per mm), ``pressure_se``, ``pressure_top``,
+``pressure_bottom``, ``pressure_applied`` (``F / (Lx - d)``; null with held walls),
+``height`` (wall separation ``Ly``, mm) and ``height_se``, ``area`` (``Lx Ly``, mm^2),
+``free_area`` (``(Lx - d)(Ly - d)``), ``packing_fraction`` (``n pi r^2 / area``),
+``density`` (robots per mm^2 of area), ``kT_eff`` (``drag <v^2> tau / 4``, mm^2/s),
+``kT_eff_theory`` (from the speed law), ``D`` (mm^2/s), ``Z`` and ``Z_se``,
+``ideal_height`` (``n kT_eff / F + d``; force mode), ``t_relax``, ``batch_s``,
+``n_batches``, ``se_reliable``, ``settle_s``, ``window_s``, ``at_limit_fraction``
+(fraction of steps a wall sat at its travel limit: the measurement is then not at
+force balance), ``series`` (time, pressure and height, averaged over sub-batches),
+``geometry`` (what :func:`plot_frame` needs), overlap diagnostics.
+
+Sweeps (:func:`isotherm`, :func:`temperature_series`, :func:`temperature_for_density`)
+run many configurations through :func:`thermoswarm.sweep.run_sweep` (any executor: a
+local process pool by default) and return tidy tables; :func:`study_figure` draws them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import xarray as xr
+
+from thermoswarm.config import check
+from thermoswarm.errors import ConfigError, ThermoswarmError
+from thermoswarm.maxent import kT_for_mean_speed, speed_law
+from thermoswarm.policy import BoltzmannUniform
+from thermoswarm.scenarios import register
+from thermoswarm.scenarios.base import Numerics, Recording, Scenario, Setup
+from thermoswarm.sim import kernels as K
+from thermoswarm.sim.engine import Simulator, SwarmState, place_lattice
+from thermoswarm.sim.world import Piston, box_world
+
+__all__ = [
+    "CompressionParams",
+    "Compression",
+    "ideal_height",
+    "place_uniform",
+    "batch_means",
+    "measure",
+    "linear_fit",
+    "isotherm",
+    "temperature_series",
+    "temperature_for_density",
+    "sweep_table",
+    "plot_frame",
+    "plot_isotherm",
+    "plot_pressure_temperature",
+    "plot_temperature_for_density",
+    "study_figure",
+]
+
+#: Most sub-batches a run keeps (bounds the checkpointed accumulators).
+MAX_SUB_BATCHES = 4096
+
+
+@dataclass(frozen=True)
+class CompressionParams:
+    """Parameters of ``compression`` (lengths mm, times s, forces in drag units).
+
+    Attributes
+    ----------
+    n : int
+        Number of robots.
+    width : float
+        Distance between the side walls ``Lx`` (mm).
+    force : float
+        Force ``F`` pushing each of the two walls toward the robots (drag units, > 0).
+    kT : float
+        Temperature of Algorithm 3 (mm^2/s^2 per unit mass); default mean speed 10 mm/s.
+    tau : float
+        Control period (s).
+    diameter : float
+        Robot diameter ``d`` (mm).
+    speed_law : {"boltzmann", "half-normal"}
+        The speed law (PAPER_NOTES 6.1).
+    walls : {"force", "held"}
+        Walls pushed by ``force`` and free to move, or held at ``height``.
+    height : float or None
+        Initial (held: fixed) wall separation ``Ly`` (mm); default the ideal-gas
+        height ``n kT_eff / F + d`` for the expected ``kT_eff``.
+    wall_drag : float
+        Drag of each moving wall (drag units): a free wall moves at ``F / wall_drag``.
+    max_height : float or None
+        Largest wall separation the walls may reach (mm); default
+        ``max(4 height, height + 20 d)``.  The walls start in the middle; this bounds
+        how far the whole column may drift (it diffuses slowly: both walls move);
+        ``at_limit_fraction`` reports steps with a wall at a limit.
+    settle : float or None
+        Seconds left out of the averages; default ``min(duration / 5, 3 t_relax)``
+        with the expected relaxation time.
+    batch_relaxations : float
+        Batch length in relaxation times ``t_relax``.
+    min_batches : int
+        Fewest batches for the standard errors.
+    duration : float
+        Simulated seconds.
+    """
+
+    n: int = 100
+    width: float = 4000.0
+    force: float = 20.0
+    kT: float = field(default_factory=lambda: round(kT_for_mean_speed(10.0), 6))
+    tau: float = 1.0
+    diameter: float = 33.0
+    speed_law: Literal["boltzmann", "half-normal"] = "boltzmann"
+    walls: Literal["force", "held"] = "force"
+    height: float | None = None
+    wall_drag: float = 10.0
+    max_height: float | None = None
+    settle: float | None = None
+    batch_relaxations: float = 5.0
+    min_batches: int = 8
+    duration: float = 3000.0
+    engine: Numerics = Numerics()
+    record: Recording = Recording(interval=5.0, block=100)
+
+    def __post_init__(self) -> None:
+        fin = math.isfinite
+        check(self.n >= 1, "n", "a positive integer (number of robots)", self.n)
+        check(fin(self.diameter) and self.diameter > 0, "diameter", "a positive length (mm)",
+              self.diameter)  # fmt: skip
+        check(
+            fin(self.width) and self.width > 2 * self.diameter,
+            "width",
+            f"more than two robot diameters ({2 * self.diameter:g} mm)",
+            self.width,
+        )
+        check(
+            fin(self.force) and self.force > 0,
+            "force",
+            "a positive force (drag units, mm/s for drag 1)",
+            self.force,
+        )
+        check(fin(self.kT) and self.kT > 0, "kT", "a positive number (mm^2/s^2)", self.kT)
+        check(fin(self.tau) and self.tau > 0, "tau", "a positive number of seconds", self.tau)
+        check(self.walls in ("force", "held"), "walls", "'force' or 'held'", self.walls)
+        if self.height is not None:
+            check(
+                fin(self.height) and self.height > 1.5 * self.diameter,
+                "height",
+                f"more than 1.5 robot diameters ({1.5 * self.diameter:g} mm)",
+                self.height,
+            )
+        check(
+            fin(self.wall_drag) and self.wall_drag > 0,
+            "wall_drag",
+            "a positive drag (drag units)",
+            self.wall_drag,
+        )
+        if self.max_height is not None:
+            check(
+                fin(self.max_height) and self.max_height >= self.initial_height,
+                "max_height",
+                f"at least the initial height {self.initial_height:g} mm",
+                self.max_height,
+            )
+        if self.settle is not None:
+            check(
+                fin(self.settle) and 0 <= self.settle < self.duration,
+                "settle",
+                f"in [0, duration = {self.duration:g}) s",
+                self.settle,
+            )
+        check(
+            fin(self.batch_relaxations) and self.batch_relaxations > 0,
+            "batch_relaxations",
+            "a positive number",
+            self.batch_relaxations,
+        )
+        check(2 <= self.min_batches <= 1000, "min_batches", "an integer in [2, 1000]",
+              self.min_batches)  # fmt: skip
+        check(
+            fin(self.duration) and self.duration > 0,
+            "duration",
+            "a positive number of seconds",
+            self.duration,
+        )
+
+    @property
+    def radius(self) -> float:
+        return self.diameter / 2
+
+    @property
+    def kT_eff_theory(self) -> float:
+        """``drag <v^2> tau / 4`` for the speed law (drag 1), mm^2/s."""
+        return speed_law(self.speed_law, self.kT).mean_square() * self.tau / 4
+
+    @property
+    def initial_height(self) -> float:
+        if self.height is not None:
+            return self.height
+        return ideal_height(self.n, self.kT_eff_theory, self.force, self.diameter)
+
+    @property
+    def limit_height(self) -> float:
+        if self.max_height is not None:
+            return self.max_height
+        h = self.initial_height
+        return max(4 * h, h + 20 * self.diameter)
+
+
+def ideal_height(n: int, kT_eff: float, force: float, diameter: float) -> float:
+    """Wall separation (mm) where an ideal gas of ``n`` discs balances ``force`` on each
+    wall: ``P (Lx - d) = F`` and ``P (Lx - d)(Ly - d) = n kT_eff`` give
+    ``Ly = n kT_eff / F + d``."""
+    return n * kT_eff / force + diameter
+
+
+def place_uniform(
+    bounds: tuple[float, float, float, float], n: int, radius: float, rng: np.random.Generator
+) -> np.ndarray:
+    """``n`` non-overlapping discs at uniformly random places in ``bounds`` (mm).
+
+    Random sequential addition: uniform candidates, each kept if it overlaps no disc
+    kept before (a grid of cells one diameter wide finds the neighbours).  A gas starts
+    spread evenly between the walls this way; a lattice would leave one wall without
+    robots when its spacing exceeds the height.  Above a packing fraction of 0.3, or
+    when candidates keep failing, it falls back to the jittered lattice of
+    :func:`thermoswarm.sim.engine.place_lattice`.
+    """
+    x0, y0, x1, y1 = bounds
+    d = 2 * radius
+    lo = np.array([x0 + radius, y0 + radius])
+    hi = np.array([x1 - radius, y1 - radius])
+    area = (x1 - x0) * (y1 - y0)
+    if n == 0 or np.any(hi < lo) or n * math.pi * radius**2 > 0.3 * area:
+        return place_lattice(bounds, n, radius, rng)
+    cells: dict[tuple[int, int], list[int]] = {}
+    out = np.empty((n, 2))
+    k = 0
+    for _ in range(50):
+        cand = lo + (hi - lo) * rng.random((4 * n, 2))
+        for x, y in cand:
+            cx, cy = int((x - x0) // d), int((y - y0) // d)
+            ok = True
+            for i in range(cx - 1, cx + 2):
+                for j in range(cy - 1, cy + 2):
+                    for q in cells.get((i, j), ()):
+                        if (out[q, 0] - x) ** 2 + (out[q, 1] - y) ** 2 < d * d:
+                            ok = False
+                            break
+                    if not ok:
+                        break
+                if not ok:
+                    break
+            if ok:
+                out[k] = x, y
+                cells.setdefault((cx, cy), []).append(k)
+                k += 1
+                if k == n:
+                    return out
+    return place_lattice(bounds, n, radius, rng)
+
+
+# --------------------------------------------------------------------------------------
+# Pure metric helpers (tested on constructed cases)
+
+
+def batch_means(x: np.ndarray, w: np.ndarray, n_batches: int) -> np.ndarray:
+    """Weighted means of ``x`` over ``n_batches`` consecutive, nearly equal batches.
+
+    ``x`` are sub-batch means with weights ``w`` (e.g. the steps in each); a sub-batch
+    is never split.
+    """
+    x = np.asarray(x, dtype=float)
+    w = np.asarray(w, dtype=float)
+    if n_batches < 1 or x.size < n_batches:
+        raise ValueError(f"cannot make {n_batches} batches of {x.size} sub-batches")
+    parts = np.array_split(np.arange(x.size), n_batches)
+    return np.array([np.average(x[p], weights=w[p]) for p in parts])
+
+
+def _mean_se(b: np.ndarray) -> tuple[float, float]:
+    b = np.asarray(b, dtype=float)
+    return float(b.mean()), float(b.std(ddof=1) / math.sqrt(b.size)) if b.size > 1 else math.nan
+
+
+def linear_fit(x: Sequence[float], y: Sequence[float]) -> dict[str, float]:
+    """Least-squares line ``y = slope x + intercept`` with ``r2``, the slope's standard
+    error and the slope of the fit through the origin (``slope0``)."""
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if x.size < 2 or np.ptp(x) == 0:
+        raise ValueError("a line needs at least two distinct x values")
+    A = np.column_stack([x, np.ones_like(x)])
+    (slope, intercept), *_ = np.linalg.lstsq(A, y, rcond=None)
+    resid = y - (slope * x + intercept)
+    ss_res = float(resid @ resid)
+    ss_tot = float(((y - y.mean()) ** 2).sum())
+    dof = x.size - 2
+    se = math.sqrt(ss_res / dof / float(((x - x.mean()) ** 2).sum())) if dof > 0 else math.nan
+    return {
+        "slope": float(slope),
+        "intercept": float(intercept),
+        "r2": 1.0 - ss_res / ss_tot if ss_tot > 0 else 1.0,
+        "slope_se": se,
+        "slope0": float(x @ y / (x @ x)),
+        "n": int(x.size),
+    }
+
+
+# --------------------------------------------------------------------------------------
+# The scenario
+
+
+@register
+class Compression(Scenario):
+    name = "compression"
+    description = "Algorithm 3 between two walls pushed by a constant force (ideal-gas law)"
+    Params = CompressionParams
+
+    def build(self, rng: np.random.Generator) -> Setup:
+        p: CompressionParams = self.params
+        r = p.radius
+        Lx = p.width
+        h0 = p.initial_height
+        H = p.limit_height
+        y0 = 0.5 * (H - h0)
+        drag = math.inf if p.walls == "held" else p.wall_drag
+        force = 0.0 if p.walls == "held" else p.force
+        # travel limits: the box [0, H]; the robots between the walls keep them apart
+        top = Piston(axis=1, position=y0 + h0, side=-1, lo=0.0, hi=Lx, force=force,
+                     drag=drag, limits=(2 * r, H))  # fmt: skip
+        bottom = Piston(axis=1, position=y0, side=+1, lo=0.0, hi=Lx, force=force,
+                        drag=drag, limits=(0.0, H - 2 * r))  # fmt: skip
+        world = box_world(Lx, H, pistons=(top, bottom))
+        engine = p.engine.engine(tau=p.tau, radius=r)
+        pos = place_uniform((0.0, y0, Lx, y0 + h0), p.n, r, rng)
+        steps = int(math.floor(p.duration / engine.dt + 1e-9))
+        sub = max(1, math.ceil(steps / MAX_SUB_BATCHES))
+        self._sub = sub
+        return Setup(
+            world=world,
+            engine=engine,
+            policy=BoltzmannUniform(kT=p.kT, speed_law=p.speed_law),
+            positions=pos,
+            info={"sub_steps": sub, "n_sub": math.ceil(steps / sub), "height_max": H},
+        )
+
+    def extras(self, setup: Setup) -> dict[str, tuple[tuple[str, ...], tuple[int, ...], str]]:
+        out = super().extras(setup)
+        out["walls"] = (("time", "wall"), (2,), "f8")
+        return out
+
+    def extra_coords(self, setup: Setup) -> dict[str, list[str]]:
+        return {"wall": ["top", "bottom"]}
+
+    def frame(
+        self, sim: Simulator, state: SwarmState, acc: dict[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        out = super().frame(sim, state, acc)
+        out["walls"] = state.piston_pos.copy()
+        return out
+
+    def init_acc(self, setup: Setup, sim: Simulator, state: SwarmState) -> dict[str, np.ndarray]:
+        k = int(setup.info["n_sub"])
+        return {
+            "f_top": np.zeros(k),  # sums over the steps of each sub-batch
+            "f_bottom": np.zeros(k),
+            "height": np.zeros(k),
+            "v2": np.zeros(k),
+            "steps": np.zeros(k, np.int64),
+            "at_limit": np.zeros(1, np.int64),
+        }
+
+    def observe(self, sim: Simulator, state: SwarmState, acc: dict[str, np.ndarray]) -> None:
+        j = (state.step - 1) // self._sub
+        if j >= acc["steps"].size:
+            return
+        f = state.piston_force  # along +y: robots push the top wall up, the bottom down
+        acc["f_top"][j] += f[0]
+        acc["f_bottom"][j] -= f[1]
+        pp = state.pistons
+        y = state.piston_pos
+        acc["height"][j] += y[0] - y[1]
+        acc["v2"][j] += float(np.dot(state.speed, state.speed)) / state.n
+        acc["steps"][j] += 1
+        if self.params.walls == "force":
+            lim = (y <= pp[:, K.PLL] + 1e-9) | (y >= pp[:, K.PLH] - 1e-9)
+            if lim.any():
+                acc["at_limit"][0] += 1
+
+    def metrics(
+        self,
+        setup: Setup,
+        acc: dict[str, np.ndarray],
+        tracks: xr.Dataset,
+        sim: Simulator,
+        state: SwarmState,
+    ) -> dict[str, Any]:
+        p: CompressionParams = self.params
+        dt = sim.params.dt
+        sub = int(setup.info["sub_steps"])
+        d = p.diameter
+        Lx = p.width
+        m = measure(
+            acc,
+            sub_steps=sub,
+            dt=dt,
+            n=p.n,
+            width=Lx,
+            diameter=d,
+            tau=p.tau,
+            drag=sim.params.drag,
+            settle=p.settle,
+            duration=float(state.step) * dt,
+            batch_relaxations=p.batch_relaxations,
+            min_batches=p.min_batches,
+            expected_D=p.kT_eff_theory / sim.params.drag,
+        )
+        out: dict[str, Any] = {
+            "n": p.n,
+            "walls": p.walls,
+            "force": p.force if p.walls == "force" else None,
+            "kT": p.kT,
+            "tau": p.tau,
+            "width": Lx,
+            "diameter": d,
+            **m,
+            "pressure_applied": p.force / (Lx - d) if p.walls == "force" else None,
+            "kT_eff_theory": p.kT_eff_theory,
+            "ideal_height": ideal_height(p.n, m["kT_eff"], p.force, d)
+            if p.walls == "force"
+            else None,
+            "at_limit_fraction": float(acc["at_limit"][0]) / max(state.step, 1),
+            "geometry": {
+                "width": Lx,
+                "height_max": float(setup.info["height_max"]),
+                "radius": p.radius,
+            },
+            "max_overlap_fraction": float(state.counters[1]) / 1e6 / d,
+            "final_max_overlap_fraction": sim.max_overlap(state) / d,
+            "mean_sweeps_per_step": float(state.counters[0]) / max(state.step, 1),
+        }
+        return out
+
+
+def measure(
+    acc: dict[str, np.ndarray],
+    *,
+    sub_steps: int,
+    dt: float,
+    n: int,
+    width: float,
+    diameter: float,
+    tau: float,
+    drag: float,
+    settle: float | None,
+    duration: float,
+    batch_relaxations: float,
+    min_batches: int,
+    expected_D: float,
+) -> dict[str, Any]:
+    """Pressure, area, ``kT_eff`` and ``Z`` with batch-means errors from the sub-batch sums
+    of :meth:`Compression.observe` (see the module docstring)."""
+    steps = acc["steps"].astype(float)
+    used = steps > 0
+    t_end = (np.arange(steps.size) + 1) * sub_steps * dt
+    sub_s = sub_steps * dt
+    w = np.where(used, steps, 0.0)
+    safe = np.maximum(steps, 1)
+    f_top = acc["f_top"] / safe
+    f_bot = acc["f_bottom"] / safe
+    h = acc["height"] / safe
+    v2 = acc["v2"] / safe
+    d = diameter
+    # the expected relaxation time sets the default settling time
+    h_guess = float(h[used][0]) - d if used.any() else 0.0
+    t_relax_guess = max(h_guess, 0.0) ** 2 / (math.pi**2 * expected_D)
+    settle_s = settle if settle is not None else min(duration / 5, 3 * t_relax_guess)
+    keep = used & (t_end - sub_s >= settle_s - 1e-9)
+    if keep.sum() < 2:
+        raise ConfigError(
+            f"duration {duration:g} s leaves fewer than 2 sub-batches after settle = "
+            f"{settle_s:g} s; run longer"
+        )
+    x = {
+        "f_top": f_top[keep],
+        "f_bot": f_bot[keep],
+        "h": h[keep],
+        "v2": v2[keep],
+    }
+    wk = w[keep]
+    window = float(wk.sum()) * dt
+    v2m = float(np.average(x["v2"], weights=wk))
+    D = v2m * tau / 4
+    kT_eff = drag * D
+    hm = float(np.average(x["h"], weights=wk))
+    t_relax = max(hm - d, 0.0) ** 2 / (math.pi**2 * D)
+    n_sub = int(keep.sum())
+    want = max(1, int(window // max(batch_relaxations * t_relax, 1e-12)))
+    nb = min(max(want, min_batches), n_sub)
+    reliable = want >= min_batches and n_sub >= min_batches
+    bt = batch_means(x["f_top"], wk, nb)
+    bb = batch_means(x["f_bot"], wk, nb)
+    bh = batch_means(x["h"], wk, nb)
+    bv = batch_means(x["v2"], wk, nb)
+    Lf = width - d
+    P_b = 0.5 * (bt + bb) / Lf
+    Af_b = Lf * (bh - d)
+    kT_b = drag * bv * tau / 4
+    Z_b = P_b * Af_b / (n * kT_b)
+    P, P_se = _mean_se(P_b)
+    H, H_se = _mean_se(bh)
+    Z, Z_se = _mean_se(Z_b)
+    area = width * H
+    # a short series for plots: at most ~500 points
+    k = max(1, math.ceil(int(used.sum()) / 500))
+    idx = np.flatnonzero(used)
+    groups = [idx[i : i + k] for i in range(0, idx.size, k)]
+    series = {
+        "t": [float(t_end[g].mean() - sub_s / 2) for g in groups],
+        "pressure": [float(np.average(0.5 * (f_top + f_bot)[g], weights=w[g]) / Lf)
+                     for g in groups],
+        "height": [float(np.average(h[g], weights=w[g])) for g in groups],
+    }  # fmt: skip
+    return {
+        "pressure": P,
+        "pressure_se": P_se,
+        "pressure_top": float(np.average(x["f_top"], weights=wk)) / Lf,
+        "pressure_bottom": float(np.average(x["f_bot"], weights=wk)) / Lf,
+        "height": H,
+        "height_se": H_se,
+        "area": area,
+        "area_se": width * H_se,
+        "free_area": Lf * (H - d),
+        "packing_fraction": n * math.pi * (d / 2) ** 2 / area,
+        "density": n / area,
+        "kT_eff": kT_eff,
+        "kT_eff_se": drag * tau / 4 * _mean_se(bv)[1],
+        "D": D,
+        "Z": Z,
+        "Z_se": Z_se,
+        "t_relax": t_relax,
+        "batch_s": window / nb,
+        "n_batches": nb,
+        "se_reliable": bool(reliable),
+        "settle_s": float(settle_s),
+        "window_s": window,
+        "series": series,
+    }
+
+
+# --------------------------------------------------------------------------------------
+# Sweeps
+
+
+def _run_sweep(
+    base: dict[str, Any],
+    grid: dict[str, list[Any]],
+    seeds: Iterable[int],
+    out: str | Path,
+    executor: Any = None,
+) -> list[dict[str, Any]]:
+    """:func:`thermoswarm.sweep.run_sweep` of ``compression`` over ``grid`` x ``seeds``;
+    the records as dicts (``run_id``, ``params``, ``seed``, ``out``, ``status``,
+    ``metrics``, ``error``)."""
+    from thermoswarm.sweep import SweepSpec, run_sweep
+
+    spec = SweepSpec(
+        scenario="compression", out=Path(out), base=base, grid=grid, seeds=[int(s) for s in seeds]
+    )
+    return [dataclasses.asdict(r) for r in run_sweep(spec, executor)]
+
+
+#: Columns of the tidy tables the sweeps return.
+TABLE_COLUMNS = (
+    "walls", "force", "kT", "n", "width", "tau", "pressure", "pressure_se",
+    "pressure_applied", "height", "area", "free_area", "packing_fraction", "density",
+    "kT_eff", "kT_eff_se", "Z", "Z_se", "se_reliable", "at_limit_fraction",
+)  # fmt: skip
+
+
+def sweep_table(records: Iterable[dict[str, Any]]) -> Any:
+    """A :class:`pandas.DataFrame` with one row per run: ``run_id``, ``seed``, ``status``,
+    ``error`` and the metrics in :data:`TABLE_COLUMNS` (failed runs are kept, with NaN)."""
+    import pandas as pd
+
+    rows = []
+    for r in records:
+        m = r.get("metrics") or {}
+        row = {"run_id": r.get("run_id"), "seed": r.get("seed"), "status": r.get("status"),
+               "error": r.get("error")}  # fmt: skip
+        row.update({c: m.get(c) for c in TABLE_COLUMNS})
+        rows.append(row)
+    return pd.DataFrame(rows, columns=["run_id", "seed", "status", "error", *TABLE_COLUMNS])
+
+
+def _base(base: dict[str, Any] | None) -> dict[str, Any]:
+    b = dict(base or {})
+    rec = dict(b.get("record", {}))
+    rec.setdefault("netcdf", False)  # sweeps need the metrics, not the trajectories
+    rec.setdefault("interval", 50.0)
+    b["record"] = rec
+    return b
+
+
+def isotherm(
+    forces: Sequence[float],
+    *,
+    out: str | Path,
+    kT: float | None = None,
+    base: dict[str, Any] | None = None,
+    seeds: Sequence[int] = (0,),
+    executor: Any = None,
+) -> Any:
+    """Pressure versus area at fixed temperature: one run per force and seed.
+
+    Returns the tidy table of :func:`sweep_table` (columns ``force``, ``pressure``,
+    ``free_area``, ``kT_eff``, ``Z``...).  ``base`` holds further parameters (nested
+    dicts as in a config file); ``kT`` overrides its temperature.
+    """
+    b = _base(base)
+    if kT is not None:
+        b["kT"] = float(kT)
+    b["walls"] = "force"
+    recs = _run_sweep(b, {"force": [float(f) for f in forces]}, seeds, out, executor)
+    return sweep_table(recs)
+
+
+def temperature_series(
+    kTs: Sequence[float],
+    *,
+    out: str | Path,
+    force: float | None = None,
+    walls: Literal["held", "force"] = "held",
+    base: dict[str, Any] | None = None,
+    seeds: Sequence[int] = (0,),
+    executor: Any = None,
+) -> Any:
+    """Pressure versus temperature: held walls (fixed density; the default) or walls
+    pushed by a fixed ``force`` (then the area grows with T).  With held walls the
+    height is that of ``base`` (or the ideal-gas height at ``force`` and the first
+    temperature, so that all runs share one area)."""
+    b = _base(base)
+    if force is not None:
+        b["force"] = float(force)
+    b["walls"] = walls
+    if walls == "held" and b.get("height") is None:
+        first = {k: v for k, v in b.items() if k not in ("engine", "record", "walls")}
+        first["kT"] = float(kTs[0])
+        b["height"] = CompressionParams(**first).initial_height
+    recs = _run_sweep(b, {"kT": [float(t) for t in kTs]}, seeds, out, executor)
+    return sweep_table(recs)
+
+
+def temperature_for_density(
+    forces: Sequence[float],
+    *,
+    packing_fraction: float,
+    out: str | Path,
+    base: dict[str, Any] | None = None,
+    seeds: Sequence[int] = (0,),
+    iterations: int = 2,
+    executor: Any = None,
+) -> Any:
+    """The temperature that holds the density fixed as the force varies (panel w).
+
+    For each force the first guess is the ideal-gas temperature for the target area;
+    each further iteration rescales ``kT`` by the ratio of the target free height to the
+    measured one (exact for an ideal gas).  Returns the table of the last iteration
+    with a column ``iteration``; the density reached is in ``packing_fraction``.
+    """
+    import pandas as pd
+
+    b = _base(base)
+    b["walls"] = "force"
+    p0 = CompressionParams(**{k: v for k, v in b.items() if k not in ("engine", "record")})
+    check(0 < packing_fraction < 0.8, "packing_fraction", "in (0, 0.8)", packing_fraction)
+    check(iterations >= 1, "iterations", "a positive integer", iterations)
+    area = p0.n * math.pi * p0.radius**2 / packing_fraction
+    h_target = area / p0.width
+    hf_target = h_target - p0.diameter
+    ms_per_kT = speed_law(p0.speed_law, 1.0).mean_square()  # <v^2> per unit kT
+    out = Path(out)
+    out.mkdir(exist_ok=True)
+    kTs = {float(F): F * hf_target / p0.n / (ms_per_kT * p0.tau / 4) for F in forces}
+    table = None
+    for it in range(iterations):
+        frames = []
+        for F, kT in kTs.items():
+            b_it = dict(b, force=F, kT=kT, height=h_target)
+            recs = _run_sweep(b_it, {"force": [F]}, seeds, out / f"iter{it}", executor)
+            frames.append(sweep_table(recs))
+        table = pd.concat(frames, ignore_index=True)
+        table["iteration"] = it
+        failed = table[table["status"] == "failed"]
+        if len(failed):
+            row = failed.iloc[0]
+            raise ThermoswarmError(
+                f"temperature_for_density: run {row['run_id']} (force {row['force']}) "
+                f"failed: {row['error']}"
+            )
+        means = table.groupby("force")[["height", "kT"]].mean()
+        for F in kTs:
+            hf = float(means.loc[F, "height"]) - p0.diameter
+            kTs[F] = float(kTs[F] * hf_target / hf)
+    return table
+
+
+# --------------------------------------------------------------------------------------
+# Drawing
+
+
+def plot_frame(
+    ax: Any,
+    tracks: xr.Dataset,
+    t: float,
+    setup_info: dict[str, Any],
+    *,
+    cmap: str = "viridis",
+) -> Any:
+    """Draw the walls and the robots (coloured by commanded speed, mm/s) at the recorded
+    frame nearest ``t`` (s).  ``setup_info`` is ``metrics["geometry"]``.  Returns the
+    collection of robot discs."""
+    from matplotlib.collections import EllipseCollection
+
+    k = int(np.argmin(np.abs(tracks["time"].values - t)))
+    fr = tracks.isel(time=k)
+    pos = fr["position"].isel(keypoints=0).transpose("individuals", "space").values
+    W = float(setup_info["width"])
+    H = float(setup_info["height_max"])
+    r = float(setup_info["radius"])
+    ytop, ybot = (float(v) for v in fr["walls"].values)
+    ax.plot([0, 0], [0, H], "k-", lw=1.5)
+    ax.plot([W, W], [0, H], "k-", lw=1.5)
+    for y in (ytop, ybot):
+        ax.plot([0, W], [y, y], color="tab:red", lw=3)
+    d = np.full(pos.shape[0], 2 * r)
+    coll = EllipseCollection(
+        d, d, np.zeros_like(d), units="xy", offsets=pos, offset_transform=ax.transData
+    )
+    coll.set_array(fr["speed"].values.astype(float))
+    coll.set_cmap(cmap)
+    coll.set_edgecolor("k")
+    coll.set_linewidth(0.3)
+    ax.add_collection(coll)
+    pad = 0.05 * (ytop - ybot)
+    ax.set_xlim(-0.02 * W, 1.02 * W)
+    ax.set_ylim(ybot - pad, ytop + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_title(f"t = {float(tracks['time'].values[k]):.0f} s")
+    return coll
+
+
+def plot_isotherm(ax: Any, table: Any) -> None:
+    """Pressure versus free area (points with error bars) and the ideal-gas curve
+    ``P = n kT_eff / A_free`` at the runs' mean ``kT_eff``."""
+    t = table.dropna(subset=["pressure"])
+    ax.errorbar(t["free_area"], t["pressure"], yerr=t["pressure_se"], fmt="o", label="swarm")
+    a = np.linspace(0.8 * t["free_area"].min(), 1.2 * t["free_area"].max(), 200)
+    nk = float((t["n"] * t["kT_eff"]).mean())
+    ax.plot(a, nk / a, "k--", label=r"ideal gas $n kT_{eff}/A_{free}$")
+    ax.set_xlabel(r"free area $A_{free}$ (mm$^2$)")
+    ax.set_ylabel("pressure (drag units / mm)")
+    ax.legend()
+
+
+def plot_pressure_temperature(ax: Any, table: Any) -> dict[str, float]:
+    """Pressure versus ``kT_eff`` with the least-squares line; returns the fit."""
+    t = table.dropna(subset=["pressure"])
+    fit = linear_fit(t["kT_eff"], t["pressure"])
+    ax.errorbar(t["kT_eff"], t["pressure"], yerr=t["pressure_se"], fmt="o")
+    x = np.linspace(0, 1.05 * t["kT_eff"].max(), 50)
+    ax.plot(x, fit["slope"] * x + fit["intercept"], "k--", label=f"fit, R² = {fit['r2']:.4f}")
+    ax.set_xlabel(r"$kT_{eff}$ (mm$^2$/s)")
+    ax.set_ylabel("pressure (drag units / mm)")
+    ax.legend()
+    return fit
+
+
+def plot_temperature_for_density(ax: Any, table: Any) -> dict[str, float]:
+    """Temperature that holds the density fixed versus force (panel w); returns the fit."""
+    t = table.dropna(subset=["pressure"])
+    fit = linear_fit(t["force"], t["kT"])
+    ax.plot(t["force"], t["kT"], "o")
+    x = np.linspace(0, 1.05 * t["force"].max(), 50)
+    ax.plot(x, fit["slope"] * x + fit["intercept"], "k--", label=f"fit, R² = {fit['r2']:.4f}")
+    ax.set_xlabel("force on each wall (drag units)")
+    ax.set_ylabel(r"$kT$ (mm$^2$/s$^2$)")
+    ax.legend()
+    return fit
+
+
+def study_figure(isotherm_table: Any = None, temperature_table: Any = None,
+                 density_table: Any = None) -> Any:  # fmt: skip
+    """A figure with a panel for each table given (isotherm, P vs T, T vs F)."""
+    import matplotlib.pyplot as plt
+
+    panels = [
+        (isotherm_table, plot_isotherm, "isotherm"),
+        (temperature_table, plot_pressure_temperature, "pressure vs temperature"),
+        (density_table, plot_temperature_for_density, "T at fixed density"),
+    ]
+    panels = [p for p in panels if p[0] is not None]
+    fig, axes = plt.subplots(1, max(len(panels), 1), figsize=(4.5 * max(len(panels), 1), 3.8))
+    axes = np.atleast_1d(axes)
+    for ax, (tab, fn, title) in zip(axes, panels, strict=False):
+        fn(ax, tab)
+        ax.set_title(title)
+    fig.tight_layout()
+    return fig
