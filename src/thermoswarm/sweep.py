@@ -6,7 +6,8 @@ Cartesian product) and a list of seeds.  Every combination is one run, written t
 the run's fully resolved configuration, so
 
 - a finished run (``metrics.json`` written and the store marked complete) is skipped
-  when the sweep is started again;
+  when the sweep is started again -- unless the simulation code changed since (the run
+  id includes a fingerprint of the engine, policies and scenarios);
 - a killed run is resumed from its last committed block;
 - two sweeps that share a run share its directory and its result.
 
@@ -101,9 +102,34 @@ def _flatten_base(base: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+def code_fingerprint() -> str:
+    """SHA-256 of the simulation code (engine, policies, laws, scenarios).
+
+    Part of every run id, so that a sweep restarted after the code changed reruns its
+    runs instead of skipping them as finished.
+    """
+    global _FINGERPRINT
+    if _FINGERPRINT is None:
+        import thermoswarm
+
+        root = Path(thermoswarm.__file__).parent
+        files = sorted([*(root / "sim").glob("*.py"), *(root / "scenarios").glob("*.py"),
+                        root / "policy.py", root / "maxent.py"])  # fmt: skip
+        h = hashlib.sha256(thermoswarm.__version__.encode())
+        for f in files:
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+        _FINGERPRINT = h.hexdigest()
+    return _FINGERPRINT
+
+
+_FINGERPRINT: str | None = None
+
+
 def run_id(config_toml: str) -> str:
-    """The id of a run: the first 16 hex digits of the SHA-256 of its resolved config."""
-    return hashlib.sha256(config_toml.encode()).hexdigest()[:16]
+    """The id of a run: 16 hex digits of the SHA-256 of its resolved config and of the
+    code that runs it (:func:`code_fingerprint`)."""
+    return hashlib.sha256((code_fingerprint() + config_toml).encode()).hexdigest()[:16]
 
 
 def expand(spec: SweepSpec) -> list[tuple[dict[str, Any], int, Any]]:
