@@ -1,0 +1,89 @@
+"""``make bench``: every benchmark, one after the other, each against its own baseline.
+
+Prints the engine table (thermoswarm vs pymunk) and a summary line per other benchmark;
+the full JSON of each goes to ``bench-out/<name>.json``.  Every figure is a ratio
+against a baseline measured in the same process (these machines are noisy); the load
+average is printed with each result.
+
+Options: ``--quick`` runs smaller sizes (a few minutes in all); ``--only NAME`` runs one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).parent
+OUT = Path("bench-out")
+
+
+def _run(name: str, args: list[str]) -> dict | None:
+    cmd = [sys.executable, str(HERE / f"{name}.py"), *args, "--json"]
+    t0 = time.perf_counter()
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        print(f"{name}: failed ({res.stderr.strip().splitlines()[-1:]})")
+        return None
+    data = json.loads(res.stdout.strip().splitlines()[-1])
+    OUT.mkdir(exist_ok=True)
+    (OUT / f"{name}.json").write_text(json.dumps(data, indent=2))
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
+    print(
+        f"{name}: {time.perf_counter() - t0:.0f} s (load average {load}); "
+        f"full results in {OUT / (name + '.json')}"
+    )
+    return data
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="smaller sizes")
+    ap.add_argument("--only", choices=["engine", "analysis", "tracking", "unet", "light", "io"])
+    a = ap.parse_args(argv)
+
+    def want(name: str) -> bool:
+        return a.only in (None, name)
+
+    if want("engine"):
+        sys.path.insert(0, str(HERE))
+        from bench_engine import main as engine_main
+
+        ns = ["--n", "1200", "--n", "10000", "--n", "100000"] if a.quick else []
+        print("## engine (thermoswarm vs pymunk, same workload, same process)\n")
+        engine_main(ns)
+        print()
+    if want("analysis"):
+        args = ["--n-tracks", "200", "--n-frames", "5000"] if a.quick else []
+        d = _run("bench_analysis", args)
+        if d:
+            print("   " + json.dumps({k: d[k] for k in d if not isinstance(d[k], dict)})[:300])
+    if want("tracking"):
+        d = _run("bench_tracking", ["--seeds", "1"] if a.quick else [])
+        if d:
+            print("   " + json.dumps(d.get("summary", {k: d[k] for k in list(d)[:8]}))[:400])
+    if want("unet") and (HERE / "bench_unet.py").exists():
+        if importlib.util.find_spec("torch") is None:
+            print("bench_unet: skipped (torch is not installed)")
+        else:
+            d = _run("bench_unet", ["--quick"] if a.quick else [])
+            if d:
+                print("   " + json.dumps(d.get("summary", {k: d[k] for k in list(d)[:8]}))[:400])
+    if want("light"):
+        d = _run("bench_light", ["--sizes", "100000"] if a.quick else [])
+        if d:
+            print("   " + json.dumps(d)[:300])
+    if want("io"):
+        d = _run("bench_io", ["--quick"] if a.quick else [])
+        if d:
+            print("   " + json.dumps(d)[:300])
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
