@@ -295,7 +295,8 @@ def _pack_pistons(world: World) -> np.ndarray:
 Sensing = Callable[[SwarmState, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
-def _unit_directions(heading: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+def _unit_directions(heading: np.ndarray, out: np.ndarray | None = None,
+                     max_abs: float | None = None) -> np.ndarray:
     """(2, m) float32 cos and sin of headings (into ``out`` when given).
 
     float32 because NumPy evaluates float32 sin/cos with SIMD, ~25x faster than float64
@@ -303,7 +304,9 @@ def _unit_directions(heading: np.ndarray, out: np.ndarray | None = None) -> np.n
     Headings are wrapped first when large, so that float32 keeps their precision.
     """
     h = np.asarray(heading, dtype=np.float32)
-    if h.size and (h.max() > 64.0 or h.min() < -64.0):
+    if max_abs is None:
+        max_abs = float(np.abs(h).max()) if h.size else 0.0
+    if max_abs > 64.0:
         h = ((np.asarray(heading, dtype=np.float64) + np.pi) % (2 * np.pi) - np.pi).astype(
             np.float32
         )
@@ -331,18 +334,25 @@ def _default_sensing(state: SwarmState, index: np.ndarray) -> tuple[np.ndarray, 
 
 #: Swarms smaller than this are stepped on one thread: below it, waking a second
 #: thread for each of a step's parallel loops costs more than it saves.
-SERIAL_BELOW = 5000
+SERIAL_BELOW = 8000
 
 
 def _set_threads(n: int) -> None:
-    """One thread for small swarms, all threads otherwise (set every step, so that a
-    small simulation does not leave the process single-threaded)."""
+    """One thread for small swarms, all threads otherwise.
+
+    Set before every step (so that a small simulation does not leave the process
+    single-threaded for a large one), but only when it changes: asking Numba for the
+    current count costs more than a small swarm's whole decision step.
+    """
+    global _LAST_THREADS
     want = 1 if n < SERIAL_BELOW else _MAX_THREADS
-    if numba.get_num_threads() != want:
+    if want != _LAST_THREADS:
         numba.set_num_threads(want)
+        _LAST_THREADS = want
 
 
 _MAX_THREADS = numba.config.NUMBA_NUM_THREADS
+_LAST_THREADS = -1
 
 
 class _Workspace:
@@ -582,14 +592,15 @@ class Simulator:
             raise ValueError(
                 f"policy returned shapes {h.shape}, {v.shape} for {index.size} robots"
             )
-        if not (np.isfinite(h.sum()) and np.isfinite(v.sum()) and v.min(initial=0.0) >= 0):
+        bad, max_abs = K.check_action(h, v)  # one pass: finite headings, speeds >= 0
+        if bad:
             raise ValueError("policy returned a non-finite heading or a negative speed")
         state.heading[sel] = h
         state.speed[sel] = v
         if everyone:
-            _unit_directions(h, out=state.udir)  # in place: no temporaries
+            _unit_directions(h, out=state.udir, max_abs=max_abs)  # in place: no temporaries
         else:
-            state.udir[:, sel] = _unit_directions(h)
+            state.udir[:, sel] = _unit_directions(h, max_abs=max_abs)
 
     def step(self, state: SwarmState) -> SwarmState:
         """Advance ``state`` by one time step ``dt``."""

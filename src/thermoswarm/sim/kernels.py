@@ -186,6 +186,24 @@ def flag_cells_near(seg, sdisc, x0, y0, cs, nx, ny, reach, flags):
                 flags[cy * nx + cx] = 1
 
 
+@njit(cache=True)
+def check_action(heading, speed):
+    """One pass over a policy's output: 0 if every heading is finite and every speed
+    finite and >= 0 (1 non-finite heading, 2 bad speed), and the largest |heading|."""
+    big = 0.0
+    for i in range(heading.shape[0]):
+        h = heading[i]
+        if not math.isfinite(h):
+            return 1, big
+        a = abs(h)
+        if a > big:
+            big = a
+        v = speed[i]
+        if not (v >= 0.0) or not math.isfinite(v):
+            return 2, big
+    return 0, big
+
+
 # ------------------------------------------------------- overdamped projection
 # Column layout of the packed body and piston arrays (see engine._pack_*).
 BX, BY, BR, BDRAG, BFX, BFY, BCX, BCY, BDX, BDY, BSH = range(11)
