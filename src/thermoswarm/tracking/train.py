@@ -241,13 +241,13 @@ class AugmentConfig:
 @dataclass(frozen=True)
 class ValidationConfig:
     """The held-out synthetic video of synthetic training: ``width`` x ``height`` px,
-    ``n_ants`` ants (default: the benchmark's density on a shorter road), ``n_frames``
-    frames, its own ``seed``."""
+    ``n_ants`` ants, ``n_frames`` frames (default: the benchmark's geometry and
+    density, 2 s), its own ``seed``."""
 
-    width: int = 960
-    height: int = 540
-    n_ants: int = 20
-    n_frames: int = 90
+    width: int = 1920
+    height: int = 1080
+    n_ants: int = 40
+    n_frames: int = 60
     seed: int = 1_000_003
 
     def __post_init__(self) -> None:
@@ -270,9 +270,15 @@ class TrainConfig:
     ``max_steps``.  ``centroid_batch``, ``patch_size`` (px, a multiple of 16):
     centroid patches per step and their side.  ``pose_batch``: crops per step.
     ``anchor_jitter_px``: standard deviation of the crop centre around the true body
-    point (the centroid network's error).  ``crowd_weight``: how much more often ants
+    point (the centroid network's error); a fraction ``anchor_far_fraction`` of the
+    crops is centred anywhere within ``anchor_far_px`` of it instead (a stray peak on
+    a head or gaster), and every crop is labelled with the ant whose body point is
+    nearest its centre, so that a stray peak yields the same pose again (removed as a
+    duplicate) rather than a shifted ghost.  ``crowd_weight``: how much more often ants
     with another body point within half a body length are drawn for pose crops.
     ``variance_weight``: weight of the soft-argmax variance in the pose loss.
+    ``ema_decay``: the model evaluated and saved is an exponential moving average of
+    the weights with this decay per step (0: the weights themselves).
     ``val_fraction``: held-out frames of labelled data.  ``threads``: PyTorch threads
     (``None``: as set).
     """
@@ -289,8 +295,11 @@ class TrainConfig:
     patch_size: int = 192
     pose_batch: int = 64
     anchor_jitter_px: float = 1.0
+    anchor_far_fraction: float = 0.3
+    anchor_far_px: float = 6.0
     crowd_weight: float = 3.0
     variance_weight: float = 0.05
+    ema_decay: float = 0.99
     val_fraction: float = 0.1
     threads: int | None = None
     model: ModelConfig = field(default_factory=ModelConfig)
@@ -327,8 +336,16 @@ class TrainConfig:
         )
         check(self.pose_batch >= 1, "pose_batch", "a positive integer", self.pose_batch)
         check(self.anchor_jitter_px >= 0, "anchor_jitter_px", ">= 0", self.anchor_jitter_px)
+        check(
+            0 <= self.anchor_far_fraction <= 1,
+            "anchor_far_fraction",
+            "in [0, 1]",
+            self.anchor_far_fraction,
+        )
+        check(self.anchor_far_px >= 0, "anchor_far_px", ">= 0", self.anchor_far_px)
         check(self.crowd_weight >= 0, "crowd_weight", ">= 0", self.crowd_weight)
         check(self.variance_weight >= 0, "variance_weight", ">= 0", self.variance_weight)
+        check(0 <= self.ema_decay < 1, "ema_decay", "in [0, 1)", self.ema_decay)
         check(0 <= self.val_fraction < 1, "val_fraction", "in [0, 1)", self.val_fraction)
         check(
             self.threads is None or self.threads >= 1,
@@ -742,13 +759,18 @@ class _Sampler:
         picks = rng.choice(self.p_inst.size, size=cfg.pose_batch, p=self.p_inst)
         for b, k in enumerate(picks):
             i, j = int(self.inst_frame[k]), int(self.inst_idx[k])
-            frame, pts = self.data.frames[i], self.data.points[i][j]
-            jit = (
-                np.clip(rng.normal(0, cfg.anchor_jitter_px, 2), -3, 3)
-                if cfg.anchor_jitter_px
-                else 0
-            )
-            anchor = pts[1] + jit
+            frame, every = self.data.frames[i], self.data.points[i]
+            if rng.random() < cfg.anchor_far_fraction:
+                # A peak off the body (on a head or gaster): uniform in a disc.
+                r = cfg.anchor_far_px * math.sqrt(rng.random())
+                a = rng.uniform(0, 2 * np.pi)
+                jit = np.array([r * math.cos(a), r * math.sin(a)])
+            else:
+                s = cfg.anchor_jitter_px
+                jit = np.clip(rng.normal(0, s, 2), -3 * s, 3 * s)
+            anchor = every[j, 1] + jit
+            # A crop is answered with the ant whose body point is nearest its centre.
+            pts = every[int(np.argmin(np.linalg.norm(every[:, 1] - anchor, axis=1)))]
             # The inference crop puts the rounded anchor at pixel C // 2: the anchor
             # lands within half a pixel of it.
             target = np.array([C // 2, C // 2]) + rng.uniform(-0.5, 0.5, 2)
@@ -823,7 +845,9 @@ def detection_metrics(
             fn += gt.shape[0]
             continue
         D = np.linalg.norm(gt[:, None, 1] - P[None, :, 1], axis=-1)
-        r, c = linear_sum_assignment(D)
+        D = np.where(np.isfinite(D), D, np.inf)
+        # Pairs beyond the radius cost more than any possible set of matches within it.
+        r, c = linear_sum_assignment(np.where(D <= radius_px, D, 1e6))
         ok = D[r, c] <= radius_px
         r, c = r[ok], c[ok]
         tp += r.size
@@ -907,6 +931,20 @@ def _centroid_loss(logits: Any, target: Any, weight: Any) -> Any:
     bce = F.binary_cross_entropy_with_logits(logits, target, reduction="none")
     loss = (bce * (p - target).abs().pow(2) * weight).sum()
     return loss / target.sum().clamp(min=1.0)
+
+
+def _ema_update(ema: Any, model: Any, decay: float, step: int) -> None:
+    """Exponential moving average of the weights (and BatchNorm statistics), with the
+    usual warm-up ``min(decay, (1 + step) / (10 + step))``; ``decay = 0`` copies."""
+    import torch
+
+    d = min(decay, (1 + step) / (10 + step))
+    with torch.no_grad():
+        for e, m in zip(ema.state_dict().values(), model.state_dict().values(), strict=True):
+            if e.dtype.is_floating_point:
+                e.mul_(d).add_(m, alpha=1 - d)
+            else:
+                e.copy_(m)
 
 
 def _score(metrics: dict[str, Any]) -> tuple[float, float]:
@@ -995,6 +1033,9 @@ def train(
                 )
         sampler = _Sampler(data, cfg, rng)
         model.train()
+        ema = copy.deepcopy(model).eval()
+        for p in ema.parameters():
+            p.requires_grad_(False)
         params_c = list(model.centroid.parameters())
         params_p = list(model.pose.parameters())
         opt = torch.optim.AdamW(
@@ -1036,6 +1077,7 @@ def train(
             (loss_c + loss_p).backward()
             opt.step()
             sched.step()
+            _ema_update(ema, model, cfg.ema_decay, step)
             lc, lp = loss_c.item(), loss_p.item()
             run_c = lc if run_c is None else 0.95 * run_c + 0.05 * lc
             run_p = lp if run_p is None else 0.95 * run_p + 0.05 * lp
@@ -1058,10 +1100,8 @@ def train(
                 "lr": float(sched.get_last_lr()[0]),
             }
             if validation is not None:
-                model.eval()
-                det = UNetDetector(model, px_per_mm=validation.px_per_mm)
+                det = UNetDetector(ema, px_per_mm=validation.px_per_mm)
                 entry.update(evaluate_detector(det, validation))
-                model.train()
                 entry["seconds_with_eval"] = time.perf_counter() - t_start
                 entry["cpu_seconds_with_eval"] = time.process_time() - c_start
             history.append(entry)
@@ -1069,9 +1109,9 @@ def train(
                 log(_log_line(entry))
             if best is None or (validation is not None and _score(entry) > _score(best)):
                 best = entry
-                best_state = copy.deepcopy(model.state_dict())
+                best_state = copy.deepcopy(ema.state_dict())
             if validation is None:
-                best, best_state = entry, copy.deepcopy(model.state_dict())
+                best, best_state = entry, copy.deepcopy(ema.state_dict())
             met = (
                 validation is not None
                 and validation.mot_gt is not None
@@ -1080,7 +1120,7 @@ def train(
             )
             if met:
                 stopped = "target"
-                best, best_state = entry, copy.deepcopy(model.state_dict())
+                best, best_state = entry, copy.deepcopy(ema.state_dict())
                 break
             if over_time:
                 stopped = "max_minutes"
