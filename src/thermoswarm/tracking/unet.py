@@ -119,8 +119,12 @@ class ModelConfig:
     the frame) of the Gaussian peaks it is trained to produce.  ``crop_size``: side (px
     of the frame, a multiple of 4) of the pose network's crops; it must hold a whole ant
     (at the paper's scale an ant spans 22 px).  ``pose_channels``: widths of the pose
-    network's levels (at 1, 1/2 and 1/4 of the crop).  ``keypoints``: names of the
+    network's levels (at 1/2, 1/4 and 1/4 of the crop).  ``keypoints``: names of the
     three points, in the order of the tracker's ``head, body, tail``.
+    ``peak_reference``: the median confidence-map peak of correctly found ants, measured
+    after training (:func:`thermoswarm.tracking.train.calibrate_peaks`); a detection's
+    score is its peak divided by it (at most 1), so that a typical correct detection
+    scores 1, as the tracker expects (it trusts detections less as their score falls).
     """
 
     px_per_mm: float = 3.04
@@ -130,6 +134,7 @@ class ModelConfig:
     crop_size: int = 32
     pose_channels: tuple[int, int, int] = (24, 48, 48)
     keypoints: tuple[str, str, str] = anatomy.KEYPOINTS
+    peak_reference: float = 1.0
 
     def __post_init__(self) -> None:
         check(
@@ -155,6 +160,12 @@ class ModelConfig:
             self.crop_size,
         )
         check(len(set(self.keypoints)) == 3, "keypoints", "three distinct names", self.keypoints)
+        check(
+            0 < self.peak_reference <= 1,
+            "peak_reference",
+            "in (0, 1]",
+            self.peak_reference,
+        )
 
     @property
     def cell_px(self) -> float:
@@ -491,10 +502,10 @@ def head_side_mass(logits: torch.Tensor, xy: torch.Tensor) -> torch.Tensor:
 class UNetOptions:
     """Options of the ``unet`` detector (``--set detector.key=value``).
 
-    ``peak_threshold``: smallest confidence-map peak taken as an ant (the maps are
-    trained to 1 at body points).  ``duplicate_px``: two detections whose head, body and
-    tail are on average closer than this (px of the model's scale) are one ant; the
-    stronger is kept.
+    ``peak_threshold``: smallest confidence-map peak taken as an ant (raw map value;
+    the maps are trained towards 1 at body points).  ``duplicate_px``: two detections
+    whose head, body and tail are on average closer than this (px of the model's
+    scale) are one ant; the stronger is kept.
     ``device``: ``"auto"`` (CUDA when available), ``"cpu"`` or ``"cuda"``.  ``threads``:
     PyTorch CPU threads (``None``: leave ``torch.set_num_threads`` as it is).
     ``crop_batch``: crops per pose-network call.  ``max_detections``: most peaks per
@@ -650,7 +661,8 @@ class UNetDetector:
         pts, vals, hc = pts[keep], vals[keep], hc[keep]
         pts[..., 0] = (pts[..., 0] + 0.5) / rx - 0.5
         pts[..., 1] = (pts[..., 1] + 0.5) / ry - 0.5
-        return FrameDetections(pts, np.clip(vals, 0.0, 1.0), None, np.clip(hc, 0.0, 1.0))
+        scores = np.clip(vals / self.model_config.peak_reference, 0.0, 1.0)
+        return FrameDetections(pts, scores, None, np.clip(hc, 0.0, 1.0))
 
 
 def _deduplicate(points: np.ndarray, scores: np.ndarray, radius: float) -> np.ndarray:
