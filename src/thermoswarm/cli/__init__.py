@@ -26,6 +26,7 @@ _COMMANDS: dict[str, str] = {
     "bench": "thermoswarm.cli.bench:bench",
     "analyze": "thermoswarm.cli.analyze:analyze",
     "track": "thermoswarm.cli.track:track",
+    "track-train": "thermoswarm.cli.track_train:track_train",
     "evaluate": "thermoswarm.cli.track:evaluate",
     "reproduce": "thermoswarm.cli.reproduce:reproduce",
     "sweep": "thermoswarm.cli.sweep:sweep",
@@ -52,6 +53,15 @@ class LazyGroup(click.Group):
                 return None
             return getattr(importlib.import_module(module), attr)
         return super().get_command(ctx, name)
+
+    def resolve_command(self, ctx: click.Context, args: list[str]):  # type: ignore[override]
+        # `track` is a plain command (its argument is a video), so `thermoswarm track
+        # train ...` is routed to the `track-train` verb here.
+        if len(args) >= 2 and args[0] == "track" and args[1] == "train":
+            cmd = self.get_command(ctx, "track-train")
+            if cmd is not None:
+                return "track train", cmd, args[2:]
+        return super().resolve_command(ctx, args)
 
     def invoke(self, ctx: click.Context):  # type: ignore[override]
         try:
