@@ -42,6 +42,18 @@ __all__ = ["ZarrRecorder", "save_checkpoint", "load_checkpoint", "read_marker"]
 _DIMS = ["time", "space", "keypoints", "individuals"]
 
 
+def _write_attrs(group: zarr.Group, attrs: Mapping[str, Any]) -> zarr.Group:
+    """Merge ``attrs`` into the group's attributes in ONE write of ``zarr.json``.
+
+    ``group.attrs.update(d)`` is ``MutableMapping.update``: one metadata write per key,
+    so a kill between keys could leave ``committed_frames`` pointing one block past
+    ``checkpoint_file``.  ``update_attributes`` with the merged dict writes once, and
+    zarr's local store replaces ``zarr.json`` atomically (temp file + rename).
+    """
+    merged = {**group.attrs.asdict(), **attrs}
+    return group.update_attributes(merged)
+
+
 def _string_array(group: zarr.Group, name: str, values: list[str]) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -135,7 +147,7 @@ class ZarrRecorder:
                 "committed_frames": 0,
             }
             all_attrs.update(attrs or {})
-            self.group.attrs.update(all_attrs)
+            self.group = _write_attrs(self.group, all_attrs)
             self.committed = 0
         self._pos = np.empty((self.block, 2, n), dtype=dtype)
         self._t = np.empty(self.block)
@@ -177,7 +189,7 @@ class ZarrRecorder:
             fname = f"checkpoint-{step:012d}.npz"
             save_checkpoint(self.path.parent / fname, checkpoint)
             attrs.update({"checkpoint_file": fname, "checkpoint_step": int(step)})
-        self.group.attrs.update(attrs)
+        self.group = _write_attrs(self.group, attrs)
         if checkpoint is not None and old and old != attrs["checkpoint_file"]:
             try:
                 os.unlink(self.path.parent / old)
@@ -187,7 +199,7 @@ class ZarrRecorder:
         self._fill = 0
 
     def set_attrs(self, **attrs: Any) -> None:
-        self.group.attrs.update(attrs)
+        self.group = _write_attrs(self.group, attrs)
 
 
 def save_checkpoint(path: Path, arrays: Mapping[str, Any]) -> None:
