@@ -75,10 +75,15 @@ def pymunk_bench(n: int, phi: float, steps: int, seed: int = 0, dt: float = 0.1)
     p = np.array([b.position for b in bodies])
     d, _ = cKDTree(p).query(p, k=2)
     overlap = max(0.0, float((2 * r - d[:, 1]).max()))
-    return {"n": n, "phi": phi, "steps": steps, "wall_seconds": wall,
-            "robot_steps_per_second": n * steps / wall,
-            "simulated_robot_seconds_per_second": n * steps * dt / wall,
-            "max_overlap_fraction": overlap / DIAMETER}
+    return {
+        "n": n,
+        "phi": phi,
+        "steps": steps,
+        "wall_seconds": wall,
+        "robot_steps_per_second": n * steps / wall,
+        "simulated_robot_seconds_per_second": n * steps * dt / wall,
+        "max_overlap_fraction": overlap / DIAMETER,
+    }
 
 
 def one(n: int, phi: float, with_pymunk: bool = True) -> dict:
@@ -88,16 +93,19 @@ def one(n: int, phi: float, with_pymunk: bool = True) -> dict:
     if with_pymunk:
         steps = max(3, min(200, int(2e5 / n)))
         row["pymunk"] = pymunk_bench(n, phi, steps)
-        row["speedup_vs_pymunk"] = (ours["robot_steps_per_second"]
-                                    / row["pymunk"]["robot_steps_per_second"])
+        row["speedup_vs_pymunk"] = (
+            ours["robot_steps_per_second"] / row["pymunk"]["robot_steps_per_second"]
+        )
     return row
 
 
 def table(rows: list[dict]) -> str:
     base = {r["phi"]: r["ours"]["robot_steps_per_second"] for r in rows if r["n"] == 1200}
-    out = ["| N | phi | robot-steps/s | sim. robot-s per s | max overlap | bytes/robot "
-           "| cost vs N=1,200 | pymunk robot-steps/s | pymunk overlap | speed-up |",
-           "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    out = [
+        "| N | phi | robot-steps/s | sim. robot-s per s | max overlap | bytes/robot "
+        "| cost vs N=1,200 | pymunk robot-steps/s | pymunk overlap | speed-up |",
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
     for r in rows:
         o = r["ours"]
         rel = base.get(r["phi"], o["robot_steps_per_second"]) / o["robot_steps_per_second"]
@@ -107,9 +115,13 @@ def table(rows: list[dict]) -> str:
             f"| {o['simulated_robot_seconds_per_second'] / 1e3:.0f} k "
             f"| {100 * o['max_overlap_fraction']:.2f} % | {o['bytes_per_robot']:.0f} "
             f"| {rel:.2f}x "
-            + (f"| {pm['robot_steps_per_second'] / 1e6:.2f} M "
-               f"| {100 * pm['max_overlap_fraction']:.1f} % "
-               f"| {r['speedup_vs_pymunk']:.1f}x |" if pm else "| - | - | - |")
+            + (
+                f"| {pm['robot_steps_per_second'] / 1e6:.2f} M "
+                f"| {100 * pm['max_overlap_fraction']:.1f} % "
+                f"| {r['speedup_vs_pymunk']:.1f}x |"
+                if pm
+                else "| - | - | - |"
+            )
         )
     return "\n".join(out)
 
@@ -127,8 +139,11 @@ def main(argv: list[str] | None = None) -> int:
         import pymunk  # noqa: F401
     except ImportError:
         if not a.no_pymunk:
-            print("pymunk is not installed (pip install thermoswarm[bench]); "
-                  "running without the baseline", file=sys.stderr)
+            print(
+                "pymunk is not installed (pip install thermoswarm[bench]); "
+                "running without the baseline",
+                file=sys.stderr,
+            )
             a.no_pymunk = True
     rows = [one(n, phi, not a.no_pymunk) for phi in phis for n in ns]
     info = {"cpus": os.cpu_count(), "load_average": os.getloadavg()}
@@ -136,8 +151,10 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps({"engine": rows, "machine": info}))
     else:
         print(table(rows))
-        print(f"\n(cpus: {info['cpus']}, load average at the end: "
-              f"{', '.join(f'{x:.1f}' for x in info['load_average'])})")
+        print(
+            f"\n(cpus: {info['cpus']}, load average at the end: "
+            f"{', '.join(f'{x:.1f}' for x in info['load_average'])})"
+        )
     return 0
 
 

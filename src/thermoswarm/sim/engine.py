@@ -295,8 +295,9 @@ def _pack_pistons(world: World) -> np.ndarray:
 Sensing = Callable[[SwarmState, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
-def _unit_directions(heading: np.ndarray, out: np.ndarray | None = None,
-                     max_abs: float | None = None) -> np.ndarray:
+def _unit_directions(
+    heading: np.ndarray, out: np.ndarray | None = None, max_abs: float | None = None
+) -> np.ndarray:
     """(2, m) float32 cos and sin of headings (into ``out`` when given).
 
     float32 because NumPy evaluates float32 sin/cos with SIMD, ~25x faster than float64
