@@ -144,3 +144,10 @@ def test_bad_setting_and_missing_parent(tmp_path):
         run_mechanism(tmp_path / "m", "medium")
     with pytest.raises(ConfigError, match="parent"):
         run_scaling(tmp_path / "no" / "such", "quick")
+
+
+def test_set_overrides_become_the_dotted_keys_of_a_grid_base():
+    from thermoswarm.studies._common import dotted_overrides
+
+    got = dotted_overrides(["sensor.mode='ideal'", "n=300", "light.a.b=1.5"])
+    assert got == {"sensor.mode": "ideal", "n": 300, "light.a.b": 1.5}

@@ -14,11 +14,29 @@ from scipy import stats
 from thermoswarm.errors import ConfigError
 from thermoswarm.sweep import RunRecord, SweepSpec, run_sweep
 
-__all__ = ["Record", "run_grid", "effect", "verdict"]
+__all__ = ["Record", "run_grid", "effect", "verdict", "dotted_overrides"]
 
 
 #: One run of a study (the sweep's record: run_id, params, seed, out, status, metrics).
 Record = RunRecord
+
+
+def dotted_overrides(overrides: Sequence[str]) -> dict[str, Any]:
+    """``["a.b=1", "c=x"]`` (the ``--set`` syntax) as ``{"a.b": 1, "c": "x"}``: the
+    dotted keys :func:`run_grid` takes in ``base``."""
+    from thermoswarm.config import parse_overrides
+
+    flat: dict[str, Any] = {}
+
+    def walk(d: Mapping[str, Any], prefix: str = "") -> None:
+        for k, v in d.items():
+            if isinstance(v, Mapping):
+                walk(v, prefix + k + ".")
+            else:
+                flat[prefix + k] = v
+
+    walk(parse_overrides(list(overrides)))
+    return flat
 
 
 def run_grid(

@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 
 from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
-from thermoswarm.studies._common import effect, run_grid
+from thermoswarm.studies._common import dotted_overrides, effect, run_grid
 
 __all__ = [
     "SETTINGS",
@@ -302,18 +302,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     try:
-        from thermoswarm.config import parse_overrides
-
-        flat: dict[str, object] = {}
-
-        def walk(d: dict, prefix: str = "") -> None:
-            for k, v in d.items():
-                if isinstance(v, dict):
-                    walk(v, prefix + k + ".")
-                else:
-                    flat[prefix + k] = v
-
-        walk(parse_overrides(args.overrides))
+        flat = dotted_overrides(args.overrides)
         res = run_scaling(args.out, args.setting, seeds=args.seeds, variant=args.variant,
                           target_distance=args.target_distance,
                           max_workers=args.workers, overrides=flat)  # fmt: skip
