@@ -45,3 +45,21 @@ def test_runs_once_then_skips_finished_runs(tmp_path):
     assert [r.status for r in second] == ["skipped"] * 4
     assert [r.metrics for r in second] == [r.metrics for r in first]
     assert (tmp_path / "s" / "sweep.json").is_file()
+
+
+def test_each_distinct_configuration_is_compiled_once_in_the_parent(tmp_path, monkeypatch):
+    from thermoswarm.scenarios import runner
+    from thermoswarm.sweep import _compile_here
+
+    built: list[tuple[float, int]] = []
+    real_build = runner.build
+
+    def counting_build(cfg):
+        built.append((cfg.params.kT, cfg.seed))
+        return real_build(cfg)
+
+    monkeypatch.setattr(runner, "build", counting_build)
+    spec = SweepSpec("box", tmp_path / "s", BASE, {"kT": [10.0, 40.0]}, seeds=[0, 1, 2])
+    _compile_here([cfg for _, _, cfg in expand(spec)])
+    assert built == [(10.0, 0), (40.0, 0)]  # seeds share their compiled kernels
+    assert not (tmp_path / "s").exists()  # nothing written: the runs come later

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import math
 import multiprocessing
 import os
 import traceback
@@ -182,6 +183,35 @@ def _run_one(config_toml: str, out_dir: str, threads: int | None) -> dict[str, A
     return runner.run(cfg, out, progress=False)
 
 
+def _compile_here(configs: Sequence[Any]) -> None:
+    """Build and step each distinct configuration for one control period in this process,
+    so that Numba compiles (and caches) every kernel the runs need before the workers start.
+
+    Workers that compile the same function at the same moment race on Numba's cache index
+    (each numbers its entry ``.1.nbc`` and the last index written may name the other's
+    code), which can load the wrong machine code.  Compiled here first, the workers only
+    read the cache.  A configuration that fails to build is left for its run to report.
+    """
+    from thermoswarm.scenarios import runner
+
+    seen: set[str] = set()
+    for cfg in configs:
+        key = runner.RunConfig(cfg.scenario, cfg.params, 0).to_toml()
+        if key in seen:
+            continue
+        seen.add(key)
+        try:
+            scen, setup, sim, state = runner.build(cfg)
+            acc = scen.init_acc(setup, sim, state)
+            steps = int(math.ceil(sim.params.tau / sim.params.dt)) + 1
+            for _ in range(min(steps, runner._steps(scen, sim)[0])):
+                sim.step(state)
+                scen.observe(sim, state, acc)
+            scen.frame(sim, state, acc)
+        except ThermoswarmError:
+            continue
+
+
 def _finished(out: Path) -> dict[str, Any] | None:
     import json
 
@@ -254,6 +284,9 @@ def run_sweep(
             records[rid] = RunRecord(rid, point, seed, str(rdir), "pending")
             todo.append((rid, text))
     own = executor is None
+    if todo:
+        todo_ids = {rid for rid, _ in todo}
+        _compile_here([cfg for _, _, cfg in runs if run_id(cfg.to_toml()) in todo_ids])
     ex = _default_executor(max_workers) if own else executor
     attempts = dict.fromkeys((rid for rid, _ in todo), 0)
     texts = dict(todo)

@@ -137,7 +137,49 @@ def naive_ks(x: np.ndarray, law: EnergyLaw | EnergyMixture, *, presorted: bool =
 # One exponential
 
 
-class ExponentialFit:
+class _FittedLaw:
+    """What every fitted law shares: the fitted ``law_`` (pdf, cdf, logpdf, sample),
+    likelihood, information criteria and the plot.  Subclasses set ``n_params`` and, in
+    ``fit``, ``law_``, ``loglik_`` and ``n_``."""
+
+    n_params: int
+    law_: Any
+    loglik_: float
+    n_: int
+
+    def pdf(self, x: Any) -> np.ndarray:
+        return self.law_.pdf(x)
+
+    def cdf(self, x: Any) -> np.ndarray:
+        return self.law_.cdf(x)
+
+    def logpdf(self, x: Any) -> np.ndarray:
+        return self.law_.logpdf(x)
+
+    def sample(self, rng: np.random.Generator, size: int | tuple[int, ...]) -> np.ndarray:
+        return self.law_.sample(rng, size)
+
+    def nllf(self, x: Any = None) -> float:
+        """Negative log-likelihood of ``x`` (default: of the fitted data)."""
+        if x is None:
+            return -self.loglik_
+        return float(-np.sum(self.logpdf(np.asarray(x, dtype=float))))
+
+    def aic(self, x: Any = None) -> float:
+        return 2.0 * self.nllf(x) + 2.0 * self.n_params
+
+    def bic(self, x: Any = None) -> float:
+        n = self.n_ if x is None else np.size(x)
+        return 2.0 * self.nllf(x) + self.n_params * math.log(n)
+
+    def plot(self, ax: Any, x: Any = None, **kwargs: Any) -> Any:
+        """Draw the fitted density (and the histogram of ``x``) on log-y axes."""
+        from thermoswarm.analysis.figures import plot_density_fit
+
+        return plot_density_fit(ax, self, x, **kwargs)
+
+
+class ExponentialFit(_FittedLaw):
     """Maximum-likelihood fit of ``Exponential(mean kT)``: the one-phase law.
 
     ``kT_ = mean(x)``, ``kT_se_ = kT_ / sqrt(n)`` (independent samples).
@@ -172,37 +214,6 @@ class ExponentialFit:
     @property
     def se(self) -> dict[str, float]:
         return {"kT": self.kT_se_}
-
-    def pdf(self, x: Any) -> np.ndarray:
-        return self.law_.pdf(x)
-
-    def cdf(self, x: Any) -> np.ndarray:
-        return self.law_.cdf(x)
-
-    def logpdf(self, x: Any) -> np.ndarray:
-        return self.law_.logpdf(x)
-
-    def sample(self, rng: np.random.Generator, size: int | tuple[int, ...]) -> np.ndarray:
-        return self.law_.sample(rng, size)
-
-    def nllf(self, x: Any = None) -> float:
-        """Negative log-likelihood of ``x`` (default: of the fitted data)."""
-        if x is None:
-            return -self.loglik_
-        return float(-np.sum(self.logpdf(np.asarray(x, dtype=float))))
-
-    def aic(self, x: Any = None) -> float:
-        return 2.0 * self.nllf(x) + 2.0 * self.n_params
-
-    def bic(self, x: Any = None) -> float:
-        n = self.n_ if x is None else np.size(x)
-        return 2.0 * self.nllf(x) + self.n_params * math.log(n)
-
-    def plot(self, ax: Any, x: Any = None, **kwargs: Any) -> Any:
-        """Draw the fitted density (and the histogram of ``x``) on log-y axes."""
-        from thermoswarm.analysis.figures import plot_density_fit
-
-        return plot_density_fit(ax, self, x, **kwargs)
 
     def __repr__(self) -> str:
         if not hasattr(self, "kT_"):
@@ -330,7 +341,7 @@ def _maximise(data: _Samples, p: tuple[float, float, float], max_iter: int, tol:
     return p, float(ll), it, converged
 
 
-class ExponentialMixtureFit:
+class ExponentialMixtureFit(_FittedLaw):
     """Maximum-likelihood two-phase law ``phi Exp(kT1) + (1 - phi) Exp(kT2)``, kT1 <= kT2.
 
     Parameters
@@ -493,40 +504,9 @@ class ExponentialMixtureFit:
     def se(self) -> dict[str, float]:
         return {"phi": self.phi_se_, "kT1": self.kT1_se_, "kT2": self.kT2_se_}
 
-    def pdf(self, x: Any) -> np.ndarray:
-        return self.law_.pdf(x)
-
-    def cdf(self, x: Any) -> np.ndarray:
-        return self.law_.cdf(x)
-
-    def logpdf(self, x: Any) -> np.ndarray:
-        return self.law_.logpdf(x)
-
     def predict_proba(self, x: Any) -> np.ndarray:
         """Posterior probability that each sample belongs to the hot phase (kT2)."""
         return self.law_.responsibility(x)
-
-    def sample(self, rng: np.random.Generator, size: int | tuple[int, ...]) -> np.ndarray:
-        return self.law_.sample(rng, size)
-
-    def nllf(self, x: Any = None) -> float:
-        """Negative log-likelihood of ``x`` (default: of the fitted data)."""
-        if x is None:
-            return -self.loglik_
-        return float(-np.sum(self.logpdf(np.asarray(x, dtype=float))))
-
-    def aic(self, x: Any = None) -> float:
-        return 2.0 * self.nllf(x) + 2.0 * self.n_params
-
-    def bic(self, x: Any = None) -> float:
-        n = self.n_ if x is None else np.size(x)
-        return 2.0 * self.nllf(x) + self.n_params * math.log(n)
-
-    def plot(self, ax: Any, x: Any = None, **kwargs: Any) -> Any:
-        """Draw the fitted density (and the histogram of ``x``) on log-y axes."""
-        from thermoswarm.analysis.figures import plot_density_fit
-
-        return plot_density_fit(ax, self, x, **kwargs)
 
     def __repr__(self) -> str:
         if not hasattr(self, "phi_"):
