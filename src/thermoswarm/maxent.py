@@ -64,8 +64,37 @@ def wrap_angle(a: ArrayLike) -> ArrayLike:
     return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
 
+class _FromScipy:
+    """pdf, logpdf and cdf of the frozen SciPy law ``self.dist`` (a property)."""
+
+    def pdf(self, x: ArrayLike) -> ArrayLike:
+        return self.dist.pdf(x)
+
+    def logpdf(self, x: ArrayLike) -> ArrayLike:
+        return self.dist.logpdf(x)
+
+    def cdf(self, x: ArrayLike) -> ArrayLike:
+        return self.dist.cdf(x)
+
+
 @dataclass(frozen=True)
-class EnergyLaw:
+class _Speed(_FromScipy):
+    """A speed law of scale ``sigma = sqrt(kT / m)``."""
+
+    kT: float
+    mass: float = 1.0
+
+    def __post_init__(self) -> None:
+        _positive("kT", self.kT)
+        _positive("mass", self.mass)
+
+    @property
+    def sigma(self) -> float:
+        return math.sqrt(self.kT / self.mass)
+
+
+@dataclass(frozen=True)
+class EnergyLaw(_FromScipy):
     """Energy ``E ~ Exponential(mean kT)``: the maximum-entropy law for a mean energy.
 
     ``pdf(E) = exp(-E / kT) / kT`` for ``E >= 0``.
@@ -80,15 +109,6 @@ class EnergyLaw:
     def dist(self) -> stats.rv_continuous:
         return stats.expon(scale=self.kT)
 
-    def pdf(self, x: ArrayLike) -> ArrayLike:
-        return self.dist.pdf(x)
-
-    def logpdf(self, x: ArrayLike) -> ArrayLike:
-        return self.dist.logpdf(x)
-
-    def cdf(self, x: ArrayLike) -> ArrayLike:
-        return self.dist.cdf(x)
-
     def mean(self) -> float:
         return self.kT
 
@@ -97,33 +117,16 @@ class EnergyLaw:
 
 
 @dataclass(frozen=True)
-class SpeedLaw:
+class SpeedLaw(_Speed):
     """Speed of a robot or particle whose energy ``m v^2 / 2`` is ``Exponential(kT)``.
 
     ``v = sqrt(2 E / m)`` is Rayleigh with scale ``sigma = sqrt(kT / m)``: the 2D
     Maxwell-Boltzmann speed law.  ``mean = sigma sqrt(pi / 2)``, ``<v^2> = 2 kT / m``.
     """
 
-    kT: float
-    mass: float = 1.0
-
-    def __post_init__(self) -> None:
-        _positive("kT", self.kT)
-        _positive("mass", self.mass)
-
-    @property
-    def sigma(self) -> float:
-        return math.sqrt(self.kT / self.mass)
-
     @property
     def dist(self) -> stats.rv_continuous:
         return stats.rayleigh(scale=self.sigma)
-
-    def pdf(self, v: ArrayLike) -> ArrayLike:
-        return self.dist.pdf(v)
-
-    def cdf(self, v: ArrayLike) -> ArrayLike:
-        return self.dist.cdf(v)
 
     def mean(self) -> float:
         return self.sigma * math.sqrt(math.pi / 2)
@@ -140,32 +143,15 @@ class SpeedLaw:
 
 
 @dataclass(frozen=True)
-class HalfNormalSpeed:
+class HalfNormalSpeed(_Speed):
     """The literal reading of the paper's formula, normalised: ``v ~ |N(0, kT / m)|``.
 
     Offered as an option only; its energy is *not* exponential (it is a Gamma(1/2) law).
     """
 
-    kT: float
-    mass: float = 1.0
-
-    def __post_init__(self) -> None:
-        _positive("kT", self.kT)
-        _positive("mass", self.mass)
-
-    @property
-    def sigma(self) -> float:
-        return math.sqrt(self.kT / self.mass)
-
     @property
     def dist(self) -> stats.rv_continuous:
         return stats.halfnorm(scale=self.sigma)
-
-    def pdf(self, v: ArrayLike) -> ArrayLike:
-        return self.dist.pdf(v)
-
-    def cdf(self, v: ArrayLike) -> ArrayLike:
-        return self.dist.cdf(v)
 
     def mean(self) -> float:
         return self.sigma * math.sqrt(2 / math.pi)
@@ -316,7 +302,7 @@ class SteeringLaw:
 
 
 @dataclass(frozen=True)
-class UniformHeading:
+class UniformHeading(_FromScipy):
     """Heading uniform on ``[low, high)`` radians (default the whole circle)."""
 
     low: float = -math.pi
@@ -329,12 +315,6 @@ class UniformHeading:
     @property
     def dist(self) -> stats.rv_continuous:
         return stats.uniform(loc=self.low, scale=self.high - self.low)
-
-    def pdf(self, a: ArrayLike) -> ArrayLike:
-        return self.dist.pdf(a)
-
-    def cdf(self, a: ArrayLike) -> ArrayLike:
-        return self.dist.cdf(a)
 
     def mean(self) -> float:
         return 0.5 * (self.low + self.high)
