@@ -82,6 +82,7 @@ __all__ = [
     "default_model_detector",
     "load_state_dict",
     "load_weights",
+    "load_checked",
     "ClassicalConfig",
     "ClassicalDetector",
 ]
@@ -275,19 +276,28 @@ def load_weights(module: Any, path: str | os.PathLike) -> Any:
     Raises :class:`InputError` naming the file and the first missing, unexpected or
     wrongly shaped tensor.  Returns ``module``.
     """
-    sd = load_state_dict(path)
+    load_checked(module, load_state_dict(path), path, "a model of this kind")
+    return module
+
+
+def load_checked(module: Any, sd: Mapping[str, Any], path: Any, kind: str) -> None:
+    """``module.load_state_dict(sd, strict=True)`` after checking names, shapes and
+    finiteness, so that a wrong file is one line naming ``path`` and the first bad
+    tensor (``kind`` says what the file should have been) instead of torch's report."""
+    import torch
+
     expected = module.state_dict()
     missing = [k for k in expected if k not in sd]
     unexpected = [k for k in sd if k not in expected]
     if missing:
         raise InputError(
             f"{path}: model file lacks tensor {missing[0]!r} "
-            f"({len(missing)} missing); is it a model of this kind?"
+            f"({len(missing)} missing); is it {kind}?"
         )
     if unexpected:
         raise InputError(
             f"{path}: model file has unexpected tensor {unexpected[0]!r} "
-            f"({len(unexpected)} unexpected); is it a model of this kind?"
+            f"({len(unexpected)} unexpected); is it {kind}?"
         )
     for k, v in expected.items():
         if tuple(sd[k].shape) != tuple(v.shape):
@@ -295,8 +305,9 @@ def load_weights(module: Any, path: str | os.PathLike) -> Any:
                 f"{path}: tensor {k!r} has shape {tuple(sd[k].shape)}, "
                 f"the model expects {tuple(v.shape)}"
             )
+        if sd[k].is_floating_point() and not torch.isfinite(sd[k]).all():
+            raise InputError(f"{path}: tensor {k!r} holds NaN or infinite values")
     module.load_state_dict(sd, strict=True)
-    return module
 
 
 # ----------------------------------------------------------------- classical detector

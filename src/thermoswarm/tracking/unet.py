@@ -84,7 +84,7 @@ from thermoswarm.config import check, from_mapping, to_dict
 from thermoswarm.errors import ConfigError, InputError
 from thermoswarm.fsutil import atomic_write_bytes
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.detect import FrameDetections
+from thermoswarm.tracking.detect import FrameDetections, load_checked
 
 __all__ = [
     "FORMAT",
@@ -350,31 +350,6 @@ def _read_checkpoint(path: Path) -> tuple[ModelConfig, dict[str, torch.Tensor], 
     return config, dict(sd), info
 
 
-def _load_into(module: nn.Module, sd: Mapping[str, torch.Tensor], path: Path) -> None:
-    expected = module.state_dict()
-    missing = [k for k in expected if k not in sd]
-    unexpected = [k for k in sd if k not in expected]
-    if missing:
-        raise InputError(
-            f"{path}: model file lacks tensor {missing[0]!r} ({len(missing)} missing); "
-            "is it a thermoswarm U-Net model?"
-        )
-    if unexpected:
-        raise InputError(
-            f"{path}: model file has unexpected tensor {unexpected[0]!r} "
-            f"({len(unexpected)} unexpected); is it a thermoswarm U-Net model?"
-        )
-    for k, v in expected.items():
-        if tuple(sd[k].shape) != tuple(v.shape):
-            raise InputError(
-                f"{path}: tensor {k!r} has shape {tuple(sd[k].shape)}, "
-                f"the model's configuration expects {tuple(v.shape)}"
-            )
-        if not torch.isfinite(sd[k]).all() and sd[k].is_floating_point():
-            raise InputError(f"{path}: tensor {k!r} holds NaN or infinite values")
-    module.load_state_dict(sd, strict=True)
-
-
 def load_model(path: str | os.PathLike) -> TopDownModel:
     """Read a model written by :func:`save_model` (or a plain state dict of the default
     architecture) with ``torch.load(..., weights_only=True)``.
@@ -386,7 +361,7 @@ def load_model(path: str | os.PathLike) -> TopDownModel:
     path = Path(path)
     config, sd, info = _read_checkpoint(path)
     model = TopDownModel(config)
-    _load_into(model, sd, path)
+    load_checked(model, sd, path, "a thermoswarm U-Net model")
     model.info = info
     model.eval()
     return model
