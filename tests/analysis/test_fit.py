@@ -89,10 +89,10 @@ def test_gradient_and_hessian_kernels_match_finite_differences():
 
     def ll(t):
         phi = 1 / (1 + math.exp(-t[0]))
-        return K.loglik(z, phi, math.exp(t[1]), math.exp(t[2]))
+        return K.loglik(z, K.ONCE, phi, math.exp(t[1]), math.exp(t[2]))
 
     phi = 1 / (1 + math.exp(-th[0]))
-    val, g, H = K.grad_hess(z, phi, math.exp(th[1]), math.exp(th[2]))
+    val, g, H = K.grad_hess(z, K.ONCE, phi, math.exp(th[1]), math.exp(th[2]))
     assert val == pytest.approx(ll(th))
     h = 1e-5
     eye = np.eye(3)
@@ -105,14 +105,29 @@ def test_gradient_and_hessian_kernels_match_finite_differences():
     np.testing.assert_allclose(H, H_num, rtol=1e-4, atol=1e-3)
 
 
+def test_counted_samples_equal_the_samples_repeated():
+    rng = np.random.default_rng(4)
+    z = rng.exponential(1.0, 50)
+    c = rng.integers(1, 5, 50).astype(np.float64)
+    rep = np.repeat(z, c.astype(np.int64))
+    p = (0.4, 0.5, 2.0)
+    assert K.loglik(z, c, *p) == pytest.approx(K.loglik(rep, K.ONCE, *p), rel=1e-12)
+    _, g, H = K.grad_hess(z, c, *p)
+    _, g_rep, H_rep = K.grad_hess(rep, K.ONCE, *p)
+    np.testing.assert_allclose(g, g_rep, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(H, H_rep, rtol=1e-10, atol=1e-12)
+    em = K.em_steps(z, c, *p, 5, 0.0)[:3]
+    np.testing.assert_allclose(em, K.em_steps(rep, K.ONCE, *p, 5, 0.0)[:3], rtol=1e-10)
+
+
 def test_em_never_decreases_the_likelihood():
     z = np.random.default_rng(2).exponential(1.0, 1000)
     p = (0.5, 0.3, 2.0)
-    last = K.loglik(z, *p)
+    last = K.loglik(z, K.ONCE, *p)
     for _ in range(30):
-        phi, k1, k2, _, _ = K.em_steps(z, *p, 1, 0.0)
+        phi, k1, k2, _, _ = K.em_steps(z, K.ONCE, *p, 1, 0.0)
         p = (phi, k1, k2)
-        now = K.loglik(z, *p)
+        now = K.loglik(z, K.ONCE, *p)
         assert now >= last - 1e-9
         last = now
 

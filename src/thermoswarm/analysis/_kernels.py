@@ -16,6 +16,10 @@ two components' log densities, one sample contributes
 
 with ``D1 = diag(-phi (1 - phi), -z/k1, 0)`` and ``D2 = diag(-phi (1 - phi), 0, -z/k2)``
 (the second derivatives of the components' log densities).
+
+The likelihood kernels take counts ``c`` (sample ``i`` stands for ``c[i]`` samples, as
+in the grouped data of the starting-point search); pass :data:`ONCE` (empty) when each
+sample counts once.  Multiplying by 1.0 is exact, so both uses share one code path.
 """
 
 from __future__ import annotations
@@ -25,128 +29,13 @@ import math
 import numpy as np
 from numba import njit
 
-
-@njit(cache=True, nogil=True)
-def em_steps(z, phi, k1, k2, n_steps, tol):  # pragma: no cover - compiled
-    """Run up to ``n_steps`` EM iterations; stop when the log-likelihood gain < ``tol``.
-
-    Returns ``(phi, k1, k2, loglik, steps)`` where ``loglik`` is that of the returned
-    parameters' predecessor (the last E-step); callers that need the exact value
-    call :func:`loglik`.
-    """
-    n = z.size
-    sz = 0.0
-    for i in range(n):
-        sz += z[i]
-    ll_old = -np.inf
-    ll = -np.inf
-    steps = 0
-    for _ in range(n_steps):
-        lp1 = math.log(phi) - math.log(k1)
-        lp2 = math.log1p(-phi) - math.log(k2)
-        i1 = 1.0 / k1
-        i2 = 1.0 / k2
-        ll = 0.0
-        sr = 0.0
-        srz = 0.0
-        for i in range(n):
-            a = lp1 - z[i] * i1
-            b = lp2 - z[i] * i2
-            if a > b:
-                e = math.exp(b - a)
-                ll += a + math.log1p(e)
-                r = e / (1.0 + e)
-            else:
-                e = math.exp(a - b)
-                ll += b + math.log1p(e)
-                r = 1.0 / (1.0 + e)
-            sr += r
-            srz += r * z[i]
-        if ll - ll_old < tol:
-            break
-        ll_old = ll
-        steps += 1
-        if sr <= 0.0 or sr >= n:
-            break
-        phi_new = 1.0 - sr / n
-        k1_new = (sz - srz) / (n - sr)
-        k2_new = srz / sr
-        if not (0.0 < phi_new < 1.0 and k1_new > 0.0 and k2_new > 0.0):
-            break
-        phi, k1, k2 = phi_new, k1_new, k2_new
-    return phi, k1, k2, ll, steps
+#: Counts meaning "every sample once" (see the module docstring).
+ONCE = np.empty(0)
 
 
-@njit(cache=True, nogil=True)
-def loglik(z, phi, k1, k2):  # pragma: no cover - compiled
-    """Log-likelihood of the mixture at ``z``."""
-    lp1 = math.log(phi) - math.log(k1)
-    lp2 = math.log1p(-phi) - math.log(k2)
-    i1 = 1.0 / k1
-    i2 = 1.0 / k2
-    ll = 0.0
-    for i in range(z.size):
-        a = lp1 - z[i] * i1
-        b = lp2 - z[i] * i2
-        if a > b:
-            ll += a + math.log1p(math.exp(b - a))
-        else:
-            ll += b + math.log1p(math.exp(a - b))
-    return ll
-
-
-@njit(cache=True, nogil=True)
-def grad_hess(z, phi, k1, k2):  # pragma: no cover - compiled
-    """Log-likelihood, gradient (3,) and Hessian (3, 3) in ``theta`` coordinates."""
-    lp1 = math.log(phi) - math.log(k1)
-    lp2 = math.log1p(-phi) - math.log(k2)
-    i1 = 1.0 / k1
-    i2 = 1.0 / k2
-    pq = phi * (1.0 - phi)
-    ll = 0.0
-    g0 = g1 = g2 = 0.0
-    h00 = h01 = h02 = h11 = h12 = h22 = 0.0
-    d1a = 1.0 - phi
-    d2a = -phi
-    for i in range(z.size):
-        zi = z[i]
-        a = lp1 - zi * i1
-        b = lp2 - zi * i2
-        if a > b:
-            e = math.exp(b - a)
-            ll += a + math.log1p(e)
-            r = e / (1.0 + e)
-        else:
-            e = math.exp(a - b)
-            ll += b + math.log1p(e)
-            r = 1.0 / (1.0 + e)
-        s = 1.0 - r
-        d1u = zi * i1 - 1.0
-        d2w = zi * i2 - 1.0
-        ga = s * d1a + r * d2a
-        gu = s * d1u
-        gw = r * d2w
-        g0 += ga
-        g1 += gu
-        g2 += gw
-        h00 += -pq + s * d1a * d1a + r * d2a * d2a - ga * ga
-        h01 += s * d1a * d1u - ga * gu
-        h02 += r * d2a * d2w - ga * gw
-        h11 += s * (d1u * d1u - zi * i1) - gu * gu
-        h12 += -gu * gw
-        h22 += r * (d2w * d2w - zi * i2) - gw * gw
-    g = np.empty(3)
-    g[0] = g0
-    g[1] = g1
-    g[2] = g2
-    H = np.empty((3, 3))
-    H[0, 0] = h00
-    H[0, 1] = H[1, 0] = h01
-    H[0, 2] = H[2, 0] = h02
-    H[1, 1] = h11
-    H[1, 2] = H[2, 1] = h12
-    H[2, 2] = h22
-    return ll, g, H
+@njit(inline="always")
+def _count(c, i):  # pragma: no cover - compiled
+    return 1.0 if c.size == 0 else c[i]
 
 
 @njit(cache=True, nogil=True)
@@ -200,17 +89,22 @@ def ks_sorted_exponential(zs, k):  # pragma: no cover - compiled
 
 
 # --------------------------------------------------------------------------------------
-# Weighted versions: sample ``z[i]`` counts ``c[i]`` times (groups of sorted data).
 
 
 @njit(cache=True, nogil=True)
-def em_steps_w(z, c, phi, k1, k2, n_steps, tol):  # pragma: no cover - compiled
-    """:func:`em_steps` on weighted samples."""
+def em_steps(z, c, phi, k1, k2, n_steps, tol):  # pragma: no cover - compiled
+    """Run up to ``n_steps`` EM iterations; stop when the log-likelihood gain < ``tol``.
+
+    Returns ``(phi, k1, k2, loglik, steps)`` where ``loglik`` is that of the returned
+    parameters' predecessor (the last E-step); callers that need the exact value
+    call :func:`loglik`.
+    """
     n = 0.0
     sz = 0.0
     for i in range(z.size):
-        n += c[i]
-        sz += c[i] * z[i]
+        ci = _count(c, i)
+        n += ci
+        sz += ci * z[i]
     ll_old = -np.inf
     ll = -np.inf
     steps = 0
@@ -223,18 +117,19 @@ def em_steps_w(z, c, phi, k1, k2, n_steps, tol):  # pragma: no cover - compiled
         sr = 0.0
         srz = 0.0
         for i in range(z.size):
+            ci = _count(c, i)
             a = lp1 - z[i] * i1
             b = lp2 - z[i] * i2
             if a > b:
                 e = math.exp(b - a)
-                ll += c[i] * (a + math.log1p(e))
+                ll += ci * (a + math.log1p(e))
                 r = e / (1.0 + e)
             else:
                 e = math.exp(a - b)
-                ll += c[i] * (b + math.log1p(e))
+                ll += ci * (b + math.log1p(e))
                 r = 1.0 / (1.0 + e)
-            sr += c[i] * r
-            srz += c[i] * r * z[i]
+            sr += ci * r
+            srz += ci * r * z[i]
         if ll - ll_old < tol:
             break
         ll_old = ll
@@ -251,26 +146,27 @@ def em_steps_w(z, c, phi, k1, k2, n_steps, tol):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True)
-def loglik_w(z, c, phi, k1, k2):  # pragma: no cover - compiled
-    """:func:`loglik` on weighted samples."""
+def loglik(z, c, phi, k1, k2):  # pragma: no cover - compiled
+    """Log-likelihood of the mixture at ``z`` (counts ``c``)."""
     lp1 = math.log(phi) - math.log(k1)
     lp2 = math.log1p(-phi) - math.log(k2)
     i1 = 1.0 / k1
     i2 = 1.0 / k2
     ll = 0.0
     for i in range(z.size):
+        ci = _count(c, i)
         a = lp1 - z[i] * i1
         b = lp2 - z[i] * i2
         if a > b:
-            ll += c[i] * (a + math.log1p(math.exp(b - a)))
+            ll += ci * (a + math.log1p(math.exp(b - a)))
         else:
-            ll += c[i] * (b + math.log1p(math.exp(a - b)))
+            ll += ci * (b + math.log1p(math.exp(a - b)))
     return ll
 
 
 @njit(cache=True, nogil=True)
-def grad_hess_w(z, c, phi, k1, k2):  # pragma: no cover - compiled
-    """:func:`grad_hess` on weighted samples."""
+def grad_hess(z, c, phi, k1, k2):  # pragma: no cover - compiled
+    """Log-likelihood, gradient (3,) and Hessian (3, 3) in ``theta`` coordinates."""
     lp1 = math.log(phi) - math.log(k1)
     lp2 = math.log1p(-phi) - math.log(k2)
     i1 = 1.0 / k1
@@ -283,7 +179,7 @@ def grad_hess_w(z, c, phi, k1, k2):  # pragma: no cover - compiled
     d2a = -phi
     for i in range(z.size):
         zi = z[i]
-        ci = c[i]
+        ci = _count(c, i)
         a = lp1 - zi * i1
         b = lp2 - zi * i2
         if a > b:

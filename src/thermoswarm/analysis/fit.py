@@ -260,24 +260,17 @@ class _Samples:
 
     def __init__(self, z: np.ndarray, c: np.ndarray | None = None) -> None:
         self.z = z
-        self.c = c
+        self.c = K.ONCE if c is None else c
         self.n = float(z.size if c is None else c.sum())
 
     def loglik(self, p: tuple[float, float, float]) -> float:
-        if self.c is None:
-            return K.loglik(self.z, *p)
-        return K.loglik_w(self.z, self.c, *p)
+        return K.loglik(self.z, self.c, *p)
 
     def grad_hess(self, p: tuple[float, float, float]):
-        if self.c is None:
-            return K.grad_hess(self.z, *p)
-        return K.grad_hess_w(self.z, self.c, *p)
+        return K.grad_hess(self.z, self.c, *p)
 
     def em(self, p: tuple[float, float, float], steps: int) -> tuple[float, float, float]:
-        if self.c is None:
-            phi, k1, k2, _, _ = K.em_steps(self.z, *p, steps, 0.0)
-        else:
-            phi, k1, k2, _, _ = K.em_steps_w(self.z, self.c, *p, steps, 0.0)
+        phi, k1, k2, _, _ = K.em_steps(self.z, self.c, *p, steps, 0.0)
         return phi, k1, k2
 
 
@@ -477,13 +470,13 @@ class ExponentialMixtureFit(_FittedLaw):
         self.phi_ = float(phi)
         self.kT1_ = float(k1 * scale)
         self.kT2_ = float(k2 * scale)
-        self.loglik_ = float(K.loglik(z, phi, k1, k2) - n * math.log(scale))
+        self.loglik_ = float(K.loglik(z, K.ONCE, phi, k1, k2) - n * math.log(scale))
         self.n_iter_ = int(it)
         self.converged_ = bool(conv)
         self.degenerate_ = _degenerate((phi, k1, k2))
         self.cov_ = np.full((3, 3), np.nan)
         if not self.degenerate_:
-            _, _, H = K.grad_hess(z, phi, k1, k2)
+            _, _, H = K.grad_hess(z, K.ONCE, phi, k1, k2)
             try:
                 cov_theta = np.linalg.inv(-H)
             except np.linalg.LinAlgError:
