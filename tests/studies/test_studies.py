@@ -151,3 +151,25 @@ def test_set_overrides_become_the_dotted_keys_of_a_grid_base():
 
     got = dotted_overrides(["sensor.mode='ideal'", "n=300", "light.a.b=1.5"])
     assert got == {"sensor.mode": "ideal", "n": 300, "light.a.b": 1.5}
+
+
+def test_study_cli_bad_value_is_one_line_exit_2_and_writes_nothing(tmp_path):
+    from click.testing import CliRunner
+
+    from thermoswarm.cli import cli
+
+    for verb in ("mechanism", "scaling"):
+        out = tmp_path / verb
+        r = CliRunner().invoke(cli, ["study", verb, "--out", str(out), "--set", "nope=1"])
+        assert r.exit_code == 2, r.output
+        err = r.stderr.strip().splitlines()
+        assert len(err) == 1 and "unknown key 'nope'" in err[0]
+        assert not out.exists()
+
+
+def test_python_m_study_module_is_the_study_command(tmp_path):
+    from thermoswarm.studies.scaling import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--out", str(tmp_path / "no" / "such")])
+    assert exc.value.code == 2

@@ -1,4 +1,4 @@
-"""``thermoswarm <verb>``: simulate, bench, analyze, track, evaluate, reproduce.
+"""``thermoswarm <verb>``: simulate, bench, analyze, track, evaluate, reproduce, sweep, study.
 
 The CLI is thin: each verb parses its options, calls one library function and prints.
 Verbs live in modules of this package and are imported only when invoked, so that
@@ -30,6 +30,7 @@ _COMMANDS: dict[str, str] = {
     "evaluate": "thermoswarm.cli.track:evaluate",
     "reproduce": "thermoswarm.cli.reproduce:reproduce",
     "sweep": "thermoswarm.cli.sweep:sweep",
+    "study": "thermoswarm.cli.study:study",
     "convert": "thermoswarm.cli.convert:convert",
     "formats": "thermoswarm.cli.convert:formats",
 }

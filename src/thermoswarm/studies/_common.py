@@ -12,7 +12,7 @@ import numpy as np
 from scipy import stats
 
 from thermoswarm.errors import ConfigError
-from thermoswarm.sweep import RunRecord, SweepSpec, run_sweep
+from thermoswarm.sweep import RunRecord, SweepSpec, expand, run_sweep
 
 __all__ = ["Record", "run_grid", "effect", "verdict", "dotted_overrides"]
 
@@ -51,16 +51,19 @@ def run_grid(
     progress: bool | None = None,
 ) -> list[Record]:
     """Every grid point x seed of ``scenario`` through :func:`thermoswarm.sweep.run_sweep`
-    (a local process pool, or ``executor``); one record per run.
+    (a local process pool, or ``executor``) into ``out/runs/``; one record per run.
 
-    Dotted keys in ``base`` and ``grid`` address sections (``"sensor.mode"``).  A run that
+    Dotted keys in ``base`` and ``grid`` address sections (``"sensor.mode"``).  Every
+    value is checked before ``out`` is created (its parent must exist).  A run that
     failed raises :class:`ConfigError` naming it.
     """
     out = Path(out)
     if not out.absolute().parent.is_dir():
         raise ConfigError(f"study output directory's parent {str(out.parent)!r} does not exist")
-    spec = SweepSpec(scenario=scenario, out=out, base=dict(base), grid=dict(grid),
+    spec = SweepSpec(scenario=scenario, out=out / "runs", base=dict(base), grid=dict(grid),
                      seeds=list(seeds))  # fmt: skip
+    expand(spec)  # raises on a bad value before anything is written
+    out.mkdir(exist_ok=True)
     records = run_sweep(spec, executor, progress=progress, max_workers=max_workers)
     bad = [r for r in records if r.metrics is None]
     if bad:

@@ -30,7 +30,7 @@ force is ``force_held``), then releases it:
   1200} in the same arena (packing 0.08 and 0.32), 10 seeds: 160 runs, the numbers in
   ``docs/scenarios_transport.md``.
 
-Run: ``python -m thermoswarm.studies.mechanism --setting quick --out DIR`` writes
+Run: ``thermoswarm study mechanism --setting quick --out DIR`` writes
 ``DIR/mechanism.json`` and ``DIR/mechanism.md`` (runs in ``DIR/runs/``).
 """
 
@@ -46,7 +46,7 @@ from typing import Any
 import pandas as pd
 
 from thermoswarm.fsutil import atomic_write_json, atomic_write_text
-from thermoswarm.studies._common import dotted_overrides, effect, run_grid, verdict
+from thermoswarm.studies._common import effect, run_grid, verdict
 
 __all__ = ["SETTINGS", "MechanismResult", "run_mechanism", "summarize", "markdown_table"]
 
@@ -238,10 +238,7 @@ def run_mechanism(
     base = {**cfg["base"], "variant": variant, **(overrides or {})}
     grid = dict(cfg["grid"] if grid is None else grid)
     out = Path(out)
-    if not out.absolute().parent.is_dir():
-        raise ConfigError(f"study output directory's parent {str(out.parent)!r} does not exist")
-    out.mkdir(exist_ok=True)
-    records = run_grid("transport-free", out / "runs", base=base, grid=grid, seeds=seed_list,
+    records = run_grid("transport-free", out, base=base, grid=grid, seeds=seed_list,
                        executor=executor, max_workers=max_workers, progress=progress)  # fmt: skip
     factors = list(grid)
     runs = _rows(records, factors)
@@ -262,38 +259,14 @@ def run_mechanism(
     return result
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    import argparse
+def main(argv: Sequence[str] | None = None) -> None:
+    """``python -m thermoswarm.studies.mechanism``: the same as ``thermoswarm study mechanism``."""
     import sys
 
-    from thermoswarm.errors import ThermoswarmError
+    from thermoswarm.cli import main as cli_main
 
-    ap = argparse.ArgumentParser(prog="python -m thermoswarm.studies.mechanism",
-                                 description=__doc__.splitlines()[0])  # fmt: skip
-    ap.add_argument("--out", required=True, type=Path)
-    ap.add_argument("--setting", default="quick", choices=sorted(SETTINGS))
-    ap.add_argument("--seeds", type=int, default=None)
-    ap.add_argument("--variant", default="free", choices=["free", "obstacle", "zigzag"])
-    ap.add_argument("--workers", type=int, default=None)
-    ap.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a base parameter (repeatable)",
-    )
-    args = ap.parse_args(argv)
-    try:
-        flat = dotted_overrides(args.overrides)
-        res = run_mechanism(args.out, args.setting, seeds=args.seeds, variant=args.variant,
-                            max_workers=args.workers, overrides=flat)  # fmt: skip
-    except ThermoswarmError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    print(res.table(), end="")
-    return 0
+    cli_main(["study", "mechanism", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()

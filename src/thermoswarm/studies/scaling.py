@@ -21,7 +21,7 @@ top of the arena is too far for a 10-minute run at the drift speeds measured, se
 
 Settings: ``quick`` (n = 50, 200, 600, 1200; 5 seeds; 300 s) and ``full`` (n = 50,
 100, 200, 400, 800, 1200, 1600, 2000; 10 seeds; 600 s).  Run:
-``python -m thermoswarm.studies.scaling --setting quick --out DIR`` writes
+``thermoswarm study scaling --setting quick --out DIR`` writes
 ``DIR/scaling.json``, ``DIR/scaling.md`` and ``DIR/scaling.png``.
 """
 
@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 
 from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
-from thermoswarm.studies._common import dotted_overrides, effect, run_grid
+from thermoswarm.studies._common import effect, run_grid
 
 __all__ = [
     "SETTINGS",
@@ -240,10 +240,7 @@ def run_scaling(
         start_y = geometry(from_mapping(TransportFreeParams, probe)).start[1]
         base["target_y"] = start_y + float(target_distance)
     out = Path(out)
-    if not out.absolute().parent.is_dir():
-        raise ConfigError(f"study output directory's parent {str(out.parent)!r} does not exist")
-    out.mkdir(exist_ok=True)
-    records = run_grid("transport-free", out / "runs", base=base, grid={"n": ns},
+    records = run_grid("transport-free", out, base=base, grid={"n": ns},
                        seeds=seed_list, executor=executor, max_workers=max_workers,
                        progress=progress)  # fmt: skip
     runs = pd.DataFrame(
@@ -278,40 +275,14 @@ def run_scaling(
     return res
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    import argparse
+def main(argv: Sequence[str] | None = None) -> None:
+    """``python -m thermoswarm.studies.scaling``: the same as ``thermoswarm study scaling``."""
     import sys
 
-    from thermoswarm.errors import ThermoswarmError
+    from thermoswarm.cli import main as cli_main
 
-    ap = argparse.ArgumentParser(prog="python -m thermoswarm.studies.scaling",
-                                 description=__doc__.splitlines()[0])  # fmt: skip
-    ap.add_argument("--out", required=True, type=Path)
-    ap.add_argument("--setting", default="quick", choices=sorted(SETTINGS))
-    ap.add_argument("--seeds", type=int, default=None)
-    ap.add_argument("--target-distance", type=float, default=150.0)
-    ap.add_argument("--variant", default="free", choices=["free", "obstacle", "zigzag"])
-    ap.add_argument("--workers", type=int, default=None)
-    ap.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a base parameter (repeatable)",
-    )
-    args = ap.parse_args(argv)
-    try:
-        flat = dotted_overrides(args.overrides)
-        res = run_scaling(args.out, args.setting, seeds=args.seeds, variant=args.variant,
-                          target_distance=args.target_distance,
-                          max_workers=args.workers, overrides=flat)  # fmt: skip
-    except ThermoswarmError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    print(res.table(), end="")
-    return 0
+    cli_main(["study", "scaling", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    main()
