@@ -58,6 +58,11 @@ def check(condition: bool, field: str, expectation: str, value: Any = None) -> N
         raise ConfigError(f"{field} must be {expectation}, got {value!r}")
 
 
+def check_positive(field: str, value: float, expectation: str = "a positive number") -> None:
+    """:func:`check` that ``value`` is finite and above zero."""
+    check(math.isfinite(value) and value > 0, field, expectation, value)
+
+
 def _type_name(tp: Any) -> str:
     origin = get_origin(tp)
     if tp is int:

@@ -17,7 +17,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from thermoswarm.config import check
+from thermoswarm.config import check, check_positive
 from thermoswarm.sim.engine import SwarmState
 from thermoswarm.sim.geometry import Shapes
 from thermoswarm.sim.light import DirectionalLight, PointLight, SensingParams, sense
@@ -85,12 +85,7 @@ class TransportSensor:
         for name in ("noise_mult", "noise_add"):
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, f"sensor.{name}", ">= 0", v)
-        check(
-            math.isfinite(self.turn_rate_deg) and self.turn_rate_deg > 0,
-            "sensor.turn_rate_deg",
-            "a positive number (deg/s)",
-            self.turn_rate_deg,
-        )
+        check_positive("sensor.turn_rate_deg", self.turn_rate_deg, "a positive number (deg/s)")
         self.sensing_params()  # the light module checks the rest (names the field)
 
     def sensing_params(self) -> SensingParams:

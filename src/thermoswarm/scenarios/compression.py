@@ -65,7 +65,7 @@ from typing import Any, Literal
 import numpy as np
 import xarray as xr
 
-from thermoswarm.config import check
+from thermoswarm.config import check, check_positive
 from thermoswarm.errors import ConfigError, ThermoswarmError
 from thermoswarm.maxent import kT_for_mean_speed, speed_law
 from thermoswarm.policy import BoltzmannUniform
@@ -162,22 +162,16 @@ class CompressionParams:
     def __post_init__(self) -> None:
         fin = math.isfinite
         check(self.n >= 1, "n", "a positive integer (number of robots)", self.n)
-        check(fin(self.diameter) and self.diameter > 0, "diameter", "a positive length (mm)",
-              self.diameter)  # fmt: skip
+        check_positive("diameter", self.diameter, "a positive length (mm)")
         check(
             fin(self.width) and self.width > 2 * self.diameter,
             "width",
             f"more than two robot diameters ({2 * self.diameter:g} mm)",
             self.width,
         )
-        check(
-            fin(self.force) and self.force > 0,
-            "force",
-            "a positive force (drag units, mm/s for drag 1)",
-            self.force,
-        )
-        check(fin(self.kT) and self.kT > 0, "kT", "a positive number (mm^2/s^2)", self.kT)
-        check(fin(self.tau) and self.tau > 0, "tau", "a positive number of seconds", self.tau)
+        check_positive("force", self.force, "a positive force (drag units, mm/s for drag 1)")
+        check_positive("kT", self.kT, "a positive number (mm^2/s^2)")
+        check_positive("tau", self.tau, "a positive number of seconds")
         check(self.walls in ("force", "held"), "walls", "'force' or 'held'", self.walls)
         if self.height is not None:
             check(
@@ -186,12 +180,7 @@ class CompressionParams:
                 f"more than 1.5 robot diameters ({1.5 * self.diameter:g} mm)",
                 self.height,
             )
-        check(
-            fin(self.wall_drag) and self.wall_drag > 0,
-            "wall_drag",
-            "a positive drag (drag units)",
-            self.wall_drag,
-        )
+        check_positive("wall_drag", self.wall_drag, "a positive drag (drag units)")
         if self.max_height is not None:
             check(
                 fin(self.max_height) and self.max_height >= self.initial_height,
@@ -206,20 +195,10 @@ class CompressionParams:
                 f"in [0, duration = {self.duration:g}) s",
                 self.settle,
             )
-        check(
-            fin(self.batch_relaxations) and self.batch_relaxations > 0,
-            "batch_relaxations",
-            "a positive number",
-            self.batch_relaxations,
-        )
+        check_positive("batch_relaxations", self.batch_relaxations, "a positive number")
         check(2 <= self.min_batches <= 1000, "min_batches", "an integer in [2, 1000]",
               self.min_batches)  # fmt: skip
-        check(
-            fin(self.duration) and self.duration > 0,
-            "duration",
-            "a positive number of seconds",
-            self.duration,
-        )
+        check_positive("duration", self.duration, "a positive number of seconds")
 
     @property
     def radius(self) -> float:

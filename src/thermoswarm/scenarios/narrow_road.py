@@ -90,7 +90,7 @@ from typing import Any, Literal
 import numpy as np
 import xarray as xr
 
-from thermoswarm.config import check
+from thermoswarm.config import check, check_positive
 from thermoswarm.errors import ConfigError
 from thermoswarm.maxent import kT_for_mean_speed
 from thermoswarm.policy import STEERING_LAWS, Action, NarrowRoad, Observation, Policy
@@ -207,9 +207,7 @@ class NarrowRoadParams:
 
     def __post_init__(self) -> None:
         fin = math.isfinite
-        check(
-            fin(self.length) and self.length > 0, "length", "a positive length (mm)", self.length
-        )
+        check_positive("length", self.length, "a positive length (mm)")
         k = len(self.section_fractions)
         check(k >= 1, "section_fractions", "a non-empty list", self.section_fractions)
         check(
@@ -231,8 +229,7 @@ class NarrowRoadParams:
             f"a list of {k} distinct names (one per section)",
             self.section_names,
         )
-        check(fin(self.diameter) and self.diameter > 0, "diameter", "a positive length (mm)",
-              self.diameter)  # fmt: skip
+        check_positive("diameter", self.diameter, "a positive length (mm)")
         check(
             all(fin(w) and w >= self.diameter + 2 for w in self.section_widths),
             "section_widths",
@@ -279,8 +276,8 @@ class NarrowRoadParams:
             f"in [0, {self.length / 2:g}] mm",
             self.entry_clearance,
         )
-        check(fin(self.kT) and self.kT > 0, "kT", "a positive number (mm^2/s^2)", self.kT)
-        check(fin(self.tau) and self.tau > 0, "tau", "a positive number of seconds", self.tau)
+        check_positive("kT", self.kT, "a positive number (mm^2/s^2)")
+        check_positive("tau", self.tau, "a positive number of seconds")
         check(
             self.steering in STEERING_LAWS,
             "steering",
@@ -302,18 +299,8 @@ class NarrowRoadParams:
             f"at most T_theta_max = {self.T_theta_max}",
             self.T_theta_min,
         )
-        check(
-            fin(self.flow_bin) and self.flow_bin > 0,
-            "flow_bin",
-            "a positive number of seconds",
-            self.flow_bin,
-        )
-        check(
-            fin(self.duration) and self.duration > 0,
-            "duration",
-            "a positive number of seconds",
-            self.duration,
-        )
+        check_positive("flow_bin", self.flow_bin, "a positive number of seconds")
+        check_positive("duration", self.duration, "a positive number of seconds")
 
     @property
     def radius(self) -> float:

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from thermoswarm.config import check
+from thermoswarm.config import check, check_positive
 from thermoswarm.errors import InputError
 
 __all__ = ["Disc", "Segment", "Polygon", "Polyline", "Shape", "Shapes", "as_shapes"]
@@ -56,12 +56,7 @@ class Disc:
 
     def __post_init__(self) -> None:
         _finite_point(self.center, "center")
-        check(
-            math.isfinite(self.radius) and self.radius > 0,
-            "radius",
-            "a positive number (mm)",
-            self.radius,
-        )
+        check_positive("radius", self.radius, "a positive number (mm)")
 
 
 @dataclass(frozen=True)

@@ -80,7 +80,7 @@ import torch  # noqa: E402
 import torch.nn.functional as F  # noqa: E402
 from torch import nn  # noqa: E402
 
-from thermoswarm.config import check, from_mapping, to_dict
+from thermoswarm.config import check, check_positive, from_mapping, to_dict
 from thermoswarm.errors import ConfigError, InputError
 from thermoswarm.fsutil import atomic_write_bytes
 from thermoswarm.tracking import anatomy
@@ -137,12 +137,7 @@ class ModelConfig:
     peak_reference: float = 1.0
 
     def __post_init__(self) -> None:
-        check(
-            math.isfinite(self.px_per_mm) and self.px_per_mm > 0,
-            "px_per_mm",
-            "a positive number",
-            self.px_per_mm,
-        )
+        check_positive("px_per_mm", self.px_per_mm, "a positive number")
         check(0.1 <= self.input_scale <= 1, "input_scale", "in [0.1, 1]", self.input_scale)
         for name in ("centroid_channels", "pose_channels"):
             v = getattr(self, name)
