@@ -88,3 +88,12 @@ def test_load_toml_errors(tmp_path):
     bad.write_text("n = = 3")
     with pytest.raises(ConfigError, match="not valid TOML"):
         load_toml(bad)
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), float("inf")])
+def test_check_positive_names_the_field_and_the_value(bad):
+    from thermoswarm.config import check_positive
+
+    with pytest.raises(ConfigError, match=r"^force must be a positive force, got "):
+        check_positive("force", bad, "a positive force")
+    check_positive("force", 1e-9, "a positive force")  # the smallest positive passes
