@@ -634,10 +634,31 @@ def goodness_of_fit(
         f = _mixture_fitter(g, n_starts).fit(row, init=init)
         return ks_statistic(row, f.law_)
 
+    return _parametric_bootstrap(
+        x, d, rvs, one_replicate, n_bootstrap, rng, jobs,
+        "KS, two-exponential mixture fitted by ML; parametric bootstrap "
+        "(scipy.stats.monte_carlo_test)",
+    )  # fmt: skip
+
+
+def _parametric_bootstrap(
+    x: np.ndarray,
+    observed: float,
+    rvs: Any,
+    one_replicate: Any,
+    n_bootstrap: int,
+    rng: np.random.Generator,
+    jobs: int,
+    method: str,
+) -> TestResult:
+    """``scipy.stats.monte_carlo_test`` of ``observed`` (large is extreme) against
+    ``one_replicate(row, generator)`` on data drawn by ``rvs``, rows spread over
+    ``jobs`` workers with generators spawned from ``rng``."""
+
     def statistic(data: np.ndarray, axis: int = -1) -> np.ndarray | float:
         data = np.moveaxis(np.asarray(data), axis, -1)
         if data.ndim == 1:
-            return d  # the observed statistic, computed above by the same procedure
+            return observed  # computed by the caller with the same procedure
         flat = data.reshape(-1, data.shape[-1])
         return _map_rows(one_replicate, flat, rng, jobs).reshape(data.shape[:-1])
 
@@ -646,9 +667,7 @@ def goodness_of_fit(
         alternative="greater", batch=min(int(n_bootstrap), 50),
     )  # fmt: skip
     return TestResult(
-        d, float(res.pvalue), n, int(n_bootstrap),
-        "KS, two-exponential mixture fitted by ML; parametric bootstrap "
-        "(scipy.stats.monte_carlo_test)",
+        observed, float(res.pvalue), x.size, int(n_bootstrap), method,
         np.asarray(res.null_distribution),
     )  # fmt: skip
 
@@ -691,22 +710,10 @@ def likelihood_ratio_test(
         l2 = _mixture_fitter(g, n_starts).fit(row).loglik_
         return max(0.0, 2.0 * (l2 - l1))
 
-    def statistic(data: np.ndarray, axis: int = -1) -> np.ndarray | float:
-        data = np.moveaxis(np.asarray(data), axis, -1)
-        if data.ndim == 1:
-            return lr
-        flat = data.reshape(-1, data.shape[-1])
-        return _map_rows(one_replicate, flat, rng, jobs).reshape(data.shape[:-1])
-
-    res = stats.monte_carlo_test(
-        x, rvs, statistic, vectorized=True, n_resamples=int(n_bootstrap),
-        alternative="greater", batch=min(int(n_bootstrap), 50),
-    )  # fmt: skip
-    return TestResult(
-        lr, float(res.pvalue), n, int(n_bootstrap),
+    return _parametric_bootstrap(
+        x, lr, rvs, one_replicate, n_bootstrap, rng, jobs,
         "likelihood ratio, two vs one exponential; parametric bootstrap under the fitted "
         "exponential (scipy.stats.monte_carlo_test)",
-        np.asarray(res.null_distribution),
     )  # fmt: skip
 
 
