@@ -39,6 +39,13 @@ __all__ = [
 _MAX_POINTS = 20_000
 
 
+def fmt_value(value: float | None, spec: str = ".3g", missing: str = "n/a") -> str:
+    """Format a number for a report; a missing or non-finite value is written as ``missing``."""
+    if value is None or not math.isfinite(value):
+        return missing
+    return format(value, spec)
+
+
 def energy_axis(unit: str) -> tuple[float, str]:
     """Display factor and axis label for energies in ``unit`` (J shown in 1e-10 J)."""
     if unit == "J":
@@ -230,8 +237,7 @@ def steering_figure(steering: dict[str, Any], keep: dict[str, Any], kin: Any, un
         x = mag[keep["masks"][k]]
         x = x[x > 0]
         plot_density_fit(ax, fit, x, bins=40)
-        p = b["p_value"]
-        ptxt = "-" if p is None else f"{p:.2g}"
+        ptxt = fmt_value(b["p_value"], ".2g", missing="-")
         ax.set_title(
             f"E~{b['energy_center'] * scale:.3g}: kT$_\\theta$={b['kT_theta']:.3g} rad/s\n"
             f"KS {b['ks']:.3f} (n={b['n']}), p={ptxt}",
@@ -250,11 +256,9 @@ def steering_figure(steering: dict[str, Any], keep: dict[str, Any], kin: Any, un
         if tr.get("slope") is not None:
             g = np.linspace(0, xc.max() * 1.05, 50)
             ax.plot(g, tr["intercept"] + tr["slope"] * g / scale, "-", color="0.3")
-            p = tr.get("p_value")
             ax.set_title(
-                f"kT$_\\theta$ vs energy: slope {tr['slope'] * (1 / scale):.3g}, p={p:.2g}"
-                if p is not None
-                else "kT$_\\theta$ vs energy",
+                f"kT$_\\theta$ vs energy: slope {tr['slope'] * (1 / scale):.3g}, "
+                f"p={fmt_value(tr.get('p_value'), '.2g')}",
                 fontsize=8,
             )
     ax.set_xlabel(label, fontsize=7)
@@ -373,7 +377,8 @@ def build_report(result: StudyResult) -> str:
         tr = fits["steering"].get("trend", {})
         if tr.get("slope") is not None:
             summary["kT_theta trend vs energy"] = (
-                f"{tr['direction']} (slope {tr['slope']:.3g}, p = {tr['p_value']:.2g})"
+                f"{tr['direction'] or 'no significant trend'} "
+                f"(slope {tr['slope']:.3g}, p = {fmt_value(tr['p_value'], '.2g')})"
             )
         rep.table(summary)
         rep.paragraph(

@@ -398,6 +398,9 @@ def _spearman_p(x: np.ndarray, y: np.ndarray) -> float:
     return float(res.pvalue)
 
 
+TREND_ALPHA = 0.05
+
+
 def _weighted_trend(xc: np.ndarray, y: np.ndarray, se: np.ndarray) -> dict[str, Any]:
     """WLS line ``y = a + b x`` (weights 1/se^2), t-test of ``b = 0``; Spearman's rho."""
     ok = np.isfinite(xc) & np.isfinite(y) & np.isfinite(se) & (se > 0)
@@ -439,7 +442,13 @@ def _weighted_trend(xc: np.ndarray, y: np.ndarray, se: np.ndarray) -> dict[str, 
         p_value=p,
         spearman_rho=float(rho.statistic),
         spearman_p_value=rho_p,
-        direction="decreasing" if beta[1] < 0 else "increasing",
+        # A direction is stated only when the slope test rejects at TREND_ALPHA.
+        direction=(
+            None
+            if p is None or p >= TREND_ALPHA
+            else ("decreasing" if beta[1] < 0 else "increasing")
+        ),
+        alpha=TREND_ALPHA,
         test="t-test of slope = 0 with k - 2 degrees of freedom, residual scale estimated",
     )
     return out

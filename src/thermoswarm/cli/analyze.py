@@ -262,7 +262,8 @@ def analyze(
     tr = fits["steering"].get("trend", {})
     if tr.get("slope") is not None:
         click.echo(
-            f"steering: kT_theta {tr['direction']} with energy (slope {tr['slope']:.3g}, "
+            f"steering: kT_theta {tr['direction'] or 'no significant trend'} with energy "
+            f"(slope {tr['slope']:.3g}, "
             f"p = {_fmt(tr['p_value'], '.3g')}, {tr['k']} bins)"
         )
     for d in fits.get("regions", {}).get("differences", []):
