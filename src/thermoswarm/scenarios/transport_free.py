@@ -68,6 +68,7 @@ from thermoswarm.scenarios.base import Numerics, Recording, Scenario, Setup, wra
 from thermoswarm.sim import kernels as K
 from thermoswarm.sim.engine import Simulator, SwarmState, place_lattice
 from thermoswarm.sim.geometry import Shapes
+from thermoswarm.sim.light import light_level
 from thermoswarm.sim.world import Body, World, polygon_segments
 
 __all__ = [
@@ -78,6 +79,9 @@ __all__ = [
     "zigzag_centreline",
     "plot_frame",
     "transport_metrics",
+    "phase_by_region",
+    "summarize_phase_by_region",
+    "capped_temperature",
 ]
 
 #: Arena (width, height) in mm when not given: about packing fraction 0.32 for 1,200
@@ -168,9 +172,11 @@ class TransportFreeParams:
     tau: float = 1.0
     mapping: Literal["lit_cold", "lit_hot"] = "lit_cold"
     heading_law: Literal["persistent", "uniform"] = "persistent"
-    kT_hot: float = field(default_factory=lambda: round(kT_for_mean_speed(15.0), 6))
-    kT_cold: float = field(default_factory=lambda: round(kT_for_mean_speed(3.0), 6))
-    kT_theta: float = 0.8
+    kT_hot: float = field(default_factory=lambda: round(kT_for_mean_speed(22.0), 3))
+    kT_cold: float = field(default_factory=lambda: round(kT_for_mean_speed(18.0), 3))
+    kT_theta: float = 0.1
+    kT_theta_cold: float | None = 2.0
+    v_max: float | None = 33.0
     threshold: float = 0.5
     speed_law: Literal["boltzmann", "half-normal"] = "boltzmann"
     object_radius: float = 50.0
@@ -180,6 +186,7 @@ class TransportFreeParams:
     target_y: float | None = None
     light: Literal["directional", "point"] = "directional"
     light_distance: float = 1000.0
+    light_spread_deg: float = 0.0
     obstacle_radius: float = 100.0
     obstacle_dx: float = -130.0
     obstacle_dy: float = 200.0
@@ -218,6 +225,10 @@ class TransportFreeParams:
         positive("kT_hot", "mm^2/s^2")
         positive("kT_cold", "mm^2/s^2")
         positive("kT_theta", "rad/s")
+        if self.kT_theta_cold is not None:
+            positive("kT_theta_cold", "rad/s")
+        if self.v_max is not None:
+            positive("v_max", "mm/s")
         check(
             math.isfinite(self.threshold) and 0 <= self.threshold < 1,
             "threshold",
@@ -232,6 +243,12 @@ class TransportFreeParams:
             self.object_drag,
         )
         positive("light_distance", "mm")
+        check(
+            math.isfinite(self.light_spread_deg) and 0 <= self.light_spread_deg < 45,
+            "light_spread_deg",
+            "in [0, 45) degrees (0: a point-like lamp, hard shadows)",
+            self.light_spread_deg,
+        )
         positive("obstacle_radius", "mm")
         positive("channel_width", "mm")
         check(
@@ -377,16 +394,16 @@ def geometry(p: TransportFreeParams) -> Geometry:
     )
 
 
-def _robot_region(p: TransportFreeParams, g: Geometry):
-    """``inside(points)`` for robot placement: clear of walls, object, obstacles."""
+def _robot_region(p: TransportFreeParams, g: Geometry, obj: tuple[float, float] | None = None):
+    """``inside(points)``: where a robot's centre may be, clear of walls, obstacles and
+    the object (at ``obj``, default its start)."""
     r = p.diameter / 2
     margin = 0.5
+    ox, oy = g.start if obj is None else obj
 
     def inside(pts: np.ndarray) -> np.ndarray:
         ok = segment_distance(pts, g.walls) >= r + margin
-        ok &= np.hypot(pts[:, 0] - g.start[0], pts[:, 1] - g.start[1]) >= (
-            p.object_radius + r + margin
-        )
+        ok &= np.hypot(pts[:, 0] - ox, pts[:, 1] - oy) >= (p.object_radius + r + margin)
         for x, y, ro in g.obstacles:
             ok &= np.hypot(pts[:, 0] - x, pts[:, 1] - y) >= ro + r + margin
         if g.channel is not None:
@@ -396,6 +413,93 @@ def _robot_region(p: TransportFreeParams, g: Geometry):
         return ok
 
     return inside
+
+
+#: Regions of :func:`phase_by_region`, and the keys of its per-frame series.
+REGIONS = ("lit", "shadow")
+
+
+def phase_by_region(
+    times: np.ndarray,
+    positions: np.ndarray,
+    phases: np.ndarray,
+    lit: Any,
+    grid_points: np.ndarray,
+    grid_cell_area: float,
+    grid_lit: Any,
+) -> dict[str, Any]:
+    """Phase separation over time: the robots of each phase in each light region.
+
+    Parameters
+    ----------
+    times : (k,) s
+    positions : (k, n, 2) mm
+        Robot centres per frame.
+    phases : (k, n)
+        1 hot (gas-like), 0 cold (liquid-like).
+    lit : callable ``(frame, points (m, 2)) -> bool (m,)``
+        Whether points are lit (light level above the threshold, no sensor noise) in
+        that frame (the object's shadow moves with it).
+    grid_points : (g, 2) mm
+        A regular grid over the region robots' centres can reach (at the start), of cell
+        area ``grid_cell_area`` (mm^2): the areas of the regions are counted on it.
+    grid_lit : callable ``(frame, grid_points) -> (lit bool (g,), reachable bool (g,))``
+        The grid's light and whether each cell is still reachable in that frame (the
+        object covers some).
+
+    Returns
+    -------
+    dict of lists (one value per frame): ``time``; for ``region`` in ``lit``/``shadow``:
+    ``n_<region>`` (robots), ``area_<region>`` (m^2), ``hot_fraction_<region>`` (the
+    share of that region's robots that are hot; None when it holds none) and
+    ``density_<phase>_<region>`` (robots of that phase per m^2 of the region).
+    """
+    k = len(times)
+    out: dict[str, Any] = {"time": [float(t) for t in times]}
+    for reg in REGIONS:
+        for key in ("n", "area", "hot_fraction", "density_hot", "density_cold"):
+            out[f"{key}_{reg}"] = []
+    for f in range(k):
+        pos = np.asarray(positions[f], dtype=np.float64)
+        hot = np.asarray(phases[f]) == PHASE_HOT
+        is_lit = np.asarray(lit(f, pos), dtype=bool)
+        g_lit, g_ok = grid_lit(f, grid_points)
+        for reg, sel, gsel in (
+            ("lit", is_lit, g_lit & g_ok),
+            ("shadow", ~is_lit, ~g_lit & g_ok),
+        ):
+            n_reg = int(np.count_nonzero(sel))
+            n_hot = int(np.count_nonzero(sel & hot))
+            area = float(np.count_nonzero(gsel)) * grid_cell_area / 1e6  # m^2
+            out[f"n_{reg}"].append(n_reg)
+            out[f"area_{reg}"].append(area)
+            out[f"hot_fraction_{reg}"].append(n_hot / n_reg if n_reg else None)
+            out[f"density_hot_{reg}"].append(n_hot / area if area > 0 else None)
+            out[f"density_cold_{reg}"].append((n_reg - n_hot) / area if area > 0 else None)
+    return out
+
+
+def summarize_phase_by_region(series: dict[str, Any], since: float) -> dict[str, Any]:
+    """Time means of :func:`phase_by_region`'s series over frames at ``time >= since``
+    (None entries skipped; None when there are none)."""
+    t = np.asarray(series["time"], dtype=np.float64)
+    keep = t >= since
+    out: dict[str, Any] = {"since": float(since), "frames": int(np.count_nonzero(keep))}
+    for key, vals in series.items():
+        if key == "time":
+            continue
+        v = [x for x, ok in zip(vals, keep, strict=True) if ok and x is not None]
+        out[key] = float(np.mean(v)) if v else None
+    return out
+
+
+def capped_temperature(kT: float, v_max: float | None) -> float:
+    """``<v^2> / 2`` (mm^2/s^2) of Rayleigh speeds at temperature ``kT`` cut at ``v_max``:
+    ``kT (1 - exp(-v_max^2 / (2 kT)))`` (``kT`` without a cut), what ``speed_by_phase``
+    should measure."""
+    if v_max is None:
+        return float(kT)
+    return float(kT * -math.expm1(-(v_max**2) / (2 * kT)))
 
 
 def transport_metrics(
@@ -450,6 +554,8 @@ class TransportFree(Scenario):
             heading_law=p.heading_law,
             kT_theta=p.kT_theta,
             speed_law=p.speed_law,
+            kT_theta_cold=p.kT_theta_cold,
+            v_max=p.v_max,
         )
 
     def build(self, rng: np.random.Generator) -> Setup:
@@ -462,7 +568,9 @@ class TransportFree(Scenario):
                     drag=math.inf if held else p.object_drag)  # fmt: skip
         obstacles = g.obstacles
         world = World(g.bounds, g.walls, obstacles, bodies=(body,))
-        light = make_light(p.light, x=W / 2, top=H, distance=p.light_distance)
+        light = make_light(
+            p.light, x=W / 2, top=H, distance=p.light_distance, spread_deg=p.light_spread_deg
+        )
         shadowing = obstacles if p.obstacle_shadow else np.zeros((0, 3))
         inner = self.policy()
         sensing = TransportSensing(
@@ -555,6 +663,28 @@ class TransportFree(Scenario):
         acc["force_sum"][max(b, 0)] += state.body_force[0]
         acc["force_count"][max(b, 0)] += 1
 
+    def _phase_regions(self, setup: Setup, tracks: xr.Dataset) -> dict[str, Any]:
+        """:func:`phase_by_region` of the recorded frames (light without sensor noise)."""
+        p: TransportFreeParams = self.params
+        g = geometry(p)
+        sensing: TransportSensing = setup.sensing  # type: ignore[assignment]
+        obj = np.asarray(tracks["object_position"].values, dtype=np.float64)
+        pos = np.moveaxis(tracks["position"].values[:, :, 0, :], 1, 2)  # (k, n, 2)
+        grid, cell = _grid(p, g)
+        reach = p.object_radius + p.diameter / 2 + 0.5
+
+        def lit(f: int, pts: np.ndarray) -> np.ndarray:
+            occ = sensing.occluders_at(obj[f][None, :])
+            return light_level(pts, sensing.light, occ) > p.threshold
+
+        def grid_lit(f: int, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            ok = np.hypot(pts[:, 0] - obj[f, 0], pts[:, 1] - obj[f, 1]) >= reach
+            return lit(f, pts), ok
+
+        return phase_by_region(
+            tracks["time"].values, pos, tracks["phase"].values, lit, grid, cell, grid_lit
+        )
+
     @property
     def _target_y(self) -> float:
         tg = getattr(self, "_ty", None)
@@ -587,14 +717,19 @@ class TransportFree(Scenario):
         for name, code in (("hot", 1), ("cold", 0)):
             sel = phase == code
             v = speed[sel]
+            kT_set = p.kT_hot if code == 1 else p.kT_cold
             by_phase[name] = {
-                "kT_set": p.kT_hot if code == 1 else p.kT_cold,
+                "kT_set": kT_set,
+                "kT_expected": capped_temperature(kT_set, p.v_max)
+                if p.speed_law == "boltzmann"
+                else None,
                 "kT_measured": float(np.mean(v**2) / 2) if v.size else None,
                 "mean_speed": float(v.mean()) if v.size else None,
                 "samples": int(v.size),
             }
         t_target = float(acc["t_target"])
         held = batch_mean_se(acc["held_sum"][:, 1], acc["held_count"])
+        regions = self._phase_regions(setup, tracks)
         out: dict[str, Any] = {
             "variant": p.variant,
             "n": p.n,
@@ -621,6 +756,8 @@ class TransportFree(Scenario):
             "hot_fraction_mean": float(acc["hot_sum"]) / max(float(acc["hot_count"]), 1.0),
             "hot_fraction_final": float(np.mean(state.group == PHASE_HOT)),
             "speed_by_phase": by_phase,
+            "phase_by_region": regions,
+            "phase_by_region_mean": summarize_phase_by_region(regions, since=p.duration / 2),
             "object_path": {
                 "time": t.tolist(),
                 "x": obj[:, 0].tolist(),
@@ -630,6 +767,18 @@ class TransportFree(Scenario):
             "max_overlap_fraction": float(state.counters[1]) / 1e6 / p.diameter,
         }
         return out
+
+
+def _grid(p: TransportFreeParams, g: Geometry) -> tuple[np.ndarray, float]:
+    """Cell centres of a regular grid over the arena where robots' centres can be (the
+    object at its start), and the cell area (mm^2); about 40,000 cells at most."""
+    x0, y0, x1, y1 = g.bounds
+    step = max(10.0, math.sqrt((x1 - x0) * (y1 - y0) / 40000.0))
+    xs = np.arange(x0 + step / 2, x1, step)
+    ys = np.arange(y0 + step / 2, y1, step)
+    pts = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    far = _robot_region(p, g, obj=(math.inf, math.inf))  # the object excluded per frame
+    return np.ascontiguousarray(pts[far(pts)]), step * step
 
 
 def plot_frame(ax: Any, tracks: xr.Dataset, t: float, setup_info: dict[str, Any]) -> Any:

@@ -1,0 +1,311 @@
+"""Where does ``transport-free`` move the object fastest?  Maps of the drift speed.
+
+The paper fixes the law of Algorithm 5 (Boltzmann speeds whose temperature the light
+switches) but leaves open its numbers: the two temperatures, the steering temperature
+of a persistent heading, the control period, the light's geometry, the object's
+friction, the arena and the density.  This study maps the object's drift speed toward
+the light (displacement toward the target over the run, mm/s; mean and standard error
+over seeds) over pairs of them, around a base regime, each map a grid x seeds run
+through :func:`thermoswarm.studies._common.run_grid`:
+
+- ``cold``: the cold phase's mean speed x its steering temperature;
+- ``hot``: the hot phase's mean speed x its steering temperature;
+- ``friction``: the object's drag x the arena's side (the density of 1,200 robots);
+- ``period``: the control period x the lamp's angular radius (penumbra) at two light
+  thresholds (``threshold`` is a third, linked axis: one map per threshold value).
+
+Temperatures are set as mean speeds ``v`` (``kT = 2 v^2 / pi``, the Rayleigh law's
+mean); every run caps speeds at the robot's top speed ``v_max`` = 33 mm/s.
+
+Settings: ``quick`` (600 robots in the 1270 mm arena of the same packing 0.32, 150 s,
+3 seeds, a 3 x 3 corner of each map: a smoke test, about 2 minutes on two cores) and
+``full`` (1,200 robots, 300 s, 5 seeds; the maps in ``docs/scenarios_transport.md``).
+Run ``thermoswarm study regime --setting full --out DIR``: writes ``DIR/regime.json``,
+``DIR/regime.md`` and ``DIR/regime.png``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from concurrent.futures import Executor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
+from thermoswarm.maxent import kT_for_mean_speed
+from thermoswarm.studies._common import effect, run_grid
+
+__all__ = ["SETTINGS", "MAPS", "RegimeResult", "run_regime", "summarize", "plot_maps"]
+
+
+def kT(v: float) -> float:
+    """Temperature (mm^2/s^2) whose Rayleigh speed law has mean ``v`` (mm/s), rounded."""
+    return round(float(kT_for_mean_speed(v)), 3)
+
+
+#: The regime the maps are centred on (the defaults of ``transport-free``).
+CENTRE: dict[str, Any] = {
+    "kT_hot": kT(22.0),
+    "kT_cold": kT(18.0),
+    "kT_theta": 0.1,
+    "kT_theta_cold": 2.0,
+    "v_max": 33.0,
+}
+
+#: Each map: its two axes (a parameter and its values; ``speed`` axes are mean speeds in
+#: mm/s set through the temperature) and fixed parameters beside the centre's.
+MAPS: dict[str, dict[str, Any]] = {
+    "cold": {
+        "x": ("kT_theta_cold", [0.1, 0.8, 2.0, 5.0], "cold steering temperature (rad/s)"),
+        "y": ("kT_cold", [3.0, 6.0, 10.0, 15.0, 18.0, 20.0], "cold mean speed (mm/s)"),
+    },
+    "hot": {
+        "x": ("kT_theta", [0.03, 0.1, 0.3, 0.8], "hot steering temperature (rad/s)"),
+        "y": ("kT_hot", [20.0, 22.0, 25.0, 30.0], "hot mean speed (mm/s)"),
+    },
+    "friction": {
+        "x": ("object_drag", [0.5, 1.0, 2.0, 4.0, 8.0], "object drag (robot drags)"),
+        "y": ("arena", [1500.0, 1800.0, 2100.0], "arena side (mm)"),
+    },
+    "period": {
+        "x": ("light_spread_deg", [0.0, 5.0, 10.0], "lamp angular radius (deg)"),
+        "y": ("tau", [0.5, 1.0, 2.0], "control period (s)"),
+        "linked": ("threshold", [0.5, 0.9]),
+    },
+}
+
+#: Axes given as mean speeds (mm/s) but set as temperatures.
+SPEED_AXES = ("kT_cold", "kT_hot")
+
+SETTINGS: dict[str, dict[str, Any]] = {
+    "quick": {"n": 600, "arena": 1270.0, "duration": 150.0, "seeds": 3, "cells": 3},
+    "full": {"n": 1200, "arena": None, "duration": 300.0, "seeds": 5, "cells": None},
+}
+
+
+@dataclass
+class RegimeResult:
+    runs: pd.DataFrame
+    summary: pd.DataFrame
+    setting: dict[str, Any]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "setting": self.setting,
+            "summary": self.summary.to_dict(orient="records"),
+            "runs": self.runs.to_dict(orient="records"),
+        }
+
+    def table(self) -> str:
+        """One Markdown table per map: drift speed mean ± se (mm/s), rows y, columns x."""
+        parts = []
+        for name, g in self.summary.groupby("map", sort=False):
+            for link, h in g.groupby("linked_value", sort=False, dropna=False):
+                m = MAPS[name]
+                title = f"### {name}"
+                if "linked" in m:
+                    title += f" ({m['linked'][0]} = {link:g})"
+                xs = sorted(h["x"].unique())
+                ys = sorted(h["y"].unique())
+                head = [f"{m['y'][2]} \\ {m['x'][2]}", *[f"{x:g}" for x in xs]]
+                lines = [title, "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+                for y in ys:
+                    row = [f"{y:g}"]
+                    for x in xs:
+                        c = h[(h["x"] == x) & (h["y"] == y)]
+                        if c.empty:
+                            row.append("")
+                            continue
+                        c = c.iloc[0]
+                        row.append(
+                            f"{c['drift_mean']:.2f} ± {c['drift_se']:.2f}"
+                            + (f" ({int(c['reached'])}/{int(c['seeds'])})" if c["reached"] else "")
+                        )
+                    lines.append("| " + " | ".join(row) + " |")
+                parts.append("\n".join(lines))
+        return "\n\n".join(parts) + "\n"
+
+
+def _values(axis: tuple[str, list[float], str], cells: int | None) -> list[float]:
+    key, vals, _ = axis
+    return list(vals if cells is None else vals[-cells:] if key in SPEED_AXES else vals[:cells])
+
+
+def _set(key: str, value: float, arena_default: float | None) -> dict[str, Any]:
+    if key in SPEED_AXES:
+        return {key: kT(value)}
+    if key == "arena":
+        return {"width": value, "height": value}
+    return {key: value}
+
+
+def summarize(runs: pd.DataFrame) -> pd.DataFrame:
+    """Per map cell: seeds, drift speed (mm/s) mean/sd/se/95 % t interval, runs that
+    reached the target, and the median time to target over those that did (s)."""
+    rows = []
+    keys = ["map", "linked_value", "x", "y"]
+    for key, g in runs.groupby(keys, sort=False, dropna=False):
+        e = effect(g["drift"].tolist())
+        t = [v for v in g["time_to_target"].tolist() if v is not None and np.isfinite(v)]
+        rows.append(
+            {
+                **dict(zip(keys, key, strict=True)),
+                "seeds": e["n"],
+                "drift_mean": e["mean"],
+                "drift_sd": e["sd"],
+                "drift_se": e["se"],
+                "drift_ci_low": e["ci_low"],
+                "drift_ci_high": e["ci_high"],
+                "reached": len(t),
+                "time_median_reached": float(np.median(t)) if t else None,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def plot_maps(result: RegimeResult | pd.DataFrame, fig: Any = None) -> Any:
+    """One heat map per map (and per linked value): colour = mean drift speed (mm/s),
+    each cell annotated ``mean ± se``; the centre regime's cell is outlined."""
+    import matplotlib.pyplot as plt
+
+    summary = result.summary if isinstance(result, RegimeResult) else result
+    panels = list(summary.groupby(["map", "linked_value"], sort=False, dropna=False))
+    if fig is None:
+        fig = plt.figure(figsize=(4.6 * len(panels), 4.2), constrained_layout=True)
+    axes = fig.subplots(1, len(panels), squeeze=False)[0]
+    vmax = float(np.nanmax(np.abs(summary["drift_mean"]))) or 1.0
+    centre = {k: v for k, v in CENTRE.items()}
+    centre.update({"object_drag": 2.0, "arena": 1800.0, "tau": 1.0, "light_spread_deg": 0.0})
+    for ax, ((name, link), h) in zip(axes, panels, strict=True):
+        m = MAPS[name]
+        xs = sorted(h["x"].unique())
+        ys = sorted(h["y"].unique())
+        grid = np.full((len(ys), len(xs)), np.nan)
+        for _, c in h.iterrows():
+            grid[ys.index(c["y"]), xs.index(c["x"])] = c["drift_mean"]
+        im = ax.imshow(grid, origin="lower", cmap="RdBu_r", vmin=-vmax, vmax=vmax,
+                       aspect="auto")  # fmt: skip
+        for _, c in h.iterrows():
+            i, j = ys.index(c["y"]), xs.index(c["x"])
+            ax.text(j, i, f"{c['drift_mean']:.2f}\n±{c['drift_se']:.2f}", ha="center",
+                    va="center", fontsize=7)  # fmt: skip
+        cx = centre.get(m["x"][0])
+        cy = centre.get(m["y"][0])
+        if m["y"][0] in SPEED_AXES:
+            cy = math.sqrt(math.pi * cy / 2)
+        if cx in xs and cy is not None and any(abs(cy - y) < 1e-6 for y in ys):
+            i = min(range(len(ys)), key=lambda k: abs(ys[k] - cy))
+            ax.add_patch(plt.Rectangle((xs.index(cx) - 0.5, i - 0.5), 1, 1, fill=False,
+                                       lw=2, ec="k"))  # fmt: skip
+        ax.set_xticks(range(len(xs)), [f"{x:g}" for x in xs])
+        ax.set_yticks(range(len(ys)), [f"{y:g}" for y in ys])
+        ax.set_xlabel(m["x"][2])
+        ax.set_ylabel(m["y"][2])
+        title = name
+        if "linked" in m:
+            title += f", {m['linked'][0]} = {link:g}"
+        ax.set_title(title)
+    fig.colorbar(im, ax=list(axes), label="drift toward the light (mm/s)", shrink=0.8)
+    return fig
+
+
+def run_regime(
+    out: str | Path,
+    setting: str = "quick",
+    *,
+    maps: Sequence[str] | None = None,
+    seeds: int | Sequence[int] | None = None,
+    executor: Executor | None = None,
+    max_workers: int | None = None,
+    overrides: dict[str, Any] | None = None,
+    progress: bool | None = None,
+    figure: bool = True,
+) -> RegimeResult:
+    """Run the drift-speed maps ``maps`` (default all of :data:`MAPS`) into ``out``.
+
+    Each map's runs go to ``out/<map>/runs/``; ``overrides`` (dotted keys) change the
+    base of every map.  Writes ``out/regime.json``, ``out/regime.md`` and (``figure``)
+    ``out/regime.png``.
+    """
+    from thermoswarm.errors import ConfigError
+
+    if setting not in SETTINGS:
+        raise ConfigError(f"setting must be one of {sorted(SETTINGS)}, got {setting!r}")
+    cfg = SETTINGS[setting]
+    names = list(MAPS if maps is None else maps)
+    for name in names:
+        if name not in MAPS:
+            raise ConfigError(f"map must be one of {sorted(MAPS)}, got {name!r}")
+    seed_list = list(range(cfg["seeds"])) if seeds is None else seeds
+    if isinstance(seed_list, int):
+        seed_list = list(range(seed_list))
+    base: dict[str, Any] = {**CENTRE, "n": cfg["n"], "duration": cfg["duration"],
+                            "record.interval": 10.0, "record.netcdf": False}  # fmt: skip
+    if cfg["arena"] is not None:
+        base.update(width=cfg["arena"], height=cfg["arena"])
+    base.update(overrides or {})
+    out = Path(out)
+    if not out.absolute().parent.is_dir():
+        raise ConfigError(f"study output directory's parent {str(out.parent)!r} does not exist")
+    out.mkdir(exist_ok=True)
+    rows = []
+    for name in names:
+        m = MAPS[name]
+        xs = _values(m["x"], cfg["cells"])
+        ys = _values(m["y"], cfg["cells"])
+        links = m.get("linked", (None, [None]))
+        for link in links[1]:
+            for y in ys:
+                b = {**base, **_set(m["y"][0], y, cfg["arena"])}
+                if link is not None:
+                    b[links[0]] = link
+                if m["x"][0] in SPEED_AXES:
+                    grid = {m["x"][0]: [kT(x) for x in xs]}
+                else:
+                    grid = {m["x"][0]: xs}
+                sub = out / name
+                sub.mkdir(exist_ok=True)
+                records = run_grid("transport-free", sub, base=b, grid=grid, seeds=seed_list,
+                                   executor=executor, max_workers=max_workers,
+                                   progress=progress)  # fmt: skip
+                for r in records:
+                    xv = r.params[m["x"][0]]
+                    if m["x"][0] in SPEED_AXES:
+                        xv = round(math.sqrt(math.pi * xv / 2), 6)
+                    met = r.metrics
+                    rows.append(
+                        {
+                            "map": name,
+                            "linked_value": math.nan if link is None else float(link),
+                            "x": float(xv),
+                            "y": float(y),
+                            "seed": r.seed,
+                            "drift": met["mean_velocity_toward_target"],
+                            "displacement": met["displacement_toward_target"],
+                            "time_to_target": met["time_to_target"],
+                            "run_dir": r.out,
+                        }
+                    )
+    runs = pd.DataFrame(rows)
+    summary = summarize(runs)
+    res = RegimeResult(runs=runs, summary=summary,
+                       setting={"name": setting, "maps": names, "seeds": list(seed_list),
+                                "base": base})  # fmt: skip
+    atomic_write_json(out / "regime.json", res.to_dict())
+    atomic_write_text(out / "regime.md", res.table())
+    if figure:
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        fig = plot_maps(res)
+        with atomic_path(out / "regime.png", suffix=".png") as tmp:
+            fig.savefig(tmp, dpi=110, format="png")
+        plt.close(fig)
+    return res
