@@ -8,8 +8,9 @@ Runs, into ``OUT/``:
    pressure against temperature at fixed density, and the temperature that holds the
    density fixed as the force varies (the paper's panel w);
 3. ``transport-connected``: the object carried into the target room, over seeds;
-4. ``transport-free``: the default (the combination the mechanism study found to
-   move the object toward the light) and the ``obstacle`` and ``zigzag`` variants;
+4. ``transport-free``: the default (the regime of the drift-speed search in which the
+   object reaches the target fastest) and the ``obstacle`` and ``zigzag`` variants,
+   with the phase separation over time, and the drift-speed maps of that search;
 5. the transport mechanism study (both light-to-phase mappings x fresh or persistent
    headings x ideal or photoresistor sensing, 10 seeds each);
 6. scaling with swarm size (the paper's panels u and v);
@@ -51,16 +52,15 @@ class Plan:
     compression_duration: float = 3600.0
     connected_seeds: int = 10
     free_seeds: int = 10
-    free_duration: float = 1200.0
-    variant_duration: float = 600.0
+    free_duration: float | None = None  # None: the scenario's (every seed arrives)
+    variant_duration: float | None = None
     study: str = "full"  # mechanism and scaling settings
     unified_robots: int = 1200
     unified_duration: float = 120.0
 
 
 QUICK = Plan("quick", compression_duration=1600.0, connected_seeds=3, free_seeds=3,
-             free_duration=600.0, variant_duration=400.0, study="quick",
-             unified_duration=60.0)  # fmt: skip
+             study="quick", unified_duration=60.0)  # fmt: skip
 FULL = Plan("full")
 
 
@@ -309,67 +309,102 @@ def _transport_connected(out: Path, plan: Plan, rep: Any, seed: int) -> dict[str
     return res
 
 
+def _phase_figure(metrics: dict[str, Any]) -> Any:
+    """Phase separation over time (one run): the share of hot robots in the lit region
+    and in the shadow, and the density of each phase in its own region."""
+    import matplotlib.pyplot as plt
+
+    reg = metrics["phase_by_region"]
+    t = np.asarray(reg["time"], dtype=float)
+
+    def arr(key: str) -> np.ndarray:
+        return np.array([np.nan if v is None else v for v in reg[key]], dtype=float)
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4), constrained_layout=True)
+    a1.plot(t, arr("hot_fraction_shadow"), color="tab:red", label="in the shadow")
+    a1.plot(t, arr("hot_fraction_lit"), color="tab:blue", label="in the light")
+    a1.set_ylim(-0.02, 1.02)
+    a1.set_xlabel("time (s)")
+    a1.set_ylabel("fraction of robots that are hot")
+    a1.legend(frameon=False, fontsize=8)
+    hot_region = "shadow" if metrics["mapping"] == "lit_cold" else "lit"
+    cold_region = "lit" if hot_region == "shadow" else "shadow"
+    a2.plot(t, arr(f"density_hot_{hot_region}"), color="tab:red",
+            label=f"hot (gas-like) robots in the {hot_region}")  # fmt: skip
+    a2.plot(t, arr(f"density_cold_{cold_region}"), color="tab:blue",
+            label=f"cold (liquid-like) robots in the {cold_region}")  # fmt: skip
+    a2.set_xlabel("time (s)")
+    a2.set_ylabel("density (robots per m²)")
+    a2.legend(frameon=False, fontsize=8)
+    return fig
+
+
 def _transport_free(out: Path, plan: Plan, rep: Any, seed: int) -> dict[str, Any]:
     import matplotlib.pyplot as plt
 
     from thermoswarm.report.animate import animate, snapshot_strip
     from thermoswarm.scenarios import transport_free as F
 
-    base = {"duration": plan.free_duration}
+    base = {} if plan.free_duration is None else {"duration": plan.free_duration}
     runs = [
         _run("transport-free", out / "transport-free" / f"seed{s}", base, seed + s)
         for s in range(plan.free_seeds)
     ]
-    disp = np.array([m["displacement_toward_target"] for m, _, _ in runs])
-    se = float(disp.std(ddof=1) / math.sqrt(disp.size)) if disp.size > 1 else float("nan")
-    variants = {v: _run("transport-free", out / f"transport-free-{v}",
-                        {"variant": v, "duration": plan.variant_duration}, seed)
+    vdur = {} if plan.variant_duration is None else {"duration": plan.variant_duration}
+    variants = {v: _run("transport-free", out / f"transport-free-{v}", {"variant": v, **vdur},
+                        seed)
                 for v in ("obstacle", "zigzag")}  # fmt: skip
     m, tracks, info = runs[0]
+    times = [mm["time_to_target"] for mm, _, _ in runs]
+    reached = [t for t in times if t is not None]
+    phase = [mm["phase_by_region_mean"] for mm, _, _ in runs]
+
+    def mean_of(key: str) -> float | None:
+        v = [p[key] for p in phase if p.get(key) is not None]
+        return _num(float(np.mean(v))) if v else None
+
     res = {
-        "default": {"seeds": int(disp.size), "duration_s": plan.free_duration,
-                    "displacement_toward_target_mean": _num(float(disp.mean())),
-                    "displacement_toward_target_se": _num(se),
-                    "mean_over_se": _num(float(disp.mean()) / se) if se > 0 else None,
-                    "time_to_target": [mm["time_to_target"] for mm, _, _ in runs]},
-        **{v: {"duration_s": plan.variant_duration,
-               "displacement_toward_target": _num(mm["displacement_toward_target"]),
+        "default": {
+            "seeds": len(runs),
+            "duration_s": m["duration"],
+            "target_distance_mm": m["target_distance"],
+            "reached": len(reached),
+            "time_to_target": times,
+            "time_to_target_median": _num(float(np.median(reached))) if reached else None,
+            "time_to_target_min": _num(min(reached)) if reached else None,
+            "time_to_target_max": _num(max(reached)) if reached else None,
+            "phase_by_region_mean": {k: mean_of(k) for k in (
+                "hot_fraction_lit", "hot_fraction_shadow", "density_hot_shadow",
+                "density_cold_lit")},
+        },
+        **{v: {"duration_s": mm["duration"],
+               "target_distance_mm": mm["target_distance"],
+               "max_displacement_toward_target": _num(mm["max_displacement_toward_target"]),
                "time_to_target": mm["time_to_target"]} for v, (mm, _, _) in variants.items()},
     }  # fmt: skip
     with rep.section("Transport without connection (Algorithm 5)"):
         rep.paragraph(
-            "1,200 robots around the 100 mm object in the centre, light from the target side "
-            "(top); the object's shadow darkens the area behind it and each robot's "
-            "temperature switches with the light it sees: red robots are hot (gas-like), blue "
-            "ones cold (liquid-like). The default is the combination that the mechanism "
-            "study found to move the object toward the light (lit robots cold, persistent "
-            "headings; see below)."
+            "1,200 robots around the 100 mm object in the centre of an 1800 mm arena, light "
+            "from the target side (top); the object's shadow darkens the strip behind it and "
+            "each robot's temperature switches with the light it sees: red robots are hot "
+            "(gas-like), blue ones cold (liquid-like). Defaults found by the drift-speed "
+            "search (below): the paper's equation (lit robots cold), hot robots 22 mm/s mean "
+            "and keeping their heading, cold robots 18 mm/s and turning fast, speeds cut at "
+            "the robot's 33 mm/s. The object must travel 750 mm to the dashed line."
         )
         rep.table(
-            {
-                f"displacement toward the target over {disp.size} seeds (mm)": (
-                    f"{disp.mean():.1f} +- {se:.1f} (mean +- se)"
-                ),
-                "obstacle variant (mm)": res["obstacle"]["displacement_toward_target"],
-                "zig-zag variant (mm)": res["zigzag"]["displacement_toward_target"],
-            }
-        )
-        _fig(
-            rep,
-            snapshot_strip(tracks, F.plot_frame, info),
-            "Snapshots of the default run: "
-            "gas-like (red) and liquid-like (blue) robots around the object.",
-        )
-        fig, ax = plt.subplots(figsize=(6, 3.5))
-        for label, (_, tr, _) in [("free", runs[0]), *variants.items()]:
-            y = tr["object_position"].sel(space="y")
-            ax.plot(tr["time"], y - float(y[0]), label=label)
-        ax.set_xlabel("time (s)")
-        ax.set_ylabel("object displacement toward the light (mm)")
-        ax.legend()
-        _fig(rep, fig, "Object position over time (toward the light is up).")
-        for v, (_, tr, inf) in variants.items():
-            _fig(rep, snapshot_strip(tr, F.plot_frame, inf, panels=4), f"Variant {v}.")
+            [
+                {"run": f"seed {seed + s}", "time to target (s)": t,
+                 "max displacement (mm)": mm["max_displacement_toward_target"]}
+                for s, ((mm, _, _), t) in enumerate(zip(runs, times, strict=True))
+            ]
+            + [
+                {"run": f"variant {v}", "time to target (s)": mm["time_to_target"],
+                 "max displacement (mm)": mm["max_displacement_toward_target"]}
+                for v, (mm, _, _) in variants.items()
+            ],
+            caption="Time to the target line (empty: not reached within the run).",
+        )  # fmt: skip
         path = animate(
             tracks,
             F.plot_frame,
@@ -377,8 +412,51 @@ def _transport_free(out: Path, plan: Plan, rep: Any, seed: int) -> dict[str, Any
             out / "animations" / "transport-free",
             title="transport without connection",
         )
-        rep.animation(path, caption="Transport without connection (default).")
+        rep.animation(path, caption="The object carried to the target line (default, seed 0).")
+        _fig(
+            rep,
+            snapshot_strip(tracks, F.plot_frame, info),
+            "Snapshots of the default run: "
+            "gas-like (red) and liquid-like (blue) robots around the object.",
+        )
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        for s, (mm, _, _) in enumerate(runs):
+            path_ = mm["object_path"]
+            ax.plot(path_["time"], path_["progress"], color="tab:green", alpha=0.7,
+                    label="free" if s == 0 else None)  # fmt: skip
+        for v, (mm, _, _) in variants.items():
+            ax.plot(mm["object_path"]["time"], mm["object_path"]["progress"], label=v)
+        ax.axhline(m["target_distance"], color="tab:green", ls="--", lw=0.8)
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("object displacement toward the light (mm)")
+        ax.legend(frameon=False)
+        _fig(rep, fig, "Object position over time (toward the light is up; dashed: the "
+                       "free arena's target; the zig-zag's target is 1050 mm up).")  # fmt: skip
+        _fig(rep, _phase_figure(m),
+             "Phase separation (default, seed 0): left, the share of hot robots in the shadow "
+             "and in the light; right, the density of each phase in its own region.")  # fmt: skip
+        for v, (_, tr, inf) in variants.items():
+            _fig(rep, snapshot_strip(tr, F.plot_frame, inf, panels=4), f"Variant {v}.")
     return res
+
+
+def _regime(out: Path, plan: Plan, rep: Any, workers: int | None) -> dict[str, Any]:
+    from thermoswarm.studies.regime import plot_maps, run_regime
+
+    setting = "quick" if plan.study == "quick" else "full"
+    maps = ["cold", "hot"] if setting == "quick" else None
+    r = run_regime(out / "regime", setting, maps=maps, max_workers=workers, progress=False,
+                   figure=False)  # fmt: skip
+    with rep.section("Where the object moves fastest: drift-speed maps"):
+        rep.paragraph(
+            "The object's drift toward the light (mm/s, mean ± se over seeds) over the "
+            "parameters Algorithm 5 leaves open, around the default (outlined): the cold "
+            "phase's speed and steering temperature, the hot phase's, and more in the full "
+            f"setting ({setting} setting here: {len(r.setting['seeds'])} seeds per cell)."
+        )
+        _fig(rep, plot_maps(r), "Drift speed toward the light (mm/s).")
+    rows = r.summary.replace({np.nan: None}).to_dict(orient="records")
+    return {"setting": setting, "rows": rows}
 
 
 def _mechanism(out: Path, plan: Plan, rep: Any, workers: int | None) -> dict[str, Any]:
@@ -401,18 +479,23 @@ def _mechanism(out: Path, plan: Plan, rep: Any, workers: int | None) -> dict[str
 def _scaling(out: Path, plan: Plan, rep: Any, workers: int | None) -> dict[str, Any]:
     from thermoswarm.studies.scaling import plot_scaling, run_scaling
 
-    r = run_scaling(out / "scaling", plan.study, max_workers=workers, progress=False,
-                    figure=False)  # fmt: skip
-    rows = r.summary.replace({np.nan: None}).to_dict(orient="records")
+    settings = ["quick"] if plan.study == "quick" else ["fixed", "density"]
+    results = [run_scaling(out / f"scaling-{s}", s, max_workers=workers, progress=False,
+                           figure=False) for s in settings]  # fmt: skip
     with rep.section("Scaling with swarm size (panels u and v)"):
-        rep.raw("<pre>" + r.table() + "</pre>")
+        for r in results:
+            rep.raw("<pre>" + r.table() + "</pre>")
         _fig(
             rep,
-            plot_scaling(r),
-            "Maximum displacement toward the target and time to "
-            "target against the number of robots (mean and spread over seeds).",
+            plot_scaling(results),
+            "(u) Maximum displacement toward the target within the first "
+            f"{results[0].setting['horizon']:g} s and (v) time to the target "
+            f"({results[0].setting['target_distance']:g} mm above the start) against the "
+            "number of robots: medians over seeds with distribution-free 95 % intervals, "
+            "dots the runs; a median is drawn only where at least half the runs arrived.",
         )
-    return {"setting": plan.study, "rows": rows}
+    rows = [row for r in results for row in r.summary.replace({np.nan: None}).to_dict("records")]
+    return {"setting": settings, "rows": rows}
 
 
 # ------------------------------------------------------------------ one law, three systems
@@ -515,6 +598,7 @@ def reproduce(
         ("compression", lambda: _compression(out, plan, rep, seed)),
         ("transport_connected", lambda: _transport_connected(out, plan, rep, seed)),
         ("transport_free", lambda: _transport_free(out, plan, rep, seed)),
+        ("regime", lambda: _regime(out, plan, rep, workers)),
         ("mechanism", lambda: _mechanism(out, plan, rep, workers)),
         ("scaling", lambda: _scaling(out, plan, rep, workers)),
     ]

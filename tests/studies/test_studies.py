@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import math
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -13,7 +15,8 @@ from scipy import stats
 from thermoswarm.errors import ConfigError
 from thermoswarm.studies import effect, verdict
 from thermoswarm.studies.mechanism import markdown_table, run_mechanism, summarize
-from thermoswarm.studies.scaling import censored_median, run_scaling
+from thermoswarm.studies.regime import run_regime
+from thermoswarm.studies.scaling import arena_side, censored_median, median_interval, run_scaling
 from thermoswarm.studies.scaling import summarize as scaling_summary
 
 
@@ -129,14 +132,83 @@ def test_run_scaling_end_to_end_tiny(tmp_path):
         seeds=2,
         duration=5.0,
         target_distance=1.0,
+        horizon=3.0,
         overrides={"width": 500.0, "height": 500.0},
         max_workers=1,
         progress=False,
     )
     assert list(res.summary["n"]) == [20, 60]
-    assert res.setting["base"]["target_y"] == 251.0
+    assert (res.runs["target_y"] == 251.0).all()
+    # the horizon's maximum is taken over the recorded path up to 3 s
+    for _, r in res.runs.iterrows():
+        path = json.loads((Path(r["run_dir"]) / "metrics.json").read_text())["object_path"]
+        t, p = np.asarray(path["time"]), np.asarray(path["progress"])
+        assert r["max_displacement"] == p[t <= 3.0].max()
     assert (tmp_path / "s" / "scaling.png").stat().st_size > 1000
-    assert "| 20 |" in (tmp_path / "s" / "scaling.md").read_text()
+    assert "| fixed | 20 |" in (tmp_path / "s" / "scaling.md").read_text()
+    # a later call with other sizes and the same setting adds them to the study
+    more = run_scaling(
+        tmp_path / "s", "quick", ns=[40], seeds=2, duration=5.0, target_distance=1.0,
+        horizon=3.0, overrides={"width": 500.0, "height": 500.0}, max_workers=1,
+        progress=False,
+    )  # fmt: skip
+    assert list(more.summary["n"]) == [20, 40, 60]
+    pd.testing.assert_frame_equal(
+        more.summary.set_index("n").loc[[20, 60]].reset_index()[res.summary.columns],
+        res.summary,
+        check_dtype=False,
+    )
+
+
+def test_run_scaling_density_series_scales_the_arena(tmp_path):
+    res = run_scaling(
+        tmp_path / "d", "density", ns=[30, 120], seeds=1, duration=2.0, target_distance=1.0,
+        max_workers=1, progress=False,
+    )  # fmt: skip
+    arenas = res.summary.set_index("n")["arena"]
+    # side ~ sqrt(n): 4 times the robots, twice the side (to the rounding of 1 mm)
+    assert abs(arenas[120] - 2 * arenas[30]) <= 2
+    assert arenas[120] == arena_side(120)
+    assert arena_side(1200) == 1800.0  # the default packing is that of 1,200 in 1800 mm
+
+
+def test_median_interval_order_statistics():
+    """Sign-test interval: for 10 values the 2nd and 9th order statistics (coverage
+    1 - 2 P(B <= 1) = 97.9 % for B ~ Binomial(10, 1/2)); unreached runs (None) are
+    longer than any reached and make an end unbounded."""
+    vals = [float(v) for v in range(1, 11)]
+    assert median_interval(vals) == (2.0, 9.0)
+    assert median_interval([*vals[:8], None, None]) == (2.0, None)
+    assert median_interval([None] * 9 + [1.0]) == (None, None)
+    assert median_interval([5.0]) == (None, None)
+    # coverage of the median of a continuous law at least 95 % (20,000 samples of 10)
+    rng = np.random.default_rng(0)
+    hits = 0
+    for _ in range(2000):
+        lo, hi = median_interval(list(rng.exponential(1.0, 10)))
+        hits += lo <= math.log(2) <= hi
+    assert hits / 2000 > 0.979 - 4 * math.sqrt(0.979 * 0.021 / 2000)
+
+
+def test_run_regime_end_to_end_tiny(tmp_path):
+    """Two maps on a tiny swarm (the quick setting's 3 x 3 corners): every cell has its
+    seeds, the drift is the run's displacement over its duration, the tables and the
+    figure are written; a later call with another map adds it to the study."""
+    over = {"n": 30, "width": 400.0, "height": 400.0, "duration": 2.0}
+    with ThreadPoolExecutor(1) as ex:  # in-process: no worker start-up for 36 tiny runs
+        res = run_regime(tmp_path / "r", "quick", maps=["cold"], seeds=2, overrides=over,
+                         executor=ex, progress=False)  # fmt: skip
+        res = run_regime(tmp_path / "r", "quick", maps=["light"], seeds=2, overrides=over,
+                         executor=ex, progress=False)  # fmt: skip
+    s = res.summary
+    assert list(s["map"].unique()) == ["cold", "light"]
+    assert len(s[s["map"] == "cold"]) == 9 and len(s[s["map"] == "light"]) == 9
+    assert (s["seeds"] == 2).all()
+    np.testing.assert_allclose(res.runs["drift"], res.runs["displacement"] / 2.0)
+    assert set(res.runs[res.runs["map"] == "cold"]["y"]) == {15.0, 18.0, 20.0}  # mean speeds
+    md = (tmp_path / "r" / "regime.md").read_text()
+    assert "### cold" in md and "### light" in md
+    assert (tmp_path / "r" / "regime.png").stat().st_size > 1000
 
 
 def test_bad_setting_and_missing_parent(tmp_path):
@@ -158,7 +230,7 @@ def test_study_cli_bad_value_is_one_line_exit_2_and_writes_nothing(tmp_path):
 
     from thermoswarm.cli import cli
 
-    for verb in ("mechanism", "scaling"):
+    for verb in ("mechanism", "scaling", "regime"):
         out = tmp_path / verb
         r = CliRunner().invoke(cli, ["study", verb, "--out", str(out), "--set", "nope=1"])
         assert r.exit_code == 2, r.output

@@ -134,7 +134,7 @@ def scaling(out, setting, seeds, ns, variant, workers, overrides, target_distanc
     "--map",
     "maps",
     multiple=True,
-    type=click.Choice(["cold", "hot", "friction", "period"]),
+    type=click.Choice(["cold", "hot", "friction", "light", "period"]),
     help="Maps to run (repeatable; default all).",
 )
 @click.option(

@@ -18,20 +18,21 @@ Modelling choices (see ``docs/scenarios_transport.md`` for the measurements):
 - **Mapping** (PAPER_NOTES 6.3): ``"lit_hot"`` (captions and text: lit robots gas-like)
   or ``"lit_cold"`` (the equation: T_liquid where l > threshold).
 - **Heading law**: ``"uniform"`` (fresh every period, Algorithm 5 as written) or
-  ``"persistent"`` (heading kept, steered by the exponential steering-rate law).  The
-  default is the combination that moves the object toward the light in the mechanism
-  study (``thermoswarm.studies.mechanism``): ``lit_cold`` with ``persistent`` headings.
-  Fresh uniform headings do not move it toward the light with either mapping, and the
-  captions' ``lit_hot`` pushes it away from the light with either heading law.
+  ``"persistent"`` (heading kept, steered by the exponential steering-rate law, with a
+  steering temperature per phase).  The default is ``lit_cold`` with ``persistent``
+  headings, hot robots steering little and cold robots much, at mean speeds 22 and 18
+  mm/s cut at the robot's 33 mm/s: the fastest regime of the drift-speed search
+  (``thermoswarm.studies.regime``).  Fresh uniform headings do not move the object
+  toward the light with either mapping, and the captions' ``lit_hot`` pushes it away
+  (``thermoswarm.studies.mechanism``).
 - **Light**: directional from +y by default (a lamp far beyond the target: rays across a
   100 mm object are parallel to a few percent when the lamp is 2 m away), or a point
   lamp ``light_distance`` mm beyond the top wall.  Arena walls cast no shadow (the lamp
   is above them); the object's disc does, and so does the obstacle.
-- **Object**: a movable disc (``Body``) of radius 50 mm with ground-friction drag
-  ``object_drag`` in units of one robot's drag (the paper gives no mass or friction).
-  The default 2 means that one robot alone pushes it at one third of its own speed,
-  and two robots pushing together at half; the object's speed under a given net force
-  scales as ``1 / object_drag``.
+- **Object**: a movable disc (``Body``) of radius 50 mm with viscous ground-friction
+  drag ``object_drag`` in units of one robot's drag (the paper gives no mass or
+  friction).  The default 2 means that one robot alone pushes it at one third of its
+  own speed; the object's speed under a given net force scales as ``1 / object_drag``.
 - **Phase**: each robot's phase (1 hot, 0 cold) is decided from its light reading at
   the start of each control period and held for the period; it is kept in the engine's
   ``group`` column and recorded per frame as ``phase``.
@@ -92,6 +93,10 @@ DEFAULT_ARENA = {
     "obstacle": (1800.0, 1800.0),
     "zigzag": (2400.0, 2400.0),
 }
+#: Simulated seconds when ``duration`` is not given: every run of seeds 0-9 of the
+#: defaults reaches the target within it (free: at most 747 s, obstacle 929 s, zigzag
+#: 1294 s; ``docs/scenarios_transport.md``).
+DEFAULT_DURATION = {"free": 1200.0, "obstacle": 1200.0, "zigzag": 1800.0}
 #: Batches of the time-averaged force (batch-means standard error).
 FORCE_BATCHES = 20
 
@@ -107,10 +112,10 @@ class TransportFreeParams:
         Number of robots (the paper: 1,200).
     width, height : float or None
         Arena size (mm); ``None``: 1800 x 1800 (free, obstacle), 2400 x 2400 (zigzag).
-    duration : float
-        Simulated seconds, warm-up included.  Default 1200: the object drifts at about
-        0.1 mm/s, and over 10 seeds its mean displacement is 3.9 standard errors above
-        zero after 1200 s (3.0 after 600 s; ``docs/scenarios_transport.md``).
+    duration : float or None
+        Simulated seconds, warm-up included; ``None``: :data:`DEFAULT_DURATION` of the
+        variant (1200 s; zigzag 1800 s), within which every run of seeds 0-9 of the
+        defaults reached the target.
     warmup : float
         Seconds during which the object is held in place (its contact force measured:
         ``metrics["force_held"]``) before it is released; displacement, time to target
@@ -127,19 +132,36 @@ class TransportFreeParams:
     heading_law : {"persistent", "uniform"}
     kT_hot, kT_cold : float
         Temperatures of the gas-like and liquid-like phases; defaults give mean speeds
-        15 and 3 mm/s (the robot tops out near 33 mm/s).
+        22 and 18 mm/s (Rayleigh laws, cut at ``v_max``).  Chosen by the drift-speed
+        search (``thermoswarm study regime``): the push grows with the rate at which
+        cold robots enter the shadow, so a mobile cold phase moves the object fastest.
     kT_theta : float
-        Steering temperature (rad/s) of the persistent law (mean |turn rate|).  The
-        default 0.8 turns a heading by 0.8 rad per 1 s period on average: heading
-        correlation time ``tau / ln(1 + (kT_theta tau)^2)`` = 2.0 s.
+        Steering temperature (rad/s) of the persistent law (mean |turn rate|) of hot
+        robots (and of cold ones unless ``kT_theta_cold``).  The default 0.1 turns a
+        heading by 0.1 rad per 1 s period on average: heading correlation time ``tau /
+        ln(1 + (kT_theta tau)^2)`` = 100 s, so a hot robot runs straight for metres.
+    kT_theta_cold : float or None
+        Steering temperature (rad/s) of cold robots (``None``: ``kT_theta``).  Default 2:
+        a cold robot's heading is nearly random after one period (correlation time 0.6
+        s), so it presses on the object only briefly, while a hot one keeps pushing.  The
+        paper's steering law has a temperature that falls with speed (its Discussion
+        table), which this follows.
+    v_max : float or None
+        Top speed (mm/s): sampled speeds above it are cut to it (the paper's robot:
+        about 33 mm/s, the default; ``None``: no cut).
     threshold : float
         Light level above which a robot is lit, in [0, 1).
     speed_law : {"boltzmann", "half-normal"}
     object_radius : float
         The paper's object: 100 mm across.
     object_drag : float
-        Ground friction of the object in robot drags (> 0); ``inf`` holds the object in
-        place (its contact force is still measured: a force gauge).
+        Ground friction of the object in robot drags (> 0), viscous (the engine's
+        bodies have no Coulomb friction); ``inf`` holds the object in place (its contact
+        force is still measured: a force gauge).  Default 2: at the measured transport
+        speed (about 1.5 mm/s) the friction is 3 force units, 9 % of a robot's push at top
+        speed (33 units); for a robot whose push is traction-limited near 0.25 N that is
+        about 0.02 N, the Coulomb friction (mu = 0.3) of a light 100 mm object of about 8 g
+        (foam or card) -- ``docs/scenarios_transport.md``.
     object_x, object_y : float or None
         Start of the object's centre; ``None``: arena centre (zigzag: the channel mouth).
     target_y : float or None
@@ -148,6 +170,10 @@ class TransportFreeParams:
     light : {"directional", "point"}
     light_distance : float
         Point light: distance of the lamp beyond the top wall (mm).
+    light_spread_deg : float
+        Angular radius of the lamp (deg, in [0, 45)); > 0 gives shadows a penumbra in
+        which the light level ramps from 0 to 1 (``threshold`` then sets where the
+        phase switches).  Default 0: hard shadows.
     obstacle_radius, obstacle_dx, obstacle_dy : float
         ``obstacle``: pillar radius and centre relative to the object's start (default
         100 mm at (-130, +200): it overlaps the object's straight path by 20 mm, 50 mm
@@ -166,7 +192,7 @@ class TransportFreeParams:
     n: int = 1200
     width: float | None = None
     height: float | None = None
-    duration: float = 1200.0
+    duration: float | None = None
     warmup: float = 0.0
     diameter: float = 33.0
     tau: float = 1.0
@@ -213,6 +239,8 @@ class TransportFreeParams:
         for name in ("width", "height"):
             if getattr(self, name) is not None:
                 positive(name, "mm")
+        if self.duration is None:
+            object.__setattr__(self, "duration", DEFAULT_DURATION.get(self.variant, 1200.0))
         positive("duration", "s")
         check(
             math.isfinite(self.warmup) and 0 <= self.warmup < self.duration,

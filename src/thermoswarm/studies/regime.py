@@ -11,8 +11,10 @@ through :func:`thermoswarm.studies._common.run_grid`:
 - ``cold``: the cold phase's mean speed x its steering temperature;
 - ``hot``: the hot phase's mean speed x its steering temperature;
 - ``friction``: the object's drag x the arena's side (the density of 1,200 robots);
-- ``period``: the control period x the lamp's angular radius (penumbra) at two light
-  thresholds (``threshold`` is a third, linked axis: one map per threshold value).
+- ``light``: the lamp's angular radius (a penumbra) x the light threshold (the two
+  together shape the hot region behind the object);
+- ``period``: the control period x the cold steering temperature (a cold robot's
+  heading changes by ``kT_theta_cold * tau`` per period).
 
 Temperatures are set as mean speeds ``v`` (``kT = 2 v^2 / pi``, the Rayleigh law's
 mean); every run caps speeds at the robot's top speed ``v_max`` = 33 mm/s.
@@ -26,6 +28,7 @@ Run ``thermoswarm study regime --setting full --out DIR``: writes ``DIR/regime.j
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Sequence
 from concurrent.futures import Executor
@@ -62,20 +65,23 @@ CENTRE: dict[str, Any] = {
 MAPS: dict[str, dict[str, Any]] = {
     "cold": {
         "x": ("kT_theta_cold", [0.1, 0.8, 2.0, 5.0], "cold steering temperature (rad/s)"),
-        "y": ("kT_cold", [3.0, 6.0, 10.0, 15.0, 18.0, 20.0], "cold mean speed (mm/s)"),
+        "y": ("kT_cold", [3.0, 10.0, 15.0, 18.0, 20.0], "cold mean speed (mm/s)"),
     },
     "hot": {
         "x": ("kT_theta", [0.03, 0.1, 0.3, 0.8], "hot steering temperature (rad/s)"),
-        "y": ("kT_hot", [20.0, 22.0, 25.0, 30.0], "hot mean speed (mm/s)"),
+        "y": ("kT_hot", [20.0, 22.0, 25.0], "hot mean speed (mm/s)"),
     },
     "friction": {
         "x": ("object_drag", [0.5, 1.0, 2.0, 4.0, 8.0], "object drag (robot drags)"),
         "y": ("arena", [1500.0, 1800.0, 2100.0], "arena side (mm)"),
     },
-    "period": {
+    "light": {
         "x": ("light_spread_deg", [0.0, 5.0, 10.0], "lamp angular radius (deg)"),
+        "y": ("threshold", [0.2, 0.5, 0.9], "light threshold"),
+    },
+    "period": {
+        "x": ("kT_theta_cold", [0.8, 2.0, 5.0], "cold steering temperature (rad/s)"),
         "y": ("tau", [0.5, 1.0, 2.0], "control period (s)"),
-        "linked": ("threshold", [0.5, 0.9]),
     },
 }
 
@@ -104,30 +110,26 @@ class RegimeResult:
     def table(self) -> str:
         """One Markdown table per map: drift speed mean ± se (mm/s), rows y, columns x."""
         parts = []
-        for name, g in self.summary.groupby("map", sort=False):
-            for link, h in g.groupby("linked_value", sort=False, dropna=False):
-                m = MAPS[name]
-                title = f"### {name}"
-                if "linked" in m:
-                    title += f" ({m['linked'][0]} = {link:g})"
-                xs = sorted(h["x"].unique())
-                ys = sorted(h["y"].unique())
-                head = [f"{m['y'][2]} \\ {m['x'][2]}", *[f"{x:g}" for x in xs]]
-                lines = [title, "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-                for y in ys:
-                    row = [f"{y:g}"]
-                    for x in xs:
-                        c = h[(h["x"] == x) & (h["y"] == y)]
-                        if c.empty:
-                            row.append("")
-                            continue
-                        c = c.iloc[0]
-                        row.append(
-                            f"{c['drift_mean']:.2f} ± {c['drift_se']:.2f}"
-                            + (f" ({int(c['reached'])}/{int(c['seeds'])})" if c["reached"] else "")
-                        )
-                    lines.append("| " + " | ".join(row) + " |")
-                parts.append("\n".join(lines))
+        for name, h in self.summary.groupby("map", sort=False):
+            m = MAPS[name]
+            xs = sorted(h["x"].unique())
+            ys = sorted(h["y"].unique())
+            head = [f"{m['y'][2]} \\ {m['x'][2]}", *[f"{x:g}" for x in xs]]
+            lines = [f"### {name}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+            for y in ys:
+                row = [f"{y:g}"]
+                for x in xs:
+                    c = h[(h["x"] == x) & (h["y"] == y)]
+                    if c.empty:
+                        row.append("")
+                        continue
+                    c = c.iloc[0]
+                    row.append(
+                        f"{c['drift_mean']:.2f} ± {c['drift_se']:.2f}"
+                        + (f" ({int(c['reached'])}/{int(c['seeds'])})" if c["reached"] else "")
+                    )
+                lines.append("| " + " | ".join(row) + " |")
+            parts.append("\n".join(lines))
         return "\n\n".join(parts) + "\n"
 
 
@@ -148,7 +150,7 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     """Per map cell: seeds, drift speed (mm/s) mean/sd/se/95 % t interval, runs that
     reached the target, and the median time to target over those that did (s)."""
     rows = []
-    keys = ["map", "linked_value", "x", "y"]
+    keys = ["map", "x", "y"]
     for key, g in runs.groupby(keys, sort=False, dropna=False):
         e = effect(g["drift"].tolist())
         t = [v for v in g["time_to_target"].tolist() if v is not None and np.isfinite(v)]
@@ -169,19 +171,19 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def plot_maps(result: RegimeResult | pd.DataFrame, fig: Any = None) -> Any:
-    """One heat map per map (and per linked value): colour = mean drift speed (mm/s),
+    """One heat map per map: colour = mean drift speed (mm/s),
     each cell annotated ``mean ± se``; the centre regime's cell is outlined."""
     import matplotlib.pyplot as plt
 
     summary = result.summary if isinstance(result, RegimeResult) else result
-    panels = list(summary.groupby(["map", "linked_value"], sort=False, dropna=False))
+    panels = list(summary.groupby("map", sort=False))
     if fig is None:
         fig = plt.figure(figsize=(4.6 * len(panels), 4.2), constrained_layout=True)
     axes = fig.subplots(1, len(panels), squeeze=False)[0]
     vmax = float(np.nanmax(np.abs(summary["drift_mean"]))) or 1.0
     centre = {k: v for k, v in CENTRE.items()}
-    centre.update({"object_drag": 2.0, "arena": 1800.0, "tau": 1.0, "light_spread_deg": 0.0})
-    for ax, ((name, link), h) in zip(axes, panels, strict=True):
+    centre.update(object_drag=2.0, arena=1800.0, tau=1.0, light_spread_deg=0.0, threshold=0.5)
+    for ax, (name, h) in zip(axes, panels, strict=True):
         m = MAPS[name]
         xs = sorted(h["x"].unique())
         ys = sorted(h["y"].unique())
@@ -206,10 +208,7 @@ def plot_maps(result: RegimeResult | pd.DataFrame, fig: Any = None) -> Any:
         ax.set_yticks(range(len(ys)), [f"{y:g}" for y in ys])
         ax.set_xlabel(m["x"][2])
         ax.set_ylabel(m["y"][2])
-        title = name
-        if "linked" in m:
-            title += f", {m['linked'][0]} = {link:g}"
-        ax.set_title(title)
+        ax.set_title(name)
     fig.colorbar(im, ax=list(axes), label="drift toward the light (mm/s)", shrink=0.8)
     return fig
 
@@ -252,18 +251,19 @@ def run_regime(
     out = Path(out)
     if not out.absolute().parent.is_dir():
         raise ConfigError(f"study output directory's parent {str(out.parent)!r} does not exist")
+    from thermoswarm.sweep import SweepSpec, expand
+
+    expand(SweepSpec("transport-free", out, base, {}, seed_list))  # bad values: nothing written
     out.mkdir(exist_ok=True)
-    rows = []
-    for name in names:
-        m = MAPS[name]
-        xs = _values(m["x"], cfg["cells"])
-        ys = _values(m["y"], cfg["cells"])
-        links = m.get("linked", (None, [None]))
-        for link in links[1]:
+
+    def _collect() -> list[dict[str, Any]]:
+        rows: list[dict[str, Any]] = []
+        for name in names:
+            m = MAPS[name]
+            xs = _values(m["x"], cfg["cells"])
+            ys = _values(m["y"], cfg["cells"])
             for y in ys:
                 b = {**base, **_set(m["y"][0], y, cfg["arena"])}
-                if link is not None:
-                    b[links[0]] = link
                 if m["x"][0] in SPEED_AXES:
                     grid = {m["x"][0]: [kT(x) for x in xs]}
                 else:
@@ -281,7 +281,6 @@ def run_regime(
                     rows.append(
                         {
                             "map": name,
-                            "linked_value": math.nan if link is None else float(link),
                             "x": float(xv),
                             "y": float(y),
                             "seed": r.seed,
@@ -291,11 +290,32 @@ def run_regime(
                             "run_dir": r.out,
                         }
                     )
+        return rows
+
+    own = executor is None
+    if own:  # one pool for every grid of the study (a pool per grid respawns workers)
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        ctx = multiprocessing.get_context("spawn")  # forking after OpenMP threads can hang
+        executor = ProcessPoolExecutor(max_workers, mp_context=ctx)
+    try:
+        rows = _collect()
+    finally:
+        if own:
+            executor.shutdown(wait=True, cancel_futures=True)
     runs = pd.DataFrame(rows)
+    info = {"name": setting, "seeds": list(seed_list), "base": base}
+    if (out / "regime.json").is_file():  # maps run earlier into this directory stay
+        prev = json.loads((out / "regime.json").read_text())
+        same = {k: prev["setting"].get(k) for k in info} == json.loads(json.dumps(info))
+        if same and prev["runs"]:
+            old = pd.DataFrame(prev["runs"])
+            old = old[~old["map"].isin(names)]
+            runs = pd.concat([old, runs], ignore_index=True)
+            names = [*old["map"].drop_duplicates().tolist(), *names]
     summary = summarize(runs)
-    res = RegimeResult(runs=runs, summary=summary,
-                       setting={"name": setting, "maps": names, "seeds": list(seed_list),
-                                "base": base})  # fmt: skip
+    res = RegimeResult(runs=runs, summary=summary, setting={**info, "maps": names})
     atomic_write_json(out / "regime.json", res.to_dict())
     atomic_write_text(out / "regime.md", res.table())
     if figure:

@@ -25,7 +25,7 @@ Per size it reports
 
 Settings: ``quick`` (fixed arena, n = 50, 200, 600, 1200; 5 seeds; 300 s; target 150
 mm), ``fixed`` (n = 50 ... 2,500; 10 seeds; 1200 s; target 750 mm), ``density``
-(n = 1,200 ... 5,000; 10 seeds; 1200 s; target 750 mm) and ``huge`` (n = 100,000 at
+(n = 1,200, 2,500, 5,000; 10 seeds; 1200 s; target 750 mm) and ``huge`` (n = 100,000 at
 the same density, one seed).  Run: ``thermoswarm study scaling --setting fixed --out
 DIR`` writes ``DIR/scaling.json``, ``DIR/scaling.md`` and ``DIR/scaling.png``.
 """
@@ -65,7 +65,7 @@ SETTINGS: dict[str, dict[str, Any]] = {
               "target_distance": 150.0, "horizon": 300.0},
     "fixed": {"series": "fixed", "ns": [50, 100, 200, 400, 800, 1200, 1600, 2000, 2500],
               "seeds": 10, "duration": 1200.0, "target_distance": 750.0, "horizon": 300.0},
-    "density": {"series": "density", "ns": [1200, 2000, 3000, 5000], "seeds": 10,
+    "density": {"series": "density", "ns": [1200, 2500, 5000], "seeds": 10,
                 "duration": 1200.0, "target_distance": 750.0, "horizon": 300.0},
     "huge": {"series": "density", "ns": [100000], "seeds": 1, "duration": 1200.0,
              "target_distance": 750.0, "horizon": 300.0, "record.interval": 60.0},
@@ -304,7 +304,8 @@ def plot_scaling(
         ax.set_xscale("log")
         ax.set_xlim(xlim)
         ax.set_xlabel("number of robots")
-        ax.legend(frameon=False, fontsize=7)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(frameon=False, fontsize=7)
     ax_u.set_ylabel("max displacement toward target (mm)")
     ax_u.set_title("(u) capacity: median, 95 % CI, runs")
     ax_v.set_ylim(0, tmax)
@@ -341,7 +342,11 @@ def run_scaling(
     """
     from thermoswarm.config import from_mapping
     from thermoswarm.errors import ConfigError
-    from thermoswarm.scenarios.transport_free import TransportFreeParams, geometry
+    from thermoswarm.scenarios.transport_free import (
+        DEFAULT_ARENA,
+        TransportFreeParams,
+        geometry,
+    )
     from thermoswarm.sweep import SweepSpec, expand
 
     if setting not in SETTINGS:
@@ -370,35 +375,66 @@ def run_scaling(
             b.update(width=side, height=side)
         if "target_y" not in base:
             probe = {k: v for k, v in b.items() if "." not in k and not isinstance(v, dict)}
+            # the highest valid target, so that the probe itself is valid in any arena
+            height = b.get("height") or DEFAULT_ARENA[str(b.get("variant", "free"))][1]
+            probe["target_y"] = float(height) - float(b.get("object_radius", 50.0))
             start_y = geometry(from_mapping(TransportFreeParams, {**probe, "n": n})).start[1]
             b["target_y"] = start_y + float(target_distance)
         expand(SweepSpec("transport-free", out / "runs", b, {"n": [n]}, seed_list))
         bases.append((n, b))
-    rows = []
-    for n, b in bases:
-        records = run_grid("transport-free", out, base=b, grid={"n": [n]}, seeds=seed_list,
-                           executor=executor, max_workers=max_workers,
-                           progress=progress)  # fmt: skip
-        for r in records:
-            m = r.metrics
-            path = m["object_path"]
-            t = np.asarray(path["time"], dtype=float)
-            prog = np.asarray(path["progress"], dtype=float)
-            within = prog[t <= m["warmup"] + horizon + 1e-9]
-            rows.append(
-                {
-                    "series": series,
-                    "n": r.params["n"],
-                    "arena": float(b.get("width") or 1800.0),
-                    "seed": r.seed,
-                    "max_displacement": float(within.max()) if within.size else math.nan,
-                    "max_displacement_run": m["max_displacement_toward_target"],
-                    "displacement": m["displacement_toward_target"],
-                    "time_to_target": m["time_to_target"],
-                    "run_dir": r.out,
-                }
-            )
+
+    def _collect() -> list[dict[str, Any]]:
+        rows: list[dict[str, Any]] = []
+        for n, b in bases:
+            records = run_grid("transport-free", out, base=b, grid={"n": [n]}, seeds=seed_list,
+                               executor=executor, max_workers=max_workers,
+                               progress=progress)  # fmt: skip
+            for r in records:
+                m = r.metrics
+                path = m["object_path"]
+                t = np.asarray(path["time"], dtype=float)
+                prog = np.asarray(path["progress"], dtype=float)
+                within = prog[t <= m["warmup"] + horizon + 1e-9]
+                rows.append(
+                    {
+                        "series": series,
+                        "n": r.params["n"],
+                        "arena": float(b.get("width") or 1800.0),
+                        "seed": r.seed,
+                        "max_displacement": float(within.max()) if within.size else math.nan,
+                        "max_displacement_run": m["max_displacement_toward_target"],
+                        "displacement": m["displacement_toward_target"],
+                        "time_to_target": m["time_to_target"],
+                        "target_y": m["target_y"],
+                        "run_dir": r.out,
+                    }
+                )
+        return rows
+
+    own = executor is None
+    if own:  # one pool for every grid of the study (a pool per grid respawns workers)
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        ctx = multiprocessing.get_context("spawn")  # forking after OpenMP threads can hang
+        executor = ProcessPoolExecutor(max_workers, mp_context=ctx)
+    try:
+        rows = _collect()
+    finally:
+        if own:
+            executor.shutdown(wait=True, cancel_futures=True)
     runs = pd.DataFrame(rows)
+    setting_info = {"name": setting, "series": series, "seeds": list(seed_list), "base": base,
+                    "target_distance": target_distance, "horizon": horizon}  # fmt: skip
+    old = out / "scaling.json"
+    if old.is_file():  # sizes run earlier into this directory with the same setting stay
+        prev = load_scaling(out)
+        same = {k: prev.setting.get(k) for k in setting_info} == json_roundtrip(setting_info)
+        if same and len(prev.runs):
+            keep = prev.runs[~prev.runs["n"].isin(ns)]
+            runs = pd.concat([keep, runs], ignore_index=True).sort_values(["n", "seed"])
+            runs = runs.reset_index(drop=True)
+    ns = sorted(int(n) for n in runs["n"].unique())
     summary = summarize(runs)
     res = ScalingResult(runs=runs, summary=summary,
                         setting={"name": setting, "series": series, "ns": ns,
@@ -418,6 +454,13 @@ def run_scaling(
             fig.savefig(tmp, dpi=120, format="png")
         plt.close(fig)
     return res
+
+
+def json_roundtrip(value: Any) -> Any:
+    """``value`` as it reads back from JSON (tuples become lists, keys strings)."""
+    import json
+
+    return json.loads(json.dumps(value))
 
 
 def load_scaling(path: str | Path) -> ScalingResult:
