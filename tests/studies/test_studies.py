@@ -20,6 +20,13 @@ from thermoswarm.studies.scaling import arena_side, censored_median, median_inte
 from thermoswarm.studies.scaling import summarize as scaling_summary
 
 
+@pytest.fixture
+def ex():
+    """An in-process executor for tiny study runs (no worker start-up per study)."""
+    with ThreadPoolExecutor(1) as pool:
+        yield pool
+
+
 def test_effect_on_known_values():
     e = effect([1.0, 2.0, 3.0, 4.0, 5.0])
     assert e["n"] == 5 and e["mean"] == 3.0
@@ -124,7 +131,7 @@ def test_run_mechanism_end_to_end_tiny(tmp_path):
     pd.testing.assert_frame_equal(res.summary, res2.summary)
 
 
-def test_run_scaling_end_to_end_tiny(tmp_path):
+def test_run_scaling_end_to_end_tiny(tmp_path, ex):
     res = run_scaling(
         tmp_path / "s",
         "quick",
@@ -134,7 +141,7 @@ def test_run_scaling_end_to_end_tiny(tmp_path):
         target_distance=1.0,
         horizon=3.0,
         overrides={"width": 500.0, "height": 500.0},
-        max_workers=1,
+        executor=ex,
         progress=False,
     )
     assert list(res.summary["n"]) == [20, 60]
@@ -149,7 +156,7 @@ def test_run_scaling_end_to_end_tiny(tmp_path):
     # a later call with other sizes and the same setting adds them to the study
     more = run_scaling(
         tmp_path / "s", "quick", ns=[40], seeds=2, duration=5.0, target_distance=1.0,
-        horizon=3.0, overrides={"width": 500.0, "height": 500.0}, max_workers=1,
+        horizon=3.0, overrides={"width": 500.0, "height": 500.0}, executor=ex,
         progress=False,
     )  # fmt: skip
     assert list(more.summary["n"]) == [20, 40, 60]
@@ -160,10 +167,10 @@ def test_run_scaling_end_to_end_tiny(tmp_path):
     )
 
 
-def test_run_scaling_density_series_scales_the_arena(tmp_path):
+def test_run_scaling_density_series_scales_the_arena(tmp_path, ex):
     res = run_scaling(
         tmp_path / "d", "density", ns=[30, 120], seeds=1, duration=2.0, target_distance=1.0,
-        max_workers=1, progress=False,
+        executor=ex, progress=False,
     )  # fmt: skip
     arenas = res.summary.set_index("n")["arena"]
     # side ~ sqrt(n): 4 times the robots, twice the side (to the rounding of 1 mm)

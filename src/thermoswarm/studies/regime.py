@@ -43,7 +43,15 @@ from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
 from thermoswarm.maxent import kT_for_mean_speed
 from thermoswarm.studies._common import effect, run_grid
 
-__all__ = ["SETTINGS", "MAPS", "RegimeResult", "run_regime", "summarize", "plot_maps"]
+__all__ = [
+    "SETTINGS",
+    "MAPS",
+    "RegimeResult",
+    "run_regime",
+    "load_regime",
+    "summarize",
+    "plot_maps",
+]
 
 
 def kT(v: float) -> float:
@@ -211,6 +219,13 @@ def plot_maps(result: RegimeResult | pd.DataFrame, fig: Any = None) -> Any:
         ax.set_title(name)
     fig.colorbar(im, ax=list(axes), label="drift toward the light (mm/s)", shrink=0.8)
     return fig
+
+
+def load_regime(path: str | Path) -> RegimeResult:
+    """A :class:`RegimeResult` from a study directory's ``regime.json``."""
+    data = json.loads((Path(path) / "regime.json").read_text())
+    return RegimeResult(runs=pd.DataFrame(data["runs"]), summary=pd.DataFrame(data["summary"]),
+                        setting=data["setting"])  # fmt: skip
 
 
 def run_regime(

@@ -26,7 +26,7 @@ Per size it reports
 Settings: ``quick`` (fixed arena, n = 50, 200, 600, 1200; 5 seeds; 300 s; target 150
 mm), ``fixed`` (n = 50 ... 2,500; 10 seeds; 1200 s; target 750 mm), ``density``
 (n = 1,200, 2,500, 5,000; 10 seeds; 1200 s; target 750 mm) and ``huge`` (n = 100,000 at
-the same density, one seed).  Run: ``thermoswarm study scaling --setting fixed --out
+the same density, one seed, 900 s).  Run: ``thermoswarm study scaling --setting fixed --out
 DIR`` writes ``DIR/scaling.json``, ``DIR/scaling.md`` and ``DIR/scaling.png``.
 """
 
@@ -67,8 +67,8 @@ SETTINGS: dict[str, dict[str, Any]] = {
               "seeds": 10, "duration": 1200.0, "target_distance": 750.0, "horizon": 300.0},
     "density": {"series": "density", "ns": [1200, 2500, 5000], "seeds": 10,
                 "duration": 1200.0, "target_distance": 750.0, "horizon": 300.0},
-    "huge": {"series": "density", "ns": [100000], "seeds": 1, "duration": 1200.0,
-             "target_distance": 750.0, "horizon": 300.0, "record.interval": 60.0},
+    "huge": {"series": "density", "ns": [100000], "seeds": 1, "duration": 900.0,
+             "target_distance": 750.0, "horizon": 300.0, "record.interval": 30.0},
 }  # fmt: skip
 
 
