@@ -225,10 +225,14 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def _err(center: pd.Series, lo: pd.Series, hi: pd.Series, top: float) -> np.ndarray:
-    """Asymmetric error bars from interval ends (an unbounded upper end drawn to ``top``)."""
+    """Asymmetric error bars from interval ends (an unbounded upper end drawn to ``top``;
+    none where the interval is undefined)."""
     c = center.astype(float).to_numpy()
     low = lo.astype(float).to_numpy()
-    high = hi.astype(float).fillna(top).to_numpy()
+    high = hi.astype(float).to_numpy()
+    none = np.isnan(low)  # fewer than two runs: no interval, no bar
+    high = np.where(np.isnan(high), np.where(none, c, top), high)
+    low = np.where(none, c, low)
     return np.vstack([np.clip(c - low, 0, None), np.clip(high - c, 0, None)])
 
 
@@ -238,28 +242,28 @@ def plot_scaling(
 ):
     """Panels (u) capacity and (v) time to target versus ``n``, one line per series.
 
-    Points: medians over seeds; error bars: the distribution-free 95 % intervals of the
-    medians (an upper end that is an unreached run is drawn to the top of the panel and
-    marked with an arrow); small dots: individual runs.  In (v) a size where fewer than
-    half the runs reached the target has no median (nothing drawn); the fraction
-    reached is written beside each point.  Returns the figure.
+    Points: medians over seeds (the density series drawn 7 % to the right, so that
+    sizes both series ran stand side by side); error bars: the distribution-free 95 %
+    intervals of the medians (an upper end that is an unreached run is drawn to the top
+    of the panel); small dots: individual runs.  In (v) a size where fewer than half the
+    runs reached the target has no median (nothing drawn); the fraction reached is
+    written beside each point.  Returns the figure.
     """
     import matplotlib.pyplot as plt
 
     results = [result] if isinstance(result, ScalingResult | pd.DataFrame) else list(result)
-    parts = []
-    for r in results:
-        if isinstance(r, ScalingResult):
-            parts.append((r.summary, r.runs))
-        else:
-            parts.append((r, None))
+    summaries = [r.summary if isinstance(r, ScalingResult) else r for r in results]
+    runs_all = [r.runs for r in results if isinstance(r, ScalingResult)]
+    summary_all = pd.concat(summaries, ignore_index=True).sort_values("n", kind="stable")
+    # one line per series, whichever studies its sizes came from
+    parts = [(summary_all, pd.concat(runs_all, ignore_index=True) if runs_all else None)]
     if axes is None:
         fig, axes = plt.subplots(1, 2, figsize=(10, 3.9), constrained_layout=True)
     else:
         fig = axes[0].figure
     ax_u, ax_v = axes
     allns = np.concatenate([p[0]["n"].to_numpy(dtype=float) for p in parts])
-    xlim = (float(allns.min()) / 1.5, float(allns.max()) * 1.5)
+    xlim = (float(allns.min()) / 1.5, float(allns.max()) * 2.5)
     tmax = max(
         [float(np.nanmax(p[1]["time_to_target"].astype(float))) for p in parts
          if p[1] is not None and p[1]["time_to_target"].notna().any()] or [1.0]
@@ -267,10 +271,14 @@ def plot_scaling(
     colors = {"fixed": "tab:blue", "density": "tab:orange"}
     labels = {"fixed": "fixed 1800 mm arena (density grows)",
               "density": "arena grows (packing 0.32)"}  # fmt: skip
+    shift = {"density": 1.07}  # side by side where both series have a size
     for summary, runs in parts:
         for series, sm in summary.groupby("series", sort=False):
             col = colors.get(series, "k")
             lab = labels.get(series, series)
+            sm = sm.assign(n=sm["n"] * shift.get(series, 1.0))
+            if runs is not None and "series" in runs:
+                runs = runs.assign(n=runs["n"] * runs["series"].map(shift).fillna(1.0))
             ax_u.errorbar(sm["n"], sm["maxdisp_median"],
                           yerr=_err(sm["maxdisp_median"], sm["maxdisp_ci_low"],
                                     sm["maxdisp_ci_high"], float(sm["maxdisp_max"].max())),
