@@ -5,7 +5,7 @@ outputs of the commands given there (nothing is simulated here).
     python docs/figures/transport_figures.py maps REGIME_DIR      # study regime
     python docs/figures/transport_figures.py scaling DIR_F DIR_D [DIR_H]   # study scaling
 
-Each writes docs/figures/transport_<name>.png (a 64-colour PNG, to keep it small).
+Each writes docs/figures/transport_<name>.png (a palette PNG, to keep it small).
 """
 
 from __future__ import annotations
@@ -22,13 +22,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 HERE = Path(__file__).parent
 
 
-def _save(fig, name: str, dpi: int = 80) -> None:
+def _save(fig, name: str, dpi: int = 80, colours: int = 64) -> None:
     from PIL import Image
 
     path = HERE / f"transport_{name}.png"
-    fig.savefig(path, dpi=dpi)
+    fig.savefig(path, dpi=dpi, bbox_inches="tight")
     plt.close(fig)
-    Image.open(path).convert("RGB").quantize(64).save(path, optimize=True)
+    Image.open(path).convert("RGB").quantize(colours).save(path, optimize=True)
     print(path)
 
 
@@ -68,7 +68,7 @@ def arrival(sweep: Path) -> None:
 def maps(regime: Path) -> None:
     from thermoswarm.studies.regime import load_regime, plot_maps
 
-    _save(plot_maps(load_regime(regime)), "drift_maps", dpi=70)
+    _save(plot_maps(load_regime(regime)), "drift_maps", dpi=70, colours=256)
 
 
 def scaling(*dirs: Path) -> None:

@@ -178,20 +178,33 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+#: Titles of the maps in figures.
+TITLES = {
+    "cold": "cold phase",
+    "hot": "hot phase",
+    "friction": "object friction and density",
+    "light": "light: penumbra and threshold",
+    "period": "control period",
+}
+
+
 def plot_maps(result: RegimeResult | pd.DataFrame, fig: Any = None) -> Any:
-    """One heat map per map: colour = mean drift speed (mm/s),
-    each cell annotated ``mean ± se``; the centre regime's cell is outlined."""
+    """One heat map per map (three per row): colour = mean drift speed toward the
+    light (mm/s), each cell annotated ``mean ± se`` and, where runs reached the target
+    within the run, their count; the default regime's cell is outlined."""
     import matplotlib.pyplot as plt
 
     summary = result.summary if isinstance(result, RegimeResult) else result
     panels = list(summary.groupby("map", sort=False))
+    cols = min(3, len(panels))
+    rows = math.ceil(len(panels) / cols)
     if fig is None:
-        fig = plt.figure(figsize=(4.6 * len(panels), 4.2), constrained_layout=True)
-    axes = fig.subplots(1, len(panels), squeeze=False)[0]
+        fig = plt.figure(figsize=(4.8 * cols + 1.0, 3.9 * rows), constrained_layout=True)
+    axes = fig.subplots(rows, cols, squeeze=False).ravel()
     vmax = float(np.nanmax(np.abs(summary["drift_mean"]))) or 1.0
-    centre = {k: v for k, v in CENTRE.items()}
+    centre = dict(CENTRE)
     centre.update(object_drag=2.0, arena=1800.0, tau=1.0, light_spread_deg=0.0, threshold=0.5)
-    for ax, (name, h) in zip(axes, panels, strict=True):
+    for ax, (name, h) in zip(axes, panels, strict=False):
         m = MAPS[name]
         xs = sorted(h["x"].unique())
         ys = sorted(h["y"].unique())
@@ -202,22 +215,29 @@ def plot_maps(result: RegimeResult | pd.DataFrame, fig: Any = None) -> Any:
                        aspect="auto")  # fmt: skip
         for _, c in h.iterrows():
             i, j = ys.index(c["y"]), xs.index(c["x"])
-            ax.text(j, i, f"{c['drift_mean']:.2f}\n±{c['drift_se']:.2f}", ha="center",
-                    va="center", fontsize=7)  # fmt: skip
+            text = f"{c['drift_mean']:.2f}\n±{c['drift_se']:.2f}"
+            if c["reached"]:
+                text += f"\n({int(c['reached'])}/{int(c['seeds'])})"
+            dark = abs(c["drift_mean"]) > 0.6 * vmax
+            ax.text(j, i, text, ha="center", va="center", fontsize=7,
+                    color="white" if dark else "black")  # fmt: skip
         cx = centre.get(m["x"][0])
         cy = centre.get(m["y"][0])
-        if m["y"][0] in SPEED_AXES:
+        if m["y"][0] in SPEED_AXES and cy is not None:
             cy = math.sqrt(math.pi * cy / 2)
-        if cx in xs and cy is not None and any(abs(cy - y) < 1e-6 for y in ys):
+        if cx in xs and cy is not None and any(abs(cy - y) < 1e-3 for y in ys):
             i = min(range(len(ys)), key=lambda k: abs(ys[k] - cy))
             ax.add_patch(plt.Rectangle((xs.index(cx) - 0.5, i - 0.5), 1, 1, fill=False,
-                                       lw=2, ec="k"))  # fmt: skip
+                                       lw=2.5, ec="k"))  # fmt: skip
         ax.set_xticks(range(len(xs)), [f"{x:g}" for x in xs])
         ax.set_yticks(range(len(ys)), [f"{y:g}" for y in ys])
         ax.set_xlabel(m["x"][2])
         ax.set_ylabel(m["y"][2])
-        ax.set_title(name)
-    fig.colorbar(im, ax=list(axes), label="drift toward the light (mm/s)", shrink=0.8)
+        ax.set_title(TITLES.get(name, name))
+    for ax in axes[len(panels) :]:
+        ax.set_visible(False)
+    fig.colorbar(im, ax=list(axes[: len(panels)]), label="drift toward the light (mm/s)",
+                 shrink=0.8)  # fmt: skip
     return fig
 
 
