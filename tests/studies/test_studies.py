@@ -188,6 +188,7 @@ def test_median_interval_order_statistics():
     assert median_interval([*vals[:8], None, None]) == (2.0, None)
     assert median_interval([None] * 9 + [1.0]) == (None, None)
     assert median_interval([5.0]) == (None, None)
+    assert median_interval([3.0, 1.0, 2.0, 5.0, 4.0]) == (1.0, 5.0)  # 5 values: the range
     # coverage of the median of a continuous law at least 95 % (20,000 samples of 10)
     rng = np.random.default_rng(0)
     hits = 0

@@ -86,6 +86,8 @@ def median_interval(times: Sequence[float | None], confidence: float = 0.95) -> 
     statistics that cover the median with probability >= ``confidence`` under the
     Binomial(k, 1/2) law (the usual sign-test interval); an end that falls on an
     unreached run is ``None`` (unbounded).  ``(None, None)`` for fewer than 2 values.
+    Below 6 values no pair of order statistics reaches 95 %: the interval is then the
+    range, whose coverage is ``1 - 2^(1-k)`` (93.8 % for 5 values).
     """
     from scipy import stats
 
