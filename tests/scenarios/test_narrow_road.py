@@ -264,7 +264,7 @@ def test_plot_frame_draws_robots_on_the_road_only():
 
 
 def test_energy_standard_error_comes_from_time_blocks():
-    from thermoswarm.scenarios.narrow_road import SE_BLOCKS, _speed_energy
+    from thermoswarm.scenarios.narrow_road.metrics import SE_BLOCKS, _speed_energy
 
     assert SE_BLOCKS == 20
     # 50 correlated samples of energy 2 in one block, 50 of energy 8 in another
