@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -122,21 +123,68 @@ def test_run_mechanism_end_to_end_tiny(tmp_path):
 
 
 def test_run_scaling_end_to_end_tiny(tmp_path):
+    target = 1.0  # mm: within reach of some of these short runs, not of all
     res = run_scaling(
         tmp_path / "s",
         "quick",
         ns=[20, 60],
         seeds=2,
-        duration=5.0,
-        target_distance=1.0,
+        duration=20.0,
+        target_distance=target,
         overrides={"width": 500.0, "height": 500.0},
         max_workers=1,
         progress=False,
     )
     assert list(res.summary["n"]) == [20, 60]
     assert res.setting["base"]["target_y"] == 251.0
+    runs = res.runs
+    assert sorted(zip(runs["n"], runs["seed"], strict=True)) == [
+        (20, 0),
+        (20, 1),
+        (60, 0),
+        (60, 1),
+    ]
+    for _, r in runs.iterrows():
+        # each row is what its own run wrote, for its own size and seed
+        m = json.loads((Path(r["run_dir"]) / "metrics.json").read_text())
+        assert m["n"] == r["n"] and m["target_y"] == 251.0
+        assert r["max_displacement"] == m["max_displacement_toward_target"]
+        assert r["displacement"] == m["displacement_toward_target"]
+        # the running maximum includes the start (0) and the end
+        assert r["max_displacement"] >= max(0.0, r["displacement"]) - 1e-9
+        # reached exactly when the maximum got to the target, within the run
+        t = r["time_to_target"]
+        reached = t is not None and not (isinstance(t, float) and math.isnan(t))
+        assert reached == (r["max_displacement"] >= target)
+        assert not reached or 0.0 < t <= 20.0
+    # (these seeds exercise both branches: some runs reach the target, some do not)
+    assert 0 < res.summary["reached"].sum() < len(runs)
+    # the summary, recomputed here from the runs
+    for _, s in res.summary.iterrows():
+        g = runs[runs["n"] == s["n"]]
+        md = g["max_displacement"].to_numpy(float)
+        assert s["seeds"] == 2
+        assert s["maxdisp_mean"] == pytest.approx(md.mean())
+        assert s["maxdisp_sd"] == pytest.approx(md.std(ddof=1))
+        assert (s["maxdisp_min"], s["maxdisp_max"]) == (md.min(), md.max())
+        assert s["disp_mean"] == pytest.approx(g["displacement"].mean())
+        times = sorted(float(x) for x in g["time_to_target"] if x is not None and x == x)
+        assert s["reached"] == len(times)
+        # two seeds: the median is the mean of both times, unknown if either is missing
+        want = sum(times) / 2 if len(times) == 2 else None
+        assert (s["time_median"] is None or pd.isna(s["time_median"])) == (want is None)
+        assert want is None or s["time_median"] == pytest.approx(want)
+    # the files say the same
+    data = json.loads((tmp_path / "s" / "scaling.json").read_text())
+    for row, (_, s) in zip(data["summary"], res.summary.iterrows(), strict=True):
+        assert row["n"] == s["n"] and row["maxdisp_mean"] == pytest.approx(s["maxdisp_mean"])
+        assert row["reached"] == s["reached"]
     assert (tmp_path / "s" / "scaling.png").stat().st_size > 1000
-    assert "| 20 |" in (tmp_path / "s" / "scaling.md").read_text()
+    md_rows = (tmp_path / "s" / "scaling.md").read_text().splitlines()[2:]
+    for line, (_, s) in zip(md_rows, res.summary.iterrows(), strict=True):
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[0] == str(s["n"]) and cells[5] == f"{s['reached']}/2"
+        assert cells[2].startswith(f"{s['maxdisp_mean']:.1f} ± ")
 
 
 def test_bad_setting_and_missing_parent(tmp_path):

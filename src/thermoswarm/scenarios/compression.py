@@ -1,56 +1,17 @@
 """``compression``: Algorithm 3 between two walls pushed by a constant force.
 
-The paper's second robot experiment (PAPER_NOTES sections 4, 5 and 6.5): ``n`` robots
-run Algorithm 3 (Boltzmann speed at constant ``kT``, uniform heading, re-drawn every
-``tau``) between static side walls and an upper and a lower wall, each pushed toward
-the robots by a constant force ``F`` and free to slide vertically (``walls = "force"``),
-or held in place (``walls = "held"``: a fixed area, for pressure versus temperature).
-The claim to reproduce: the swarm's pressure-volume relation is that of an ideal gas,
-and at fixed density the pressure grows in proportion to the temperature.
+``n`` robots (Boltzmann speed at constant ``kT``, uniform heading re-drawn every ``tau``)
+between static side walls and a top and a bottom wall, each pushed toward the robots by
+a constant force and sliding vertically (``walls = "force"``) or held in place
+(``walls = "held"``).  The claim: the swarm's pressure-area relation is an ideal gas's at
+``kT_eff = drag <v^2> tau / 4``, and at fixed density the pressure grows with ``kT``.
 
-Physics and units
------------------
-Forces are in units of the robot drag (drag 1: force = mm/s); pressure is force per
-unit length of wall.  A robot that re-draws a uniform heading every ``tau`` diffuses
-with ``D = <v^2> tau / 4`` (mm^2/s), and a dilute swarm of drag-1 robots presses on a
-wall like an ideal gas at ``kT_eff = drag D``: ``P A_free = n kT_eff`` with the free area
-``A_free = (Lx - d) (Ly - d)`` that the disc centres can reach (PAPER_NOTES 6.5).  So the
-walls settle at ``Ly - d = n kT_eff / F``, where the walls start (no long settling).
-
-Two corrections to the ideal gas, both measured (``docs/scenarios_road_compression.md``):
-a robot that reaches a wall stays pressed against it for the rest of its run (persistence
-length ``l = <v> tau``), so robots pile up at the walls and ``Z = P A_free / (n kT_eff)``
-falls below 1 by about ``0.73 l / h`` (``h = Ly - d``; measured for h / l = 5-20 at packing
-fraction 0.01); and the discs' own area raises ``Z`` at higher packing fractions, as in
-any hard-disc gas.  Choose ``h`` well above ``l`` (or a short ``tau``) for the ideal gas.
-
-Measurement
------------
-Every step the scenario accumulates the walls' contact forces (the force robots exert,
-from the engine's bookkeeping), the wall separation and the mean ``v^2`` of the speeds
-the robots are holding (the draws of Algorithm 3), in sub-batches of equal length.
-After ``settle`` seconds, sub-batches are merged into batches ``batch_relaxations``
-times longer than the relaxation time ``t_relax = h^2 / (pi^2 D)`` of the density
-profile (at least ``min_batches`` batches; when the run is too short for batches that
-long, ``se_reliable`` is false: short batches underestimate the error several-fold).
-Means are over the window; standard errors are batch-means errors.
-
-Metrics (``metrics.json``): ``n``, ``walls``, ``force``, ``kT``, ``tau``, ``width``,
-``pressure`` (mean of the two walls, force per mm), ``pressure_se``, ``pressure_top``,
-``pressure_bottom``, ``pressure_applied`` (``F / (Lx - d)``; null with held walls),
-``height`` (wall separation ``Ly``, mm) and ``height_se``, ``area`` (``Lx Ly``, mm^2),
-``free_area`` (``(Lx - d)(Ly - d)``), ``packing_fraction`` (``n pi r^2 / area``),
-``density`` (robots per mm^2 of area), ``kT_eff`` (``drag <v^2> tau / 4``, mm^2/s),
-``kT_eff_theory`` (from the speed law), ``D`` (mm^2/s), ``Z`` and ``Z_se``,
-``ideal_height`` (``n kT_eff / F + d``; force mode), ``t_relax``, ``batch_s``,
-``n_batches``, ``se_reliable``, ``settle_s``, ``window_s``, ``at_limit_fraction``
-(fraction of steps a wall sat at its travel limit: the measurement is then not at
-force balance), ``series`` (time, pressure and height, averaged over sub-batches),
-``geometry`` (what :func:`plot_frame` needs), overlap diagnostics.
-
-Sweeps (:func:`isotherm`, :func:`temperature_series`, :func:`temperature_for_density`)
-run many configurations through :func:`thermoswarm.sweep.run_sweep` (any executor: a
-local process pool by default) and return tidy tables; :func:`study_figure` draws them.
+Units: mm, s; forces in units of the robot drag (drag 1: force = mm/s); pressure is
+force per mm of wall.  Pressure and height are batch means after ``settle`` seconds
+(batches a few relaxation times ``h^2 / (pi^2 D)`` long).  The sweeps
+(:func:`isotherm`, :func:`temperature_series`, :func:`temperature_for_density`) run
+through :func:`thermoswarm.sweep.run_sweep` and return tidy tables.  Physics, metrics
+keys and measurements: ``docs/scenarios_road_compression.md``.
 """
 
 from __future__ import annotations
@@ -476,7 +437,7 @@ def measure(
     expected_D: float,
 ) -> dict[str, Any]:
     """Pressure, area, ``kT_eff`` and ``Z`` with batch-means errors from the sub-batch sums
-    of :meth:`Compression.observe` (see the module docstring)."""
+    of :meth:`Compression.observe` (batching: ``docs/scenarios_road_compression.md``)."""
     steps = acc["steps"].astype(float)
     used = steps > 0
     t_end = (np.arange(steps.size) + 1) * sub_steps * dt
