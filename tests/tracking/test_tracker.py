@@ -76,8 +76,8 @@ def test_process_noise_adapts_to_manoeuvres():
 def test_config_is_checked():
     with pytest.raises(ConfigError, match="n_init"):
         TrackerConfig(n_init=0)
-    with pytest.raises(ConfigError, match="max_speed_mm_s"):
-        TrackerConfig(max_speed_mm_s=-1)
+    with pytest.raises(ConfigError, match="max_speed_bl_s"):
+        TrackerConfig(max_speed_bl_s=-1)
 
 
 @pytest.fixture(scope="module")
