@@ -379,31 +379,28 @@ class Tracker:
         cost = np.full((n, m), _BIG)
         if n == 0 or not avail.any():
             return cost
-        pred = np.stack([t.x[:2] for t in tracks])
-        Ps = np.stack([t.P for t in tracks])
-        _, S = kalman.innovation(np.stack([t.x for t in tracks]), Ps, self.kp.r)
+        X = np.array([t.x for t in tracks])
+        pred = X[:, :2]
+        _, S = kalman.innovation(X, np.array([t.P for t in tracks]), self.kp.r)
         Sinv = np.linalg.inv(S)
         d = pts[None, :, 1, :] - pred[:, None, :]  # (n, m, 2)
         maha = np.einsum("nmi,nij,nmj->nm", d, Sinv, d)
-        dist = np.linalg.norm(d, axis=-1)
+        dist = np.hypot(d[..., 0], d[..., 1])
         gap = np.array([self.frame - t.last for t in tracks], float)
         reach = self.step_px * gap + 2 * self.pad
         ok = (maha <= c.gate_sigmas**2) & (dist <= reach[:, None]) & avail[None, :]
-        pposes = self._predicted_poses_of(tracks)
+        pposes = self._predicted_poses_of(tracks, pred)
         pboxes = self._boxes_of(pposes, tracks)
         iou = anatomy.box_iou(pboxes, boxes)
+        total = c.iou_weight * (1 - iou) + c.distance_weight * dist / self.length_px
         ta = pposes[:, 0] - pposes[:, 2]
         da = pts[:, 0] - pts[:, 2]
-        cross = ta[:, None, 0] * da[None, :, 1] - ta[:, None, 1] * da[None, :, 0]
-        norm = np.linalg.norm(ta, axis=-1)[:, None] * np.linalg.norm(da, axis=-1)[None, :]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            sin = np.abs(cross) / norm
-        sin = np.where(np.isfinite(sin), sin, 0.0)
-        total = (
-            c.iou_weight * (1 - iou)
-            + c.distance_weight * dist / self.length_px
-            + c.angle_weight * sin
-        )
+        if c.angle_weight > 0 and np.isfinite(ta).any() and np.isfinite(da).any():
+            cross = ta[:, None, 0] * da[None, :, 1] - ta[:, None, 1] * da[None, :, 0]
+            norm = np.hypot(ta[:, 0], ta[:, 1])[:, None] * np.hypot(da[:, 0], da[:, 1])[None, :]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                sin = np.abs(cross) / norm
+            total = total + c.angle_weight * np.where(np.isfinite(sin), sin, 0.0)
         if hinted is not None:
             # A detection found from another track's prediction belongs to that track.
             owner = np.array([id(t) for t in tracks])
@@ -412,19 +409,27 @@ class Tracker:
         cost[ok] = total[ok]
         return cost
 
-    def _predicted_poses_of(self, tracks: list[_Track]) -> np.ndarray:
-        out = np.empty((len(tracks), 3, 2))
-        for i, t in enumerate(tracks):
-            out[i, 1] = t.x[:2]
-            out[i, 0] = t.x[:2] + t.shape[0]
-            out[i, 2] = t.x[:2] + t.shape[1]
-        return out
+    def _predicted_poses_of(
+        self, tracks: list[_Track], body: np.ndarray | None = None
+    ) -> np.ndarray:
+        if not tracks:
+            return np.empty((0, 3, 2))
+        if body is None:
+            body = np.array([t.x[:2] for t in tracks])
+        shape = np.array([t.shape for t in tracks])  # (n, 2, 2)
+        return np.stack([body + shape[:, 0], body, body + shape[:, 1]], axis=1)
 
     def _boxes_of(self, poses: np.ndarray, tracks: list[_Track]) -> np.ndarray:
+        unknown = ~np.isfinite(poses[:, [0, 2]]).all(axis=(1, 2))
+        if unknown.all():
+            half = np.array([t.half for t in tracks]).reshape(-1, 2)
+            return np.concatenate([poses[:, 1] - half, 2 * half], axis=1)
         boxes = anatomy.pose_boxes(poses, self.pad)
-        for i, t in enumerate(tracks):
-            if not np.all(np.isfinite(t.shape)):
-                boxes[i] = [*(poses[i, 1] - t.half), *(2 * t.half)]
+        if unknown.any():
+            idx = np.flatnonzero(unknown)
+            half = np.array([tracks[i].half for i in idx])
+            boxes[idx, :2] = poses[idx, 1] - half
+            boxes[idx, 2:] = 2 * half
         return boxes
 
     def _assign(
@@ -573,11 +578,23 @@ class Tracker:
             heading = np.array(
                 [t.heading if t.heading is not None else (np.nan, np.nan) for t in ts]
             )
-            p_all = self._orient_many(pts[js], hc[js], heading, vel_before, vsd)
+            if np.isfinite(pts[js][:, [0, 2]]).any():
+                p_all = self._orient_many(pts[js], hc[js], heading, vel_before, vsd)
+            else:  # boxes only: no head and tail to orient
+                p_all = pts[js].copy()
             box_all = boxes[js] if dets.boxes is not None else anatomy.pose_boxes(p_all, self.pad)
+            posed = np.isfinite(p_all[:, [0, 2]]).all(axis=(1, 2))
+            # Box-only tracks: half box size smoothed over the detections (vectorised).
+            halves = np.array([t.half for t in ts])
+            hits = np.array([t.hits for t in ts])
+            bh = boxes[js, 2:4] / 2
+            new_half = np.where((hits > 1)[:, None], 0.7 * halves + 0.3 * bh, bh)
             for i, (t, j) in enumerate(zip(ts, js, strict=True)):
                 t.x, t.P, t.q, t.nis = x[i], P[i], float(q[i]), float(nm[i])
-                self._set_shape(t, p_all[i], boxes[j])
+                if posed[i]:
+                    self._set_shape(t, p_all[i], boxes[j], True)
+                else:
+                    t.half = new_half[i]
                 t.hits += 1
                 t.misses = 0
                 self._touch(t, k, p_all[i], box_all[i], float(dets.scores[j]), float(hc[j]))
@@ -598,7 +615,9 @@ class Tracker:
         # Births (not on top of a matched detection: split duplicates).
         used = ~avail
         for j in np.flatnonzero(avail):
-            if dets.scores[j] < c.min_score or not np.all(np.isfinite(pts[j, 1])):
+            if dets.scores[j] < c.min_score or not (
+                math.isfinite(pts[j, 1, 0]) and math.isfinite(pts[j, 1, 1])
+            ):
                 continue
             if used.any():
                 dd = np.linalg.norm(pts[used, 1] - pts[j, 1], axis=-1)
@@ -634,8 +653,12 @@ class Tracker:
         w, h = self.frame_size
         return bool(xy[0] < 0 or xy[1] < 0 or xy[0] > w - 1 or xy[1] > h - 1)
 
-    def _set_shape(self, t: _Track, p: np.ndarray, box: np.ndarray) -> None:
-        if np.all(np.isfinite(p[[0, 2]])):
+    def _set_shape(
+        self, t: _Track, p: np.ndarray, box: np.ndarray, posed: bool | None = None
+    ) -> None:
+        if posed is None:
+            posed = bool(np.isfinite(p[[0, 2]]).all())
+        if posed:
             t.shape = np.stack([p[0] - p[1], p[2] - p[1]])
             a = p[0] - p[2]
             na = float(np.hypot(*a))
