@@ -1034,7 +1034,10 @@ def _main() -> None:  # pragma: no cover - thin CLI, exercised by hand
         except ThermoswarmError as exc:
             click.echo(f"error: {exc}", err=True)
             raise SystemExit(exc.exit_code) from None
-        click.echo(f"wrote {out} ({video.ids.size} ants, {cfg.n_frames} frames)")
+        click.echo(
+            f"wrote {out} ({cfg.n_ants} ants on the road at a time, {video.ids.size} "
+            f"over the video as ants leave and enter; {cfg.n_frames} frames)"
+        )
 
     main()
 
