@@ -1,3 +1,6 @@
+# ruff: noqa: UP018, E402
+# (Warp needs float(0.0) / int(-1) to make a variable mutable in branches and loops;
+# the banner switch must precede the imports that define kernels)
 """Warp kernels of the GPU engine (the same kernels run on Warp's CPU device).
 
 The physics is the CPU engine's (:mod:`thermoswarm.sim.engine`): commanded motion,
