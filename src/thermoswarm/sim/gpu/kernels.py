@@ -34,7 +34,9 @@ from __future__ import annotations
 
 import warp as wp
 
-wp.config.quiet = True  # no start-up banner (set before Warp initialises)
+wp.config.quiet = True  # no start-up banner or module-load lines (set before Warp starts)
+if getattr(wp.config, "log_level", None) is not None:
+    wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)
 
 from thermoswarm.sim import kernels as K
 
