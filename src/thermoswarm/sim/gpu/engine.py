@@ -355,7 +355,10 @@ class GpuSimulator:
             d.need_rebuild = True  # the displacement bound no longer holds
         elif name == "fcols":
             v = np.asarray(value, dtype=np.float64).reshape(2, n)
-            d.heading.assign(_wrap(v[0]).astype(np.float32))
+            h = v[0]
+            if h.size and float(np.abs(h).max()) > 64.0:  # keep float32 precision; as
+                h = _wrap(h)  # the CPU engine, wrap only large headings (exact round trip)
+            d.heading.assign(h.astype(np.float32))
             d.speed.assign(v[1].astype(np.float32))
         elif name == "icols":
             v = np.asarray(value).reshape(3, n).astype(np.int32)
