@@ -14,7 +14,7 @@ export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba-cache
 # `make lock` refreshes the lock from the newest versions the ranges allow, and
 # `make test-latest` runs the suite on those newest versions without touching the lock.
 LOCK   := requirements/lock.txt
-EXTRAS := io,track,video,bench,dev,dask
+EXTRAS := io,track,video,bench,dev,dask,gpu
 # The CPU build of PyTorch: pip takes torch==2.13.0 from this machine's local wheels; an
 # unpinned torch would pull several GB of CUDA packages.  The lock pins the same version.
 TORCH  := torch==2.13.0

@@ -42,18 +42,31 @@ import click
     default=None,
     help="Numba threads (default: all cores).",
 )
+@click.option(
+    "--backend",
+    type=click.Choice(["cpu", "gpu"]),
+    default="cpu",
+    show_default=True,
+    help="cpu: the Numba engine; gpu: the Warp engine (a CUDA GPU, else Warp's CPU device).",
+)
+@click.option("--device", default=None, help="Warp device for --backend gpu (cuda:0, cpu).")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def bench(scenario, n, phi, seconds, threads, seed, as_json):
+def bench(scenario, n, phi, seconds, threads, backend, device, seed, as_json):
     """Run the engine benchmark: discs of 33 mm at packing fraction PHI, mean speed
     10 mm/s, headings re-sampled every 0.1 s; compile time excluded."""
     if threads is not None:
         import numba
 
         numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
-    from thermoswarm.sim.bench import run_bench
+    if backend == "gpu":
+        from thermoswarm.sim.gpu.bench import run_bench_gpu
 
-    out = run_bench(n, phi, seconds, seed=seed)
+        out = run_bench_gpu(n, phi, seconds, seed=seed, device=device)
+    else:
+        from thermoswarm.sim.bench import run_bench
+
+        out = run_bench(n, phi, seconds, seed=seed)
     if as_json:
         click.echo(json.dumps(out))
     else:

@@ -17,16 +17,18 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm.config import check
+from thermoswarm.errors import ConfigError
 from thermoswarm.policy import Policy
 from thermoswarm.sim.engine import EngineParams, Sensing, Simulator, SwarmState
 from thermoswarm.sim.world import World
 
-__all__ = ["Numerics", "Recording", "Setup", "Scenario", "wrap"]
+__all__ = ["Numerics", "Recording", "Setup", "Scenario", "wrap", "build_simulator"]
 
 
 @dataclass(frozen=True)
 class Numerics:
-    """The ``[engine]`` section: numerical settings (see :class:`EngineParams`)."""
+    """The ``[engine]`` section: numerical settings (see :class:`EngineParams`) and the
+    ``backend``: ``"cpu"`` (Numba) or ``"gpu"`` (NVIDIA Warp: :mod:`thermoswarm.sim.gpu`)."""
 
     dt: float = 0.1
     iterations: int = 2
@@ -36,6 +38,7 @@ class Numerics:
     skin: float = 0.1
     cell_size: float | None = None
     desync: bool = True
+    backend: Literal["cpu", "gpu"] = "cpu"
 
     def engine(
         self, *, tau: float, radius: float, mode: str = "overdamped", drag: float = 1.0
@@ -103,6 +106,20 @@ class Setup:
 
     def simulator(self) -> Simulator:
         return Simulator(self.world, self.engine, self.policy, self.sensing)
+
+
+def build_simulator(setup: Setup, backend: str = "cpu") -> Simulator:
+    """``setup.simulator()`` on the CPU; the ``[engine] backend`` engine otherwise."""
+    if backend == "cpu":
+        return setup.simulator()
+    if type(setup).simulator is not Setup.simulator:
+        raise ConfigError(
+            f"engine.backend = {backend!r} is not available here: this scenario moves its "
+            "robots with a simulator of its own, which runs on the CPU"
+        )
+    from thermoswarm.sim.backend import make_simulator
+
+    return make_simulator(setup.world, setup.engine, setup.policy, setup.sensing, backend=backend)
 
 
 def wrap(a: np.ndarray) -> np.ndarray:

@@ -39,7 +39,7 @@ from thermoswarm.config import (
 from thermoswarm.errors import ConfigError, InputError, OutputError
 from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
 from thermoswarm.scenarios import get
-from thermoswarm.scenarios.base import Scenario, Setup
+from thermoswarm.scenarios.base import Scenario, Setup, build_simulator
 from thermoswarm.sim.engine import Simulator, SwarmState
 from thermoswarm.sim.recorder import ZarrRecorder, load_checkpoint, read_marker
 
@@ -97,7 +97,7 @@ def build(cfg: RunConfig) -> tuple[Scenario, Setup, Simulator, SwarmState]:
     scen = get(cfg.scenario)(cfg.params)
     rng = np.random.default_rng(cfg.seed)
     setup = scen.build(rng)
-    sim = setup.simulator()
+    sim = build_simulator(setup, getattr(getattr(cfg.params, "engine", None), "backend", "cpu"))
     state = sim.init(
         setup.positions,
         rng,
