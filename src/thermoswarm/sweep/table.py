@@ -61,6 +61,7 @@ class ResultsTable:
         The sweep directory.
     scenario : str
     params : mapping run_id -> validated parameters (a dataclass)
+        Every run of the sweep, in the order of its rows.
     """
 
     def __init__(self, out: Path, scenario: str, params: Mapping[str, Any]) -> None:
@@ -111,7 +112,7 @@ class ResultsTable:
         if self._pa is None or not self._dirty:
             return
         t0 = time.perf_counter()
-        rows = list(self._rows.values())
+        rows = [self._rows[rid] for rid in self._params if rid in self._rows]  # spec order
         names = list(_FIXED)
         extra = sorted({k for r in rows for k in r} - set(_FIXED))
         names += [k for k in extra if k.startswith("params.")]
