@@ -119,7 +119,11 @@ def run_sweep(
         rec = records[rid]
         rec.attempts += 1
         # the attempt number makes every call distinct (Dask merges equal calls)
-        fut = ex.submit(run_one, texts[rid], rec.out, threads_per_run, rec.attempts)
+        try:
+            fut = ex.submit(run_one, texts[rid], rec.out, threads_per_run, rec.attempts)
+        except Exception as exc:  # e.g. a broken ProcessPoolExecutor refuses work
+            fut = Future()
+            fut.set_exception(exc)
         futures[fut] = rid
 
     def finish(rec: RunRecord, status: str) -> None:
