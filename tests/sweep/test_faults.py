@@ -25,7 +25,7 @@ import pytest
 import xarray as xr
 
 from thermoswarm.scenarios.runner import open_run_tracks
-from thermoswarm.sweep import SweepSpec, local_pool, run_sweep
+from thermoswarm.sweep import SweepSpec, run_sweep
 from thermoswarm.sweep.worker import committed_frames, read_attempts
 
 # 40 robots for 40 s in 0.1 s steps, a frame every 0.5 s, committed every 4 frames:
@@ -49,22 +49,6 @@ def reference(tmp_path_factory):
         records = run_sweep(_spec(out), executor=ex, progress=False)
     assert [r.status for r in records] == ["done"] * 4
     return records
-
-
-@pytest.fixture(scope="module")
-def pool():
-    """The default executor: two local worker processes, one Numba thread each."""
-    with local_pool(2, threads_per_run=1) as ex:
-        yield ex
-
-
-@pytest.fixture(scope="module")
-def dask_executor():
-    pytest.importorskip("distributed")  # the dask extra; make install installs it
-    from thermoswarm.sweep.cluster import dask_client
-
-    with dask_client(local_workers=2) as client:
-        yield client.get_executor()
 
 
 def _in_background(fn):

@@ -62,7 +62,7 @@ def dask_client(
             n_workers=local_workers,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",  # any free port: never clash with a running one
             env=env,
         )
         client = Client(cluster)
