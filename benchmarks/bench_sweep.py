@@ -12,9 +12,11 @@ Two measurements per executor, after its workers have started and imported the s
 
 1. dispatch: ``--tasks`` calls of a no-op (``abs(i)``) submitted at once; time per task;
 2. a sweep of ``--runs`` short runs of the real engine (``box``, 10 robots, 1 s simulated,
-   every run its own seed) through :func:`run_sweep`, each into a fresh directory,
-   ending with one ``results.parquet`` of ``--runs`` rows; wall time per run and the
-   difference per run from the local pool.
+   every run its own seed) through :func:`run_sweep`; wall time per run and the
+   difference per run from the local pool.  The sweep goes in ``--rounds`` parts, the
+   executors taking turns (so that a change of load on a shared machine hits them alike),
+   into one directory per executor; started once more at the end, every run is skipped
+   (timed: ``restart s``) and ``results.parquet`` holds all ``--runs`` rows.
 
 Usage::
 
@@ -56,93 +58,117 @@ def _dispatch(ex, n: int) -> float:
     return (time.perf_counter() - t0) / n
 
 
-def _sweep(ex, out: Path, runs: int) -> dict:
-    import pandas as pd
-
+def _sweep(ex, out: Path, seeds: range) -> tuple[float, float]:
+    """Wall seconds of a sweep of one short run per seed, and the seconds spent inside
+    the runs' stepping loops."""
     from thermoswarm.sweep import SweepSpec, run_sweep
 
-    spec = SweepSpec("box", out, BASE, {}, seeds=list(range(runs)))
     t0 = time.perf_counter()
-    records = run_sweep(spec, executor=ex, progress=False)
+    records = run_sweep(SweepSpec("box", out, BASE, {}, seeds=list(seeds)), executor=ex,
+                        progress=False)  # fmt: skip
     wall = time.perf_counter() - t0
     assert all(r.status == "done" for r in records), [r.error for r in records][:3]
-    t1 = time.perf_counter()
-    table = pd.read_parquet(out / "results.parquet")
-    read = time.perf_counter() - t1
-    assert len(table) == runs and table["run_id"].is_unique
-    in_run = float(table["metrics.performance.wall_seconds"].sum())
-    return {"sweep_s": wall, "per_run_ms": 1e3 * wall / runs, "in_run_loop_s": in_run,
-            "table_rows": len(table), "table_columns": table.shape[1],
-            "table_bytes": (out / "results.parquet").stat().st_size,
-            "table_read_s": read}  # fmt: skip
+    return wall, sum(r.metrics["performance"]["wall_seconds"] for r in records)
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--runs", type=int, default=1000, help="short runs per sweep")
-    ap.add_argument("--tasks", type=int, default=2000, help="no-op tasks for dispatch")
-    ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--json", action="store_true")
-    args = ap.parse_args()
-
+def _start(name: str, workers: int):
     from distributed import Client, LocalCluster
 
     from thermoswarm.sweep import local_pool
 
-    # compile the kernels once, so that no executor pays for it
-    from thermoswarm.sweep.spec import SweepSpec, expand
+    if name == "local pool":
+        return local_pool(workers, threads_per_run=1), None
+    if name == "dask":
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=":0", env={"NUMBA_NUM_THREADS": "1"})  # fmt: skip
+        client = Client(cluster)
+        return client.get_executor(), (client, cluster)
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")), None
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--runs", type=int, default=1000, help="short runs per executor")
+    ap.add_argument("--tasks", type=int, default=2000, help="no-op tasks per executor")
+    ap.add_argument("--rounds", type=int, default=4, help="rounds, executors taking turns")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    import pandas as pd
+
+    from thermoswarm.sweep import SweepSpec, run_sweep
+    from thermoswarm.sweep.spec import expand
     from thermoswarm.sweep.worker import compile_here
 
+    # compile the kernels once, so that no executor pays for it
     compile_here([cfg for _, _, cfg in expand(SweepSpec("box", Path("x"), BASE))])
-    rows = {}
+    names = ("local pool", "dask", "stdlib")
+    execs, rows = {}, {}
+    for name in names:  # start every worker and import the sweep there
+        t0 = time.perf_counter()
+        ex, extra = execs[name] = _start(name, args.workers)
+        warm = [ex.submit(_warm, 1.0 + 1e-6 * i) for i in range(args.workers)]
+        assert len({f.result() for f in warm}) == args.workers  # one per process
+        rows[name] = {"startup_s": time.perf_counter() - t0 - 1.0, "dispatch_s": 0.0,
+                      "sweep_s": 0.0, "in_run_loop_s": 0.0}  # fmt: skip
+    per = args.runs // args.rounds
     with tempfile.TemporaryDirectory(prefix="bench-sweep-") as tmp:
-        for name in ("local pool", "dask", "stdlib"):
+        # the executors take turns, so that a change of load hits them alike
+        for k in range(args.rounds):
+            for name in names:
+                ex = execs[name][0]
+                rows[name]["dispatch_s"] += _dispatch(ex, args.tasks // args.rounds) * (
+                    args.tasks // args.rounds
+                )
+                if name != "stdlib":
+                    wall, inside = _sweep(ex, Path(tmp) / name.replace(" ", "-"),
+                                          range(k * per, (k + 1) * per))  # fmt: skip
+                    rows[name]["sweep_s"] += wall
+                    rows[name]["in_run_loop_s"] += inside
+        for name in ("local pool", "dask"):
+            # the whole sweep once more: every run is skipped, and the table has them all
+            out = Path(tmp) / name.replace(" ", "-")
             t0 = time.perf_counter()
-            cluster = client = None
-            if name == "local pool":
-                ex = local_pool(args.workers, threads_per_run=1)
-            elif name == "dask":
-                cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1,
-                                       processes=True, dashboard_address=":0",
-                                       env={"NUMBA_NUM_THREADS": "1"})  # fmt: skip
-                client = Client(cluster)
-                ex = client.get_executor()
-            else:
-                spawn = multiprocessing.get_context("spawn")
-                ex = ProcessPoolExecutor(args.workers, mp_context=spawn)
-            # start every worker and import the sweep there (one task each, held 1 s)
-            warm = [ex.submit(_warm, 1.0 + 1e-6 * i) for i in range(args.workers)]
-            assert len({f.result() for f in warm}) == args.workers  # one per process
-            start = time.perf_counter() - t0 - 1.0
-            row = {"startup_s": start, "dispatch_ms": 1e3 * _dispatch(ex, args.tasks)}
-            if name != "stdlib":
-                row.update(_sweep(ex, Path(tmp) / name.replace(" ", "-"), args.runs))
-            rows[name] = row
-            if client is not None:
-                client.close()
-                cluster.close()
-            else:
-                ex.shutdown()
+            spec = SweepSpec("box", out, BASE, {}, seeds=list(range(per * args.rounds)))
+            records = run_sweep(spec, executor=execs[name][0], progress=False)
+            rows[name]["restart_s"] = time.perf_counter() - t0
+            assert all(r.status == "skipped" for r in records)
+            table = pd.read_parquet(out / "results.parquet")
+            assert len(table) == per * args.rounds and table["run_id"].is_unique
+            rows[name]["table"] = f"{table.shape[0]} x {table.shape[1]}"
+            rows[name]["table_kB"] = (out / "results.parquet").stat().st_size / 1e3
+    for ex, extra in execs.values():
+        if extra:
+            extra[0].close()
+            extra[1].close()
+        else:
+            ex.shutdown()
+    n_runs, n_tasks = per * args.rounds, (args.tasks // args.rounds) * args.rounds
+    for r in rows.values():
+        r["dispatch_ms"] = 1e3 * r["dispatch_s"] / n_tasks
+        r["per_run_ms"] = 1e3 * r["sweep_s"] / n_runs if r["sweep_s"] else None
     pool, dask = rows["local pool"], rows["dask"]
     summary = {
         "dask_minus_pool_dispatch_ms": dask["dispatch_ms"] - pool["dispatch_ms"],
         "dask_minus_pool_per_run_ms": dask["per_run_ms"] - pool["per_run_ms"],
         "dask_over_pool_sweep_ratio": dask["sweep_s"] / pool["sweep_s"],
-        "runs": args.runs, "tasks": args.tasks, "workers": args.workers,
+        "runs": n_runs, "tasks": n_tasks, "workers": args.workers, "rounds": args.rounds,
         "cpus": os.cpu_count(), "load_average": os.getloadavg(),
     }  # fmt: skip
     if args.json:
         print(json.dumps({"executors": rows, "summary": summary}, indent=1))
         return
-    print(f"{args.runs} short runs and {args.tasks} no-op tasks per executor, "
-          f"{args.workers} workers; cpus {os.cpu_count()}")  # fmt: skip
+    print(f"{n_runs} short runs and {n_tasks} no-op tasks per executor in {args.rounds} "
+          f"rounds, {args.workers} workers; cpus {os.cpu_count()}")  # fmt: skip
     print(f"{'executor':<11} {'start s':>8} {'no-op ms':>9} {'sweep s':>8} {'ms/run':>7} "
-          f"{'in-run s':>9} {'table':>12}")  # fmt: skip
+          f"{'in-run s':>9} {'restart s':>9}  table")  # fmt: skip
     for name, r in rows.items():
-        sweep = (f"{r['sweep_s']:8.1f} {r['per_run_ms']:7.1f} {r['in_run_loop_s']:9.1f} "
-                 f"{r['table_rows']:>5} x {r['table_columns']:<3}" if "sweep_s" in r
-                 else f"{'-':>8} {'-':>7} {'-':>9} {'-':>12}")  # fmt: skip
-        print(f"{name:<11} {r['startup_s']:8.2f} {r['dispatch_ms']:9.3f} {sweep}")
+        if r["per_run_ms"] is None:
+            rest = f"{'-':>8} {'-':>7} {'-':>9} {'-':>9}  -"
+        else:
+            rest = (f"{r['sweep_s']:8.1f} {r['per_run_ms']:7.1f} {r['in_run_loop_s']:9.1f} "
+                    f"{r['restart_s']:9.2f}  {r['table']} ({r['table_kB']:.0f} kB)")  # fmt: skip
+        print(f"{name:<11} {r['startup_s']:8.2f} {r['dispatch_ms']:9.3f} {rest}")
     print(f"dask - local pool: {summary['dask_minus_pool_dispatch_ms']:+.3f} ms per no-op "
           f"task, {summary['dask_minus_pool_per_run_ms']:+.1f} ms per run; sweep time ratio "
           f"dask / pool {summary['dask_over_pool_sweep_ratio']:.2f}; load average "

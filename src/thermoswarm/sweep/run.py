@@ -93,7 +93,7 @@ def run_sweep(
         order.append(rid)
         if rid in records:
             continue
-        rdir = out / rid
+        rdir = out.absolute() / rid  # workers elsewhere need the whole path
         configs[rid] = cfg
         done = finished(rdir)
         if done is not None:
