@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import os
+import queue
 import traceback
 from collections.abc import Sequence
-from concurrent.futures import FIRST_COMPLETED, Executor, Future
-from concurrent.futures import wait as futures_wait
+from concurrent.futures import Executor, Future
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict
 from pathlib import Path
@@ -114,6 +114,8 @@ def run_sweep(
     bar = tqdm(total=len(records), initial=len(records) - len(todo), unit="run",
                disable=None if progress is None else not progress, leave=False)  # fmt: skip
     futures: dict[Future, str] = {}
+    # futures report here as they finish: O(1) per run, however many are in flight
+    finished_q: queue.SimpleQueue[Future] = queue.SimpleQueue()
 
     def submit(rid: str) -> None:
         rec = records[rid]
@@ -125,6 +127,7 @@ def run_sweep(
             fut = Future()
             fut.set_exception(exc)
         futures[fut] = rid
+        fut.add_done_callback(finished_q.put)
 
     def finish(rec: RunRecord, status: str) -> None:
         rec.status = status
@@ -136,26 +139,28 @@ def run_sweep(
         for rid in todo:
             submit(rid)
         while futures:
-            done, _ = futures_wait(list(futures), return_when=FIRST_COMPLETED)
-            for fut in done:
-                rec = records[futures.pop(fut)]
-                try:
-                    rec.metrics = fut.result()
-                except ThermoswarmError as exc:  # the configuration itself: no retry
-                    rec.error = str(exc)
-                    finish(rec, "failed")
-                except Exception as exc:  # a dead worker or a crash inside the run
-                    if _worker_lost(exc):
-                        rec.error = f"worker lost: {exc}"
-                    else:
-                        rec.error = "".join(traceback.format_exception_only(exc)).strip()
-                    if rec.attempts <= retries:
-                        submit(rec.run_id)
-                    else:
-                        finish(rec, "failed")
+            try:
+                fut = finished_q.get(timeout=1.0)  # a timeout lets Ctrl-C through
+            except queue.Empty:
+                continue
+            rec = records[futures.pop(fut)]
+            try:
+                rec.metrics = fut.result()
+            except ThermoswarmError as exc:  # the configuration itself: no retry
+                rec.error = str(exc)
+                finish(rec, "failed")
+            except Exception as exc:  # a dead worker or a crash inside the run
+                if _worker_lost(exc):
+                    rec.error = f"worker lost: {exc}"
                 else:
-                    rec.error = None
-                    finish(rec, "done")
+                    rec.error = "".join(traceback.format_exception_only(exc)).strip()
+                if rec.attempts <= retries:
+                    submit(rec.run_id)
+                else:
+                    finish(rec, "failed")
+            else:
+                rec.error = None
+                finish(rec, "done")
             table.maybe_write()
         clean = True
     finally:
