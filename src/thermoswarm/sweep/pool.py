@@ -11,7 +11,7 @@ a new process for the next task.
 
 Worker processes are spawned (forking a process that has started OpenMP threads can
 hang) with the environment variables in ``env`` set, e.g. ``NUMBA_NUM_THREADS``, which
-Numba reads when it is first imported.
+Numba reads when it is first imported, and end when the process that started them ends.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
@@ -28,6 +29,18 @@ from contextlib import contextmanager
 from typing import Any
 
 __all__ = ["LocalPool", "WorkerDied"]
+
+
+def _exit_with_parent(parent: int) -> None:
+    """Worker initializer: end this process when its parent is gone (a sweep killed
+    with SIGKILL would otherwise leave its workers running, orphaned, for ever)."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
 class WorkerDied(RuntimeError):
@@ -97,7 +110,10 @@ class LocalPool(Executor):
                 ex = self._slots[i]
                 if ex is None:
                     ex = self._slots[i] = ProcessPoolExecutor(
-                        1, mp_context=multiprocessing.get_context("spawn")
+                        1,
+                        mp_context=multiprocessing.get_context("spawn"),
+                        initializer=_exit_with_parent,
+                        initargs=(os.getpid(),),
                     )
                     with _environ(self._env):  # the process starts at its first submit
                         inner = ex.submit(fn, *args, **kwargs)
