@@ -186,8 +186,8 @@ def test_local_pool_reports_a_bad_run_once(tmp_path, pool):
     assert pool.deaths == deaths
 
 
-def test_dask_reports_a_bad_run_once(tmp_path, dask_executor):
-    _bad_run_fails_once(dask_executor, tmp_path)
+def test_dask_reports_a_bad_run_once(tmp_path, dask_cluster_client):
+    _bad_run_fails_once(dask_cluster_client, tmp_path)  # a Client is taken as it is
 
 
 def test_every_worker_runs_on_the_sweeps_thread_count(tmp_path, pool, dask_executor):
