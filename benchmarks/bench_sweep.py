@@ -3,7 +3,10 @@
 Both executors get two worker processes with one task each:
 
 - ``local pool``: :func:`thermoswarm.sweep.local_pool` (the default executor);
-- ``dask``: a ``distributed.LocalCluster`` (``thermoswarm sweep --cluster local:2``);
+- ``dask``: a ``distributed.LocalCluster`` as ``thermoswarm sweep --cluster local:2``
+  starts it (Dask's statistical profiler off);
+- ``dask default``: the same with Dask's default settings (the profiler on), as workers
+  that you start yourself have them;
 - ``stdlib``: :class:`concurrent.futures.ProcessPoolExecutor` for reference (a dead
   worker breaks it whole, which is why the sweep does not use it).
 
@@ -72,15 +75,21 @@ def _sweep(ex, out: Path, seeds: range) -> tuple[float, float]:
 
 
 def _start(name: str, workers: int):
+    import dask
     from distributed import Client, LocalCluster
 
     from thermoswarm.sweep import local_pool
+    from thermoswarm.sweep.cluster import LOCAL_CLUSTER_CONFIG
 
     if name == "local pool":
         return local_pool(workers, threads_per_run=1), None
-    if name == "dask":
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=":0", env={"NUMBA_NUM_THREADS": "1"})  # fmt: skip
+    if name.startswith("dask"):
+        # "dask": as --cluster local:N starts it; "dask default": Dask's own settings
+        config = LOCAL_CLUSTER_CONFIG if name == "dask" else {}
+        with dask.config.set(config):
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=":0",
+                                   env={"NUMBA_NUM_THREADS": "1"})  # fmt: skip
         client = Client(cluster)
         return client.get_executor(), (client, cluster)
     return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")), None
@@ -102,7 +111,7 @@ def main() -> None:
 
     # compile the kernels once, so that no executor pays for it
     compile_here([cfg for _, _, cfg in expand(SweepSpec("box", Path("x"), BASE))])
-    names = ("local pool", "dask", "stdlib")
+    names = ("local pool", "dask", "dask default", "stdlib")
     execs, rows = {}, {}
     for name in names:  # start every worker and import the sweep there
         t0 = time.perf_counter()
@@ -125,7 +134,7 @@ def main() -> None:
                                           range(k * per, (k + 1) * per))  # fmt: skip
                     rows[name]["sweep_s"] += wall
                     rows[name]["in_run_loop_s"] += inside
-        for name in ("local pool", "dask"):
+        for name in ("local pool", "dask", "dask default"):
             # the whole sweep once more: every run is skipped, and the table has them all
             out = Path(tmp) / name.replace(" ", "-")
             t0 = time.perf_counter()
@@ -147,11 +156,12 @@ def main() -> None:
     for r in rows.values():
         r["dispatch_ms"] = 1e3 * r["dispatch_s"] / n_tasks
         r["per_run_ms"] = 1e3 * r["sweep_s"] / n_runs if r["sweep_s"] else None
-    pool, dask = rows["local pool"], rows["dask"]
+    pool, dask, dflt = rows["local pool"], rows["dask"], rows["dask default"]
     summary = {
         "dask_minus_pool_dispatch_ms": dask["dispatch_ms"] - pool["dispatch_ms"],
         "dask_minus_pool_per_run_ms": dask["per_run_ms"] - pool["per_run_ms"],
         "dask_over_pool_sweep_ratio": dask["sweep_s"] / pool["sweep_s"],
+        "dask_default_minus_pool_per_run_ms": dflt["per_run_ms"] - pool["per_run_ms"],
         "runs": n_runs, "tasks": n_tasks, "workers": args.workers, "rounds": args.rounds,
         "cpus": os.cpu_count(), "load_average": os.getloadavg(),
     }  # fmt: skip
@@ -160,7 +170,7 @@ def main() -> None:
         return
     print(f"{n_runs} short runs and {n_tasks} no-op tasks per executor in {args.rounds} "
           f"rounds, {args.workers} workers; cpus {os.cpu_count()}")  # fmt: skip
-    print(f"{'executor':<11} {'start s':>8} {'no-op ms':>9} {'sweep s':>8} {'ms/run':>7} "
+    print(f"{'executor':<12} {'start s':>8} {'no-op ms':>9} {'sweep s':>8} {'ms/run':>7} "
           f"{'in-run s':>9} {'restart s':>9}  table")  # fmt: skip
     for name, r in rows.items():
         if r["per_run_ms"] is None:
@@ -168,10 +178,11 @@ def main() -> None:
         else:
             rest = (f"{r['sweep_s']:8.1f} {r['per_run_ms']:7.1f} {r['in_run_loop_s']:9.1f} "
                     f"{r['restart_s']:9.2f}  {r['table']} ({r['table_kB']:.0f} kB)")  # fmt: skip
-        print(f"{name:<11} {r['startup_s']:8.2f} {r['dispatch_ms']:9.3f} {rest}")
+        print(f"{name:<12} {r['startup_s']:8.2f} {r['dispatch_ms']:9.3f} {rest}")
     print(f"dask - local pool: {summary['dask_minus_pool_dispatch_ms']:+.3f} ms per no-op "
           f"task, {summary['dask_minus_pool_per_run_ms']:+.1f} ms per run; sweep time ratio "
-          f"dask / pool {summary['dask_over_pool_sweep_ratio']:.2f}; load average "
+          f"dask / pool {summary['dask_over_pool_sweep_ratio']:.2f}; dask default - local "
+          f"pool: {summary['dask_default_minus_pool_per_run_ms']:+.1f} ms per run; load average "
           + ", ".join(f"{x:.1f}" for x in summary["load_average"]))  # fmt: skip
 
 

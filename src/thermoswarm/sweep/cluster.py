@@ -20,6 +20,9 @@ __all__ = ["parse_cluster", "dask_client"]
 
 _NEEDS_DASK = "needs Dask: pip install 'thermoswarm[dask]'"
 
+#: Dask settings of the LocalCluster that :func:`dask_client` starts.
+LOCAL_CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False}
+
 
 def parse_cluster(text: str) -> int:
     """The worker count of a ``--cluster`` value ``local:N`` (N >= 1)."""
@@ -45,26 +48,31 @@ def dask_client(
         Address of a running scheduler (``tcp://host:8786``).
     local_workers : int, optional
         Instead, start a ``LocalCluster`` of this many worker processes, one task each,
-        each started with ``NUMBA_NUM_THREADS = threads_per_run``; closed at the end.
+        each started with ``NUMBA_NUM_THREADS = threads_per_run`` and without Dask's
+        profiler (:data:`LOCAL_CLUSTER_CONFIG`); closed at the end.
     timeout : float
         Seconds to wait for the scheduler.
     """
     if (scheduler is None) == (local_workers is None):
         raise ConfigError("give either a scheduler address or a local worker count")
     try:
+        import dask
         from distributed import Client, LocalCluster
     except ImportError:
         raise ConfigError(f"--scheduler/--cluster {_NEEDS_DASK}") from None
     cluster = None
     if local_workers is not None:
         env = {} if threads_per_run is None else {"NUMBA_NUM_THREADS": str(threads_per_run)}
-        cluster = LocalCluster(
-            n_workers=local_workers,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",  # any free port: never clash with a running one
-            env=env,
-        )
+        # Dask's statistical profiler samples the task's stack every 10 ms; it cost a
+        # short run a fifth of its time (benchmarks/bench_sweep.py), so it is off here
+        with dask.config.set(LOCAL_CLUSTER_CONFIG):
+            cluster = LocalCluster(
+                n_workers=local_workers,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",  # any free port: never clash with a running one
+                env=env,
+            )
         client = Client(cluster)
     else:
         try:
