@@ -193,6 +193,7 @@ def _compression(out: Path, plan: Plan, rep: Any, seed: int) -> dict[str, Any]:
     from thermoswarm.maxent import kT_for_mean_speed
     from thermoswarm.report.animate import animate, snapshot_strip
     from thermoswarm.scenarios import compression as C
+    from thermoswarm.sweep import compression as CS
 
     d = 33.0
     r = d / 2
@@ -203,12 +204,12 @@ def _compression(out: Path, plan: Plan, rep: Any, seed: int) -> dict[str, Any]:
     F0 = n * kT_eff / h_free
     base = {"n": n, "width": width, "kT": kT, "tau": tau, "duration": plan.compression_duration}
     work = out / "compression"
-    iso = C.isotherm([F0 * s for s in (0.5, 0.75, 1.0, 1.5, 2.0)], out=work / "isotherm",
+    iso = CS.isotherm([F0 * s for s in (0.5, 0.75, 1.0, 1.5, 2.0)], out=work / "isotherm",
                      base=base, seeds=[seed])  # fmt: skip
-    temp = C.temperature_series([kT_for_mean_speed(v) for v in (16.0, 20.0, 24.0, 28.0)],
+    temp = CS.temperature_series([kT_for_mean_speed(v) for v in (16.0, 20.0, 24.0, 28.0)],
                                 out=work / "temperature", base={**base, "force": F0},
                                 seeds=[seed])  # fmt: skip
-    dens = C.temperature_for_density([F0 * s for s in (0.5, 1.0, 2.0, 4.0)],
+    dens = CS.temperature_for_density([F0 * s for s in (0.5, 1.0, 2.0, 4.0)],
                                      packing_fraction=phi, out=work / "density", base=base,
                                      seeds=[seed])  # fmt: skip
     # pictures from a squarer run (the dilute geometry above is 20 m wide and 13 cm tall):
