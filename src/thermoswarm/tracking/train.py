@@ -365,6 +365,7 @@ def train(
                     val_data.points,
                     data.px_per_mm,
                     description=f"{n_val} held-out frames of {data.source}",
+                    ignore=val_data.ignore,
                 )
         sampler = _Sampler(data, cfg, rng)
         model.train()
@@ -487,6 +488,7 @@ def train(
                 "n_frames": len(data),
                 "n_instances": data.n_instances,
                 "n_crowded_instances": sampler.n_crowded,
+                "n_ignored": data.n_ignored,
                 "px_per_mm": data.px_per_mm,
             },
             "validation": None if validation is None else validation.description,
@@ -536,6 +538,7 @@ def train_from_sources(
     config: TrainConfig | None = None,
     progress: bool = False,
     log: Callable[[str], None] | None = None,
+    include_predicted: bool = False,
 ) -> dict[str, Any]:
     """What ``thermoswarm track train`` runs: gather the data, then :func:`train`.
 
@@ -551,7 +554,7 @@ def train_from_sources(
     px_per_mm
         Scale of the labelled images (required with ``labels``); the synthetic data are
         rendered at it too (default: ``config.model.px_per_mm``).
-    nodes, image_root
+    nodes, image_root, include_predicted
         See :func:`read_labels`.
     init
         Fine-tune this model instead of starting from random weights.
@@ -576,7 +579,13 @@ def train_from_sources(
     else:
         scale = px_per_mm if px_per_mm is not None else cfg.model.px_per_mm
     parts = [
-        read_labels(p, px_per_mm=float(px_per_mm), nodes=nodes, image_root=image_root)
+        read_labels(
+            p,
+            px_per_mm=float(px_per_mm),
+            nodes=nodes,
+            image_root=image_root,
+            include_predicted=include_predicted,
+        )
         for p in labels
     ]
     validation = None

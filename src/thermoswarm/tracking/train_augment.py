@@ -134,8 +134,8 @@ class _Sampler:
 
     def centroid_batch(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Inputs ``(B, h, w, 3)`` uint8 at the network's input scale and target maps
-        ``(B, h, w)`` float32, plus a weight map ``(B, h, w)`` (0 where unlabelled
-        ants may be: none for complete labels)."""
+        ``(B, h, w)`` float32, plus a weight map ``(B, h, w)`` (0 within half a body
+        length of the frame's ``ignore`` ants; 1 elsewhere)."""
         import cv2
 
         cfg, mc, rng = self.cfg, self.mc, self.rng
@@ -147,7 +147,9 @@ class _Sampler:
         inputs = np.empty((cfg.centroid_batch, h, h, 3), np.uint8)
         patches = np.empty((cfg.centroid_batch, P, P, 3), np.uint8)
         targets = np.zeros((cfg.centroid_batch, h, h), np.float32)
+        weights = np.ones((cfg.centroid_batch, h, h), np.float32)
         two_s2 = 2 * mc.sigma_px**2
+        r_ignore2 = (0.5 * self.length_px) ** 2
         for b in range(cfg.centroid_batch):
             i = int(rng.choice(len(self.data), p=self.p_frame))
             frame, pts = self.data.frames[i], self.data.points[i]
@@ -175,10 +177,17 @@ class _Sampler:
                         Y[None] - q[:, 1, None, None]
                     ) ** 2
                     targets[b] = np.exp(-d2.min(0) / two_s2)
+            ign = self.data.ignore_at(i)
+            if ign.shape[0]:
+                # An ant left unlabelled is not background: no loss within half a body
+                # length of it (the target there stays 0, the weight is 0).
+                q = _apply(M, ign)
+                d2 = (X[None] - q[:, 0, None, None]) ** 2 + (Y[None] - q[:, 1, None, None]) ** 2
+                weights[b][(d2 < r_ignore2).any(0)] = 0.0
         patches = _photometric(rng, cfg.augment, patches)
         for b in range(cfg.centroid_batch):
             inputs[b] = cv2.resize(patches[b], (h, h), interpolation=cv2.INTER_AREA)
-        return inputs, targets, np.ones_like(targets)
+        return inputs, targets, weights
 
     def pose_batch(self) -> tuple[np.ndarray, np.ndarray]:
         """Crops ``(B, C, C, 3)`` uint8 and their points ``(B, 3, 2)`` (crop px, NaN

@@ -52,6 +52,7 @@ class ValidationSet:
     mot_gt: np.ndarray | None = None
     description: str = ""
     _keep: Any = field(default=None, repr=False)  # the temporary folder of the video
+    ignore: list[np.ndarray] | None = None  # per frame: centres of unlabelled ants
 
     def iter_frames(self) -> Iterator[np.ndarray]:
         if isinstance(self.frames, Path):
@@ -102,20 +103,40 @@ def synthetic_validation(
     )
 
 
+def _ignored(P: np.ndarray, ign: np.ndarray | None, radius_px: float) -> np.ndarray:
+    """Which detections (body points ``P[:, 1]``) lie within ``radius_px`` of an
+    unlabelled ant's centre."""
+    if ign is None or ign.shape[0] == 0 or P.shape[0] == 0:
+        return np.zeros(P.shape[0], bool)
+    d = np.linalg.norm(P[:, None, 1] - ign[None], axis=-1)
+    return np.asarray((d <= radius_px).any(axis=1))
+
+
 def detection_metrics(
-    detections: Sequence[Any], truth: Sequence[np.ndarray], radius_px: float
+    detections: Sequence[Any],
+    truth: Sequence[np.ndarray],
+    radius_px: float,
+    ignore: Sequence[np.ndarray] | None = None,
 ) -> dict[str, float]:
     """Per-frame matching of detected and true body points (Hungarian, within
-    ``radius_px``): precision, recall, F1 and keypoint errors (px) of the matches."""
+    ``radius_px``): precision, recall, F1 and keypoint errors (px) of the matches.
+
+    ``ignore``: per frame, centres ``(m, 2)`` of ants present but not labelled; an
+    unmatched detection within ``radius_px`` of one is no false positive (counted in
+    ``ignored``).
+    """
     from scipy.optimize import linear_sum_assignment
 
-    tp = fp = fn = 0
+    tp = fp = fn = n_ign = 0
     errs: list[np.ndarray] = []
     flips = []
-    for det, gt in zip(detections, truth, strict=True):
+    for k, (det, gt) in enumerate(zip(detections, truth, strict=True)):
         P = det.points
+        ign = None if ignore is None else ignore[k]
         if gt.shape[0] == 0 or P.shape[0] == 0:
-            fp += P.shape[0]
+            skip = int(_ignored(P, ign, radius_px).sum())
+            n_ign += skip
+            fp += P.shape[0] - skip
             fn += gt.shape[0]
             continue
         D = np.linalg.norm(gt[:, None, 1] - P[None, :, 1], axis=-1)
@@ -124,8 +145,12 @@ def detection_metrics(
         r, c = linear_sum_assignment(np.where(D <= radius_px, D, 1e6))
         ok = D[r, c] <= radius_px
         r, c = r[ok], c[ok]
+        unmatched = np.ones(P.shape[0], bool)
+        unmatched[c] = False
+        skip = int((unmatched & _ignored(P, ign, radius_px)).sum())
+        n_ign += skip
         tp += r.size
-        fp += P.shape[0] - r.size
+        fp += P.shape[0] - r.size - skip
         fn += gt.shape[0] - r.size
         e = np.linalg.norm(gt[r] - P[c], axis=-1)  # (m, 3)
         errs.append(e)
@@ -138,6 +163,7 @@ def detection_metrics(
         "tp": int(tp),
         "fp": int(fp),
         "fn": int(fn),
+        "ignored": int(n_ign),
         "precision": tp / max(tp + fp, 1),
         "recall": tp / max(tp + fn, 1),
     }
@@ -167,7 +193,7 @@ def evaluate_detector(detector: Any, val: ValidationSet) -> dict[str, Any]:
     if len(dets) != len(val.points):
         raise InputError(f"validation: {len(dets)} frames for {len(val.points)} labelled ones")
     radius = 0.5 * anatomy.ANT_LENGTH_MM * val.px_per_mm
-    out: dict[str, Any] = detection_metrics(dets, val.points, radius)
+    out: dict[str, Any] = detection_metrics(dets, val.points, radius, val.ignore)
     out["detect_seconds_per_frame"] = t_det / max(len(dets), 1)
     out["eval_seconds"] = time.perf_counter() - t0
     if val.mot_gt is not None:
