@@ -165,11 +165,3 @@ def test_study_cli_bad_value_is_one_line_exit_2_and_writes_nothing(tmp_path):
         err = r.stderr.strip().splitlines()
         assert len(err) == 1 and "unknown key 'nope'" in err[0]
         assert not out.exists()
-
-
-def test_python_m_study_module_is_the_study_command(tmp_path):
-    from thermoswarm.studies.scaling import main
-
-    with pytest.raises(SystemExit) as exc:
-        main(["--out", str(tmp_path / "no" / "such")])
-    assert exc.value.code == 2

@@ -1,8 +1,4 @@
-"""``thermoswarm study mechanism|scaling``: the transport-free studies of the report.
-
-Also reachable as ``python -m thermoswarm.studies.mechanism`` and ``... .scaling``
-(the same commands).
-"""
+"""``thermoswarm study mechanism|scaling``: the transport-free studies of the report."""
 
 from __future__ import annotations
 
