@@ -52,7 +52,7 @@ class SweepSpec:
     scenario : str
         Registered scenario name.
     out : Path
-        Directory of the sweep (its parent must exist).
+        Directory of the sweep (created with its parents).
     base : mapping
         Parameters shared by every run (nested dicts or dotted keys).
     grid : mapping of dotted key -> sequence
@@ -261,16 +261,16 @@ def run_sweep(
     """
     from tqdm import tqdm
 
-    out = Path(spec.out)
-    if not out.absolute().parent.is_dir():
-        raise ConfigError(f"sweep output directory's parent {str(out.parent)!r} does not exist")
+    from thermoswarm.fsutil import check_output_dir
+
+    out = check_output_dir(spec.out)
     if overrides:
         base = _flatten_base(spec.base)
         for k, v in parse_overrides(overrides).items():
             base[k] = v if not isinstance(v, dict) else {**base.get(k, {}), **v}
         spec = SweepSpec(spec.scenario, spec.out, base, spec.grid, spec.seeds)
     runs = expand(spec)
-    out.mkdir(exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     records: dict[str, RunRecord] = {}
     todo: list[tuple[str, str]] = []
     for point, seed, cfg in runs:

@@ -52,7 +52,7 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
     "-o",
     required=True,
     type=click.Path(path_type=Path),
-    help="Output directory (its parent must exist).",
+    help="Output directory (created with its parents).",
 )
 @click.option("--format", "fmt", default=None, help="Input format name (default: detected).")
 @click.option("--fps", type=float, default=None, help="Frame rate, for frame-numbered input.")

@@ -12,7 +12,7 @@ import click
     "--out",
     type=click.Path(path_type=Path),
     required=True,
-    help="Output directory (its parent must exist); reruns reuse finished runs.",
+    help="Output directory (created with its parents); reruns reuse finished runs.",
 )
 @click.option(
     "--quick/--full",

@@ -38,7 +38,7 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     "out_dir",
     required=True,
     type=click.Path(path_type=Path),
-    help="Output folder (created; its parent must exist).",
+    help="Output folder (created with its parents).",
 )
 @click.option(
     "--detections",

@@ -54,16 +54,16 @@ def run_grid(
     (a local process pool, or ``executor``) into ``out/runs/``; one record per run.
 
     Dotted keys in ``base`` and ``grid`` address sections (``"sensor.mode"``).  Every
-    value is checked before ``out`` is created (its parent must exist).  A run that
+    value is checked before ``out`` (and its missing parents) is created.  A run that
     failed raises :class:`ConfigError` naming it.
     """
-    out = Path(out)
-    if not out.absolute().parent.is_dir():
-        raise ConfigError(f"study output directory's parent {str(out.parent)!r} does not exist")
+    from thermoswarm.fsutil import check_output_dir
+
+    out = check_output_dir(out)
     spec = SweepSpec(scenario=scenario, out=out / "runs", base=dict(base), grid=dict(grid),
                      seeds=list(seeds))  # fmt: skip
     expand(spec)  # raises on a bad value before anything is written
-    out.mkdir(exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     records = run_sweep(spec, executor, progress=progress, max_workers=max_workers)
     bad = [r for r in records if r.metrics is None]
     if bad:

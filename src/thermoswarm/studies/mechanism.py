@@ -215,7 +215,7 @@ def run_mechanism(
     Parameters
     ----------
     out : path
-        Study directory (its parent must exist); runs go to ``out/runs/<run_id>/``,
+        Study directory (created with its parents); runs go to ``out/runs/<run_id>/``,
         results to ``out/mechanism.json`` and ``out/mechanism.md``.
     setting : {"quick", "full"}
     seeds : int or list of int, optional

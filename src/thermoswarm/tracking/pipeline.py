@@ -95,7 +95,7 @@ def track_video(
     video
         Video file or folder of frames.
     out_dir
-        Output folder (created; its parent must exist).
+        Output folder (created with its parents).
     px_per_mm
         Image scale (px per mm).
     fps
