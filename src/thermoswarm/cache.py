@@ -1,4 +1,4 @@
-"""What thermoswarm computes once per machine: the compiled Numba kernels.
+"""What thermoswarm computes once per machine: compiled Numba kernels, parameter lists.
 
 One place for every entry point (the ``thermoswarm`` command, ``make``, the Python API,
 the tests): ``NUMBA_CACHE_DIR`` defaults to ``<user cache>/thermoswarm/numba`` (on Linux
@@ -8,7 +8,8 @@ imported, before Numba is.  Numba keys its files by the source's path and time s
 several checkouts share the directory without mixing their kernels.
 
 :func:`warm` compiles every kernel the scenarios and the analysis use (``make install``
-runs it through ``thermoswarm cache --warm``); :func:`jit_timer` measures the time a
+runs it through ``thermoswarm cache --warm``) and the scenarios' parameter listing
+(:mod:`thermoswarm.scenarios.schema`); :func:`jit_timer` measures the time a
 block spends compiling or loading kernels, so that speeds can be reported without it.
 """
 
@@ -146,6 +147,9 @@ def warm(*, verbose: bool = False) -> JitTime:
         if verbose:
             print(f"  {'analysis':20s} {time.perf_counter() - t:6.1f} s", flush=True)
     total.seconds, total.compile_seconds = jit.seconds, jit.compile_seconds
+    from thermoswarm.scenarios.schema import all_params
+
+    all_params()  # the parameter listing that `--set` is checked against
     if verbose:
         what = "compiled" if total.compiled else "loaded from the cache"
         print(

@@ -201,12 +201,15 @@ def analyze(
 
     Writes OUT/fits.json, OUT/report.html and OUT/kinematics.nc.
     """
+    from thermoswarm.cli import require_input
+
+    if fps is not None and not fps > 0:
+        raise ConfigError(f"--fps must be a positive number, got {fps!r}")
+    require_input(input)  # before the heavy imports
     from thermoswarm.analysis.study import analyze_file
     from thermoswarm.io import parse_read_options
 
     read_options = parse_read_options(read_option)
-    if fps is not None and not fps > 0:
-        raise ConfigError(f"--fps must be a positive number, got {fps!r}")
 
     def progress(msg: str) -> None:
         if not quiet:

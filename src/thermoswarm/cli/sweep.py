@@ -63,9 +63,13 @@ def _parse_seeds(text: str) -> list[int]:
 def sweep(scenario, out, grid, seeds, overrides, workers, progress):
     """Run SCENARIO for every combination of --grid values and --seeds; finished runs
     are skipped when started again.  Writes OUT/<run_id>/ and OUT/sweep.json."""
+    from thermoswarm.scenarios.schema import precheck
+
+    grid_values, seed_list = _parse_grid(grid), _parse_seeds(seeds)
+    precheck(scenario, overrides=overrides, grid=grid_values)  # before the heavy imports
     from thermoswarm.sweep import SweepSpec, run_sweep
 
-    spec = SweepSpec(scenario, out, {}, _parse_grid(grid), _parse_seeds(seeds))
+    spec = SweepSpec(scenario, out, {}, grid_values, seed_list)
     records = run_sweep(spec, max_workers=workers, progress=progress, overrides=overrides)
     failed = [r for r in records if r.status == "failed"]
     click.echo(

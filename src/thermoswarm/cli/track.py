@@ -102,6 +102,11 @@ def track(
     OUT/summary.json.  With --detections DETS.txt, tracks MOTChallenge detections
     without a video.
     """
+    from thermoswarm.cli import require_input
+
+    if (video is None) == (detections is None):
+        raise InputError("give either VIDEO or --detections DETS.txt (exactly one)")
+    require_input(video, detections)  # before the heavy imports
     from thermoswarm.config import from_mapping
     from thermoswarm.io import resolve_px_per_mm
     from thermoswarm.tracking.pipeline import track_detection_file, track_video
@@ -170,6 +175,9 @@ def evaluate(gt: Path, pred: Path, iou: float) -> None:
     Keys: mota, motp, idf1, idp, idr, idsw, idsw_rate, fp, fn, tp, n_gt, n_pred,
     n_gt_ids, n_pred_ids, n_frames, precision, recall, mt, pt, ml, frag, iou_threshold.
     """
+    from thermoswarm.cli import require_input
+
+    require_input(gt, pred)  # before the heavy imports
     from thermoswarm.fsutil import dumps_json
     from thermoswarm.tracking.evaluate import evaluate_files
 
