@@ -145,7 +145,7 @@ def track_video(
     if progress:
         from tqdm import tqdm
 
-        frames = tqdm(frames, total=total, unit="frame", desc="track")
+        frames = tqdm(frames, total=total, unit="frame", desc="track", disable=None)
     k = -1
     try:
         for k, frame in enumerate(frames):
