@@ -11,7 +11,6 @@ import html
 import json
 import math
 import re
-from pathlib import Path
 
 import pytest
 
