@@ -126,3 +126,18 @@ def _title(page: str, name: str) -> str:
         if text.startswith(short) or short.lower() in text.lower():
             return text
     raise AssertionError(f"no section for {name}")
+
+
+def test_a_rerun_reuses_the_runs_and_logs_one_line_per_step(done, capfd):
+    out, res = done
+    again = reproduce(out, plan=TINY, seed=0, workers=1, verbose=True)
+    logged = capfd.readouterr()
+    text = logged.out + logged.err
+    assert "\r" not in text and "it/s" not in text  # no progress bar in a log
+    lines = [ln for ln in text.splitlines() if ln.strip()]
+    steps = [ln for ln in lines if re.match(r"^\[ *[\d. a-z]+\] \d/7 \w+ done in ", ln)]
+    assert len(steps) == 7 and len(lines) == 8 and lines[-1].startswith("wrote ")
+    assert all("left" in ln for ln in steps[:-1]) and "left" not in steps[-1]
+    # the same runs, the same numbers
+    assert again["compression"] == res["compression"]
+    assert again["transport_free"] == res["transport_free"]

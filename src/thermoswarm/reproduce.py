@@ -160,8 +160,9 @@ class _Log:
 
     @property
     def bars(self) -> bool | None:
-        """``progress`` for runs and studies: bars on a terminal only, none if quiet."""
-        return None if self.verbose else False
+        """``progress`` for runs and studies: bars on a terminal, nothing in a log (the
+        step lines are the log) or when quiet."""
+        return None if self.tty else False
 
     def left(self) -> float:
         done = [s for s in self.steps if s in self.times]
