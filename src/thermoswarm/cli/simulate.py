@@ -39,8 +39,16 @@ def simulate(scenario, out, config_file, overrides, seed, resume_dir, progress):
     """Run SCENARIO (see `thermoswarm scenarios`) and write DIR/tracks.zarr, tracks.nc,
     metrics.json and config.toml."""
     if resume_dir is not None:
-        if scenario or out or config_file or overrides or seed is not None:
-            raise click.UsageError("--resume DIR takes no other arguments")
+        if out or config_file or overrides or seed is not None:
+            raise click.UsageError("--resume DIR takes no other options (the run's own "
+                                   "config.toml holds them)")  # fmt: skip
+        if scenario is not None:  # allowed when it names the run's scenario
+            from thermoswarm.config import load_toml
+
+            cfg_file = Path(resume_dir) / "config.toml"
+            ran = load_toml(cfg_file).get("scenario") if cfg_file.is_file() else None
+            if ran is not None and ran != scenario:
+                raise click.UsageError(f"{resume_dir} holds a {ran!r} run, not {scenario!r}")
         from thermoswarm.scenarios import runner
 
         metrics = runner.resume(resume_dir, progress=progress)
