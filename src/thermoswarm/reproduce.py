@@ -723,14 +723,15 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
         rep.table(
             [{"system": k, "preferred": v["preferred"].replace("_", " "),
               "LR p-value": (f"< {floor:.2g} (the bootstrap's floor)"
-                             if v["lr_p_value"] is not None and v["lr_p_value"] <= floor
+                             if v["lr_p_value"] is not None and v["lr_p_value"] <= 1.02 * floor
                              else v["lr_p_value"]),
               "one phase: kT (mm^2/s^2)": v["one_phase_kT"],
               "two phases: phi": v["two_phase"]["phi"],
               "kT1 (mm^2/s^2)": v["two_phase"]["kT1"], "kT2 (mm^2/s^2)": v["two_phase"]["kT2"],
               "KS p-value of the preferred fit": (
                   f"< {floor:.2g} (the bootstrap's floor)"
-                  if v["ks_p_value_preferred"] is not None and v["ks_p_value_preferred"] <= floor
+                  if v["ks_p_value_preferred"] is not None
+                  and v["ks_p_value_preferred"] <= 1.02 * floor
                   else v["ks_p_value_preferred"])}
              for k, v in res.items()],
             caption=f"Fits ({plan.n_bootstrap} bootstrap replicates per test)",
