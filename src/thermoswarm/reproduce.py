@@ -67,17 +67,18 @@ class Plan:
     gas_duration: float = 400.0
     ant_frames: int = 600
     n_bootstrap: int = 200
-    #: seconds per step on an idle 2-core machine (warm Numba cache), for the estimate
-    #: of what is left; only their proportions matter (rescaled as steps finish)
+    #: seconds per step on an idle 2-core machine (warm Numba cache; quick: the measured
+    #: CPU seconds, halved for the steps whose runs share two cores), for the estimate of
+    #: what is left; only their proportions matter (rescaled as steps finish)
     expected: dict[str, float] = field(default_factory=dict)
 
 
 QUICK = Plan("quick", compression_duration=1600.0, connected_seeds=3, free_seeds=3,
              free_duration=600.0, variant_duration=400.0, study="quick",
              unified_duration=60.0,
-             expected={"unified_law": 30, "narrow_road": 25, "compression": 40,
-                       "transport_connected": 10, "transport_free": 30, "mechanism": 60,
-                       "scaling": 25})  # fmt: skip
+             expected={"unified_law": 12, "narrow_road": 7, "compression": 10,
+                       "transport_connected": 5, "transport_free": 14, "mechanism": 54,
+                       "scaling": 6})  # fmt: skip
 FULL = Plan("full", expected={"unified_law": 60, "narrow_road": 25, "compression": 90,
                               "transport_connected": 30, "transport_free": 120,
                               "mechanism": 1000, "scaling": 600})  # fmt: skip
