@@ -61,6 +61,7 @@ def test_scaling_trend_and_the_empty_panel_v():
     up = {"rows": rows, "trend": {"spearman_rho": 0.7, "spearman_p": 0.001}}
     flat = {"rows": rows, "trend": {"spearman_rho": 0.2, "spearman_p": 0.39}}
     assert _verdicts("scaling", up) == ["reproduced", "not measured"]
+    assert summary_verdict(compare("scaling", up)) == "partly"
     assert _verdicts("scaling", flat)[0] == "differs"
     timed = [dict(r, reached=5, time_median=t) for r, t in zip(rows, [900, 500, 200],
                                                                   strict=True)]  # fmt: skip

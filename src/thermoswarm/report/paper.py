@@ -442,11 +442,12 @@ def compare(name: str, res: Mapping[str, Any]) -> list[dict[str, str]]:
 
 
 def summary_verdict(rows: Sequence[Mapping[str, str]]) -> str:
-    """One word for an experiment: reproduced only if every row is."""
+    """One word for an experiment: reproduced only if every row is (a claim not measured
+    makes it partly)."""
     verdicts = [r["verdict"] for r in rows]
     if not verdicts or all(v == NOT_MEASURED for v in verdicts):
         return NOT_MEASURED
-    if all(v == REPRODUCED for v in verdicts if v != NOT_MEASURED):
+    if all(v == REPRODUCED for v in verdicts):
         return REPRODUCED
     if any(v in (REPRODUCED, PARTLY) for v in verdicts):
         return PARTLY
