@@ -115,7 +115,6 @@ def snapshot_strip(
         ax.locator_params(nbins=4)
         ax.tick_params(labelsize=7, length=2, pad=1)
         ax.set_xlabel("x (mm)", fontsize=7, labelpad=1)
-        if i == 0:
-            ax.set_ylabel("y (mm)", fontsize=7, labelpad=1)
+        ax.set_ylabel("y (mm)" if i == 0 else "", fontsize=7, labelpad=1)
     fig.tight_layout()
     return fig

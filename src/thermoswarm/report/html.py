@@ -13,7 +13,7 @@ Example
 ...     rep.table({"kT1": 12.5, "kT2": 48.0})
 >>> html = rep.render()
 
-Hand-written (about 200 lines) rather than a templating engine: the pages are simple
+Hand-written (about 300 lines) rather than a templating engine: the pages are simple
 and the core install stays free of Jinja and friends.
 """
 
