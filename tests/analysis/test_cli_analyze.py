@@ -78,12 +78,12 @@ def test_bad_input_is_one_line_and_exit_2(tracks_file, tmp_path, args, match):
     assert "Traceback" not in res.output
 
 
-def test_missing_input_and_missing_parent(tmp_path, tracks_file):
+def test_missing_input_and_an_output_under_a_file(tmp_path, tracks_file):
     res = run(tmp_path / "none.nc", "--out", tmp_path / "o")
     assert res.exit_code == 2 and "no such file" in res.output
+    (tmp_path / "a").write_text("")
     res = run(tracks_file, "--out", tmp_path / "a" / "b")
-    assert res.exit_code == 2 and "does not exist" in res.output
-    assert not (tmp_path / "a").exists()
+    assert res.exit_code == 2 and "is a file, not a directory" in res.output
 
 
 def test_messy_pixel_csv_end_to_end(tmp_path):

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from thermoswarm.errors import ConfigError
+from thermoswarm.errors import ConfigError, OutputError
 from thermoswarm.studies import effect, verdict
 from thermoswarm.studies.mechanism import markdown_table, run_mechanism, summarize
 from thermoswarm.studies.scaling import censored_median, run_scaling
@@ -190,8 +190,9 @@ def test_run_scaling_end_to_end_tiny(tmp_path):
 def test_bad_setting_and_missing_parent(tmp_path):
     with pytest.raises(ConfigError, match="setting"):
         run_mechanism(tmp_path / "m", "medium")
-    with pytest.raises(ConfigError, match="parent"):
-        run_scaling(tmp_path / "no" / "such", "quick")
+    (tmp_path / "file").write_text("")
+    with pytest.raises(OutputError, match="not a directory"):
+        run_scaling(tmp_path / "file" / "such", "quick")
 
 
 def test_set_overrides_become_the_dotted_keys_of_a_grid_base():
@@ -213,11 +214,3 @@ def test_study_cli_bad_value_is_one_line_exit_2_and_writes_nothing(tmp_path):
         err = r.stderr.strip().splitlines()
         assert len(err) == 1 and "unknown key 'nope'" in err[0]
         assert not out.exists()
-
-
-def test_python_m_study_module_is_the_study_command(tmp_path):
-    from thermoswarm.studies.scaling import main
-
-    with pytest.raises(SystemExit) as exc:
-        main(["--out", str(tmp_path / "no" / "such")])
-    assert exc.value.code == 2

@@ -973,7 +973,7 @@ def analyze_file(
     **options: Any,
 ) -> StudyResult:
     """Read trajectories, run the study, write ``fits.json``, ``kinematics.nc`` and
-    ``report.html`` into directory ``out`` (its parent must exist; files are written
+    ``report.html`` into directory ``out`` (created with its parents; files are written
     atomically).  ``format``, ``px_per_mm``, ``allow_pickle`` and ``read_options`` go
     to :func:`thermoswarm.io.read_tracks`; the other options as :func:`run_study`."""
     from thermoswarm.fsutil import atomic_write_json, atomic_write_text, prepare_output_dir

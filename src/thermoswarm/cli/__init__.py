@@ -33,7 +33,19 @@ _COMMANDS: dict[str, str] = {
     "study": "thermoswarm.cli.study:study",
     "convert": "thermoswarm.cli.convert:convert",
     "formats": "thermoswarm.cli.convert:formats",
+    "cache": "thermoswarm.cli.cache:cache",
 }
+
+
+def require_input(*paths) -> None:
+    """A missing input file is a one-line error before any heavy module is imported."""
+    from pathlib import Path
+
+    from thermoswarm.errors import InputError
+
+    for path in paths:
+        if path is not None and not Path(path).exists():
+            raise InputError(f"{path}: no such file or directory")
 
 
 class LazyGroup(click.Group):

@@ -52,7 +52,7 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
     "-o",
     required=True,
     type=click.Path(path_type=Path),
-    help="Output directory (its parent must exist).",
+    help="Output directory (created with its parents).",
 )
 @click.option("--format", "fmt", default=None, help="Input format name (default: detected).")
 @click.option("--fps", type=float, default=None, help="Frame rate, for frame-numbered input.")
@@ -201,12 +201,15 @@ def analyze(
 
     Writes OUT/fits.json, OUT/report.html and OUT/kinematics.nc.
     """
+    from thermoswarm.cli import require_input
+
+    if fps is not None and not fps > 0:
+        raise ConfigError(f"--fps must be a positive number, got {fps!r}")
+    require_input(input)  # before the heavy imports
     from thermoswarm.analysis.study import analyze_file
     from thermoswarm.io import parse_read_options
 
     read_options = parse_read_options(read_option)
-    if fps is not None and not fps > 0:
-        raise ConfigError(f"--fps must be a positive number, got {fps!r}")
 
     def progress(msg: str) -> None:
         if not quiet:

@@ -1,8 +1,4 @@
-"""``thermoswarm study mechanism|scaling``: the transport-free studies of the report.
-
-Also reachable as ``python -m thermoswarm.studies.mechanism`` and ``... .scaling``
-(the same commands).
-"""
+"""``thermoswarm study mechanism|scaling``: the transport-free studies of the report."""
 
 from __future__ import annotations
 
@@ -33,6 +29,15 @@ def _common(f: Callable) -> Callable:
     return f
 
 
+def _precheck(out: Path, overrides: tuple[str, ...]) -> None:
+    """Keys and types of --set, and the output path, before the heavy imports."""
+    from thermoswarm.fsutil import check_output_dir
+    from thermoswarm.scenarios.schema import precheck
+
+    precheck("transport-free", overrides=overrides)
+    check_output_dir(out)
+
+
 @click.group()
 def study() -> None:
     """The transport-free studies: the mechanism grid and the scaling with swarm size."""
@@ -43,6 +48,7 @@ def study() -> None:
 def mechanism(out, setting, seeds, variant, workers, overrides):
     """Which light-to-phase mapping, heading law and sensing move the object (the
     mechanism table); writes OUT/mechanism.json and OUT/mechanism.md."""
+    _precheck(out, overrides)
     from thermoswarm.studies._common import dotted_overrides
     from thermoswarm.studies.mechanism import run_mechanism
 
@@ -58,6 +64,7 @@ def mechanism(out, setting, seeds, variant, workers, overrides):
 def scaling(out, setting, seeds, variant, workers, overrides, target_distance):
     """Maximum displacement and time to target versus the number of robots; writes
     OUT/scaling.json, OUT/scaling.md and OUT/scaling.png."""
+    _precheck(out, overrides)
     from thermoswarm.studies._common import dotted_overrides
     from thermoswarm.studies.scaling import run_scaling
 

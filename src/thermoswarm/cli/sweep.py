@@ -87,6 +87,10 @@ def sweep(scenario, out, grid, seeds, overrides, workers, scheduler, cluster, re
     are skipped when started again.  Writes OUT/<run_id>/, OUT/results.parquet (one row
     per run) and OUT/sweep.json.  Runs execute in local processes, or through Dask
     (--scheduler, --cluster; docs/cluster.md)."""
+    from thermoswarm.scenarios.schema import precheck
+
+    grid_values, seed_list = _parse_grid(grid), _parse_seeds(seeds)
+    precheck(scenario, overrides=overrides, grid=grid_values)  # before the heavy imports
     from thermoswarm.sweep import SweepSpec, run_sweep
 
     if scheduler is not None and cluster is not None:
@@ -98,7 +102,7 @@ def sweep(scenario, out, grid, seeds, overrides, workers, scheduler, cluster, re
         from thermoswarm.sweep.cluster import parse_cluster
 
         n_local = parse_cluster(cluster)
-    spec = SweepSpec(scenario, out, {}, _parse_grid(grid), _parse_seeds(seeds))
+    spec = SweepSpec(scenario, out, {}, grid_values, seed_list)
     kw = {"progress": progress, "overrides": overrides, "retries": retries}
     if scheduler is None and cluster is None:
         records = run_sweep(spec, max_workers=workers, **kw)

@@ -38,7 +38,7 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     "out_dir",
     required=True,
     type=click.Path(path_type=Path),
-    help="Output folder (created; its parent must exist).",
+    help="Output folder (created with its parents).",
 )
 @click.option(
     "--detections",
@@ -136,6 +136,11 @@ def track(
     video (MOTChallenge, YOLO or COCO): the boxes written are the detections' own,
     frames keep their numbering, and --px-per-mm is needed only for tracks.nc.
     """
+    from thermoswarm.cli import require_input
+
+    if (video is None) == (detections is None):
+        raise InputError("give either VIDEO or --detections DETS.txt (exactly one)")
+    require_input(video, detections)  # before the heavy imports
     from thermoswarm.config import from_mapping
     from thermoswarm.io import resolve_px_per_mm
     from thermoswarm.tracking.pipeline import track_detection_file, track_video
@@ -228,6 +233,9 @@ def evaluate(gt: Path, pred: Path, iou: float) -> None:
     and hota, deta, assa, loca (means over IoU thresholds 0.05..0.95, as TrackEval).
     Frames may count from 0 or 1.
     """
+    from thermoswarm.cli import require_input
+
+    require_input(gt, pred)  # before the heavy imports
     from thermoswarm.fsutil import dumps_json
     from thermoswarm.tracking.evaluate import evaluate_files
 

@@ -100,12 +100,12 @@ def track_train(
     and ID-switch targets), --labels FILE (SLEAP .slp or COCO .json, repeatable), or
     both.  Use the model with: thermoswarm track VIDEO --model OUT --px-per-mm S.
     """
+    if not synthetic and not labels:
+        raise InputError("give training data: --synthetic and/or --labels FILE")
     from thermoswarm.config import apply_overrides, from_mapping, load_toml, parse_overrides
     from thermoswarm.io import resolve_px_per_mm
     from thermoswarm.tracking.train import TrainConfig, train_from_sources
 
-    if not synthetic and not labels:
-        raise InputError("give training data: --synthetic and/or --labels FILE")
     data = load_toml(config) if config else {}
     data = apply_overrides(data, parse_overrides(overrides))
     if seed is not None:

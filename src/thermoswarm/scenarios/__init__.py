@@ -39,7 +39,13 @@ def get(name: str) -> type[Scenario]:
     if name not in _REGISTRY and name in _MODULES:
         importlib.import_module(_MODULES[name])
     if name not in _REGISTRY:
-        raise ConfigError(f"unknown scenario {name!r}; expected one of: {', '.join(names())}")
+        import difflib
+
+        close = difflib.get_close_matches(str(name), names(), n=1, cutoff=0.6)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ConfigError(
+            f"unknown scenario {name!r}{hint}; expected one of: {', '.join(names())}"
+        )
     return _REGISTRY[name]
 
 

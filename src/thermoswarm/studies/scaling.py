@@ -273,16 +273,3 @@ def run_scaling(
             fig.savefig(tmp, dpi=120, format="png")
         plt.close(fig)
     return res
-
-
-def main(argv: Sequence[str] | None = None) -> None:
-    """``python -m thermoswarm.studies.scaling``: the same as ``thermoswarm study scaling``."""
-    import sys
-
-    from thermoswarm.cli import main as cli_main
-
-    cli_main(["study", "scaling", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":
-    main()

@@ -16,6 +16,7 @@ from typing import Any, Literal
 
 from thermoswarm.config import check
 from thermoswarm.errors import ThermoswarmError
+from thermoswarm.fsutil import prepare_output_dir
 from thermoswarm.maxent import speed_law
 from thermoswarm.scenarios.compression import CompressionParams
 from thermoswarm.sweep.run import run_sweep
@@ -155,8 +156,7 @@ def temperature_for_density(
     h_target = area / p0.width
     hf_target = h_target - p0.diameter
     ms_per_kT = speed_law(p0.speed_law, 1.0).mean_square()  # <v^2> per unit kT
-    out = Path(out)
-    out.mkdir(exist_ok=True)
+    out = prepare_output_dir(out)
     kTs = {float(F): F * hf_target / p0.n / (ms_per_kT * p0.tau / 4) for F in forces}
     table = None
     for it in range(iterations):

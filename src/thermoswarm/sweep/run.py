@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from thermoswarm.errors import ConfigError, ThermoswarmError
-from thermoswarm.fsutil import atomic_write_json
+from thermoswarm.fsutil import atomic_write_json, check_output_dir
 from thermoswarm.sweep.pool import LocalPool, WorkerDied
 from thermoswarm.sweep.spec import RunRecord, SweepSpec, expand, run_id, with_overrides
 from thermoswarm.sweep.table import ResultsTable
@@ -74,12 +74,10 @@ def run_sweep(
 
     if retries < 0:
         raise ConfigError(f"retries must be >= 0, got {retries}")
-    out = Path(spec.out)
-    if not out.absolute().parent.is_dir():
-        raise ConfigError(f"sweep output directory's parent {str(out.parent)!r} does not exist")
+    out = check_output_dir(spec.out)
     spec = with_overrides(spec, overrides)
     runs = expand(spec)
-    out.mkdir(exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
     if hasattr(executor, "get_executor"):  # a dask.distributed.Client
         executor = executor.get_executor()
     records: dict[str, RunRecord] = {}

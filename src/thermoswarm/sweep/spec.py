@@ -27,7 +27,7 @@ class SweepSpec:
     scenario : str
         Registered scenario name.
     out : Path
-        Directory of the sweep (its parent must exist).
+        Directory of the sweep (created with its parents).
     base : mapping
         Parameters shared by every run (nested dicts or dotted keys).
     grid : mapping of dotted key -> sequence

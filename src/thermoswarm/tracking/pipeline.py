@@ -97,7 +97,7 @@ def track_video(
     video
         Video file or folder of frames.
     out_dir
-        Output folder (created; its parent must exist).
+        Output folder (created with its parents).
     px_per_mm
         Image scale (px per mm).
     fps
@@ -147,7 +147,7 @@ def track_video(
     if progress:
         from tqdm import tqdm
 
-        frames = tqdm(frames, total=total, unit="frame", desc="track")
+        frames = tqdm(frames, total=total, unit="frame", desc="track", disable=None)
     k = -1
     try:
         for k, frame in enumerate(frames):

@@ -392,7 +392,7 @@ def train(
         if progress:
             from tqdm import tqdm
 
-            bar = tqdm(total=cfg.max_steps, unit="step", desc="train")
+            bar = tqdm(total=cfg.max_steps, unit="step", desc="train", disable=None)
         t_train = time.perf_counter()
         step = 0
         for step in range(1, cfg.max_steps + 1):
