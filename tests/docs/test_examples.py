@@ -113,7 +113,10 @@ def tiny(argv: list[str]) -> list[str]:
         return [*a, "--set", "duration=2", "--no-progress"]
     if verb == "sweep":
         a = _replace(a, "--seeds", "0")
-        a = _replace(a, "--workers", "1")
+        if "--cluster" in a:
+            a = _replace(a, "--cluster", "local:1")
+        elif "--scheduler" not in a:
+            a = _replace(a, "--workers", "1")
         return [*a, "--set", "duration=2"]
     if verb == "study":
         a = _replace(a, "--setting", "quick")
@@ -276,6 +279,8 @@ def run_page(page: Path, cwd: Path, *, slow: bool) -> list[str]:
                     notes.append(f"{where}: {text} (slow test)")
                 elif verb == "track-train":
                     notes.append(f"{where}: {text} (parsed only: training takes minutes)")
+                elif "--scheduler" in args:
+                    notes.append(f"{where}: {text} (parsed only: needs the reader's scheduler)")
                 else:
                     _run_thermoswarm(args, cwd, where)
     finally:
@@ -292,6 +297,10 @@ PYTHON_NOT_RUN = {
         "reads the reader's SLEAP, idtracker.ai and CSV files",
     ("tracking_unet.md", "from thermoswarm.tracking.unet import load_model, UNetDetector"):
         "needs a trained model (thermoswarm track train, minutes)",
+    ("robot.md", "from controller import HAL, Config, Controller"):
+        "runs on the robot, with the board's hardware layer",
+    ("cluster.md", "# slurm_sweep.py -- run on the login node: python slurm_sweep.py"):
+        "needs a SLURM cluster and dask-jobqueue",
 }  # fmt: skip
 PYTHON_SLOW = {("tracking.md", "import numpy as np")}  # a 300-frame 1080p video
 

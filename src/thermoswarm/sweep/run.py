@@ -9,7 +9,6 @@ from collections.abc import Sequence
 from concurrent.futures import Executor, Future
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict
-from pathlib import Path
 from typing import Any
 
 from thermoswarm.errors import ConfigError, ThermoswarmError
