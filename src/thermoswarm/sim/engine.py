@@ -691,10 +691,11 @@ class Simulator:
         p = self.params
         w = self.world
         if p.mode == "overdamped":
-            due = np.flatnonzero(state.timer <= 0)
+            due = np.flatnonzero(state.timer <= 0)  # arange(n) when everyone is due
             if due.size == state.n:
-                due = np.arange(state.n)
-            if due.size:
+                self._decide(state, due)
+                state.timer.fill(p.tau_steps)
+            elif due.size:
                 self._decide(state, due)
                 state.timer[due] = p.tau_steps
             restore = _auto_threads(state.n)
