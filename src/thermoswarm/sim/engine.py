@@ -209,7 +209,7 @@ class SwarmState:
     udir : (2, n) float32 cos and sin of each heading, computed once per decision (the
         kernels move robots along it: no trigonometry per step)
     vel : (n, 2) mm/s (inertial mode; empty otherwise)
-    bodies : (B, 11) packed movable discs (see :data:`kernels.B_COLS`); use the views
+    bodies : (B, 11) packed movable discs (columns ``kernels.BODY_*``); use the views
         ``body_pos``, ``body_force`` (mean contact force robots exerted during the last
         step) and ``body_ext_force`` (an external force a scenario may set)
     pistons : (P, 12) packed force-driven walls; views ``piston_pos`` and
@@ -486,10 +486,6 @@ class _Workspace:
         #: the ``ref`` array of the state whose lists these are (None: no lists yet)
         self.lists_of: np.ndarray | None = None
 
-    def inertial_buffers(self) -> np.ndarray:
-        """Scratch array of the elastic kernel."""
-        return self.scratch
-
     @property
     def nbytes(self) -> int:
         return sum(a.nbytes for a in vars(self).values() if isinstance(a, np.ndarray)) - (
@@ -615,8 +611,8 @@ class Simulator:
         if not np.all(np.isfinite(pos)):
             raise ConfigError("initial positions must be finite")
         fcols = np.zeros((2, n))
-        fcols[0] = rng.uniform(-np.pi, np.pi, n) if headings is None else headings
-        udir = _unit_directions(fcols[0])
+        fcols[K.HEADING] = rng.uniform(-np.pi, np.pi, n) if headings is None else headings
+        udir = _unit_directions(fcols[K.HEADING])
         icols = np.zeros((3, n), np.int32)
         icols[0] = np.arange(n)
         if group is not None:
@@ -721,7 +717,7 @@ class Simulator:
             try:
                 K.inertial_step(
                     state.pos, state.vel, state.fcols, state.icols, ws.grid, ws.cell,
-                    ws.cell_start, ws.perm, ws.inertial_buffers(), p.radius, p.dt,
+                    ws.cell_start, ws.perm, ws.scratch, p.radius, p.dt,
                     w.segments, state.counters,
                 )  # fmt: skip
             finally:
