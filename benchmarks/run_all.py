@@ -54,11 +54,13 @@ def main(argv: list[str] | None = None) -> int:
 
     if want("engine"):
         sys.path.insert(0, str(HERE))
-        from bench_engine import main as engine_main
+        from bench_engine import table
 
         ns = ["--n", "1200", "--n", "10000", "--n", "100000"] if a.quick else []
         print("## engine (thermoswarm, pymunk and Warp: same workload, same command)\n")
-        engine_main(ns)
+        d = _run("bench_engine", ns)
+        if d:
+            print(table(d["engine"]))
         print()
     if want("analysis"):
         args = ["--n-tracks", "200", "--n-frames", "5000"] if a.quick else []
