@@ -92,7 +92,8 @@ def test_pair_search_cannot_miss_a_pair_when_the_grid_is_never_rebuilt():
 
 def test_reordering_keeps_each_robots_data_with_its_id():
     world = _box(800, 0.4)
-    params = EngineParams(dt=0.1, tau=1.0, radius=R, desync=False)
+    # a thin skin, so that the grid is rebuilt (and the robots re-sorted) within 8 steps
+    params = EngineParams(dt=0.1, tau=1.0, radius=R, desync=False, skin=0.1)
     sim = GpuSimulator(world, params, BoltzmannUniform(KT), device="cpu")
     rng = np.random.default_rng(6)
     group = np.arange(800) % 7

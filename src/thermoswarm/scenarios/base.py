@@ -57,10 +57,10 @@ class Numerics:
 
     dt: float = 0.1
     iterations: int = 2
-    max_iterations: int = 50
+    max_iterations: int = 500
     overlap_tol: float = 0.005
     relax: float = 1.0
-    skin: float = 0.1
+    skin: float = 0.5
     cell_size: float | None = None
     desync: bool = True
     backend: Literal["cpu", "gpu"] = "cpu"

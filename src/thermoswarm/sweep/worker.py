@@ -27,6 +27,7 @@ import numba
 from thermoswarm.config import from_mapping
 from thermoswarm.errors import ThermoswarmError
 from thermoswarm.scenarios import get, runner
+from thermoswarm.sim.engine import set_threads
 from thermoswarm.sim.recorder import read_marker
 
 __all__ = ["run_one", "finished", "compile_here", "committed_frames"]
@@ -58,8 +59,8 @@ def run_one(config_toml: str, out_dir: str, threads: int | None, attempt: int = 
     ``threads`` is the Numba thread count of the run, set explicitly (None: Numba's
     default).  A :class:`ThermoswarmError` means the configuration itself is bad.
     """
-    if threads is not None:
-        numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    if threads is not None:  # explicit: the engine never overrides it
+        set_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
     out = Path(out_dir)
     _log(out, {"event": "start", "attempt": attempt, "host": socket.gethostname(),
                "pid": os.getpid(), "time": time.time(),

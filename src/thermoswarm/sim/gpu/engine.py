@@ -144,7 +144,9 @@ class GpuSwarmState(SwarmState):
         # builds its grid from these arrays) repeats the uninterrupted run exactly
         self._sim._sync_from_host(self)
         self._sim._rebuild()
-        return super().to_arrays()
+        arrays = super().to_arrays()
+        del arrays["ref"]  # the device keeps its own grid, rebuilt above
+        return arrays
 
 
 def _robot_property(name: str) -> property:
