@@ -63,6 +63,7 @@ __all__ = [
     "individual_times",
     "per_individual",
     "centroid",
+    "combine_tracks",
     "resolve_duplicates",
     "DUPLICATE_RULES",
 ]
@@ -272,6 +273,63 @@ def individual_times(ds: xr.Dataset, fps: float | None = None) -> np.ndarray:
         )
     t = times_seconds(ds, fps)
     return np.broadcast_to(t[:, None], (t.size, ds.sizes["individuals"]))
+
+
+def combine_tracks(
+    datasets: Sequence[xr.Dataset], prefixes: Sequence[str], *, fps: float | None = None
+) -> xr.Dataset:
+    """Put the individuals of several datasets (e.g. one file per video) side by side.
+
+    Individual ``n`` of the dataset with prefix ``p`` is named ``p:n``.  Keypoints must
+    agree.  Each individual keeps its own times; when they all coincide the result has
+    one shared axis, otherwise per-individual clocks (see the module docstring).
+    Confidence is kept when every dataset has it.  ``fps`` converts frame-numbered
+    inputs.
+    """
+    if len(datasets) != len(prefixes) or not datasets:
+        raise InputError("combine_tracks: need one prefix per dataset, at least one dataset")
+    kps = [str(k) for k in datasets[0]["keypoints"].values]
+    cols_t, cols_p, cols_c, names = [], [], [], []
+    with_conf = all("confidence" in d for d in datasets)
+    for d, prefix in zip(datasets, prefixes, strict=True):
+        here = [str(k) for k in d["keypoints"].values]
+        if here != kps:
+            raise InputError(
+                f"{d.attrs.get('source_file', prefix)}: keypoints {here} differ from {kps}"
+            )
+        t = individual_times(d, fps)
+        pos = d["position"].transpose(*DIMS).values
+        conf = d["confidence"].transpose(*CONF_DIMS).values if with_conf else None
+        for i, name in enumerate(str(v) for v in d["individuals"].values):
+            keep = np.isfinite(t[:, i])
+            cols_t.append(t[keep, i])
+            cols_p.append(pos[keep, :, :, i])
+            cols_c.append(None if conf is None else conf[keep, :, i])
+            names.append(f"{prefix}:{name}")
+    n = max(c.size for c in cols_t)
+    shared = all(c.size == n and np.array_equal(c, cols_t[0]) for c in cols_t)
+    position = np.full((n, 2, len(kps), len(names)), np.nan)
+    clock = np.full((n, len(names)), np.nan)
+    confidence = np.full((n, len(kps), len(names)), np.nan) if with_conf else None
+    for i, (t, p, c) in enumerate(zip(cols_t, cols_p, cols_c, strict=True)):
+        position[: t.size, :, :, i] = p
+        clock[: t.size, i] = t
+        if confidence is not None:
+            confidence[: t.size, :, i] = c
+    first = datasets[0].attrs
+    return make_tracks(
+        position,
+        time=cols_t[0] if shared else clock,
+        individuals=names,
+        keypoints=kps,
+        confidence=confidence,
+        source_software=str(first.get("source_software", "thermoswarm")),
+        source_file=", ".join(str(d.attrs.get("source_file", "")) for d in datasets),
+        attrs={
+            k: int(sum(int(d.attrs.get(k, 0) or 0) for d in datasets))
+            for k in ("n_duplicate_rows", "n_conflicting_duplicates", "n_decreasing_timestamps")
+        },
+    )
 
 
 def resolve_duplicates(

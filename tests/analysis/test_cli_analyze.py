@@ -103,10 +103,12 @@ def test_messy_pixel_csv_end_to_end(tmp_path):
     out = tmp_path / "o"
     res = run(path, "--px-per-mm", "paper", "--out", out, "--bootstrap", 0, "-q")
     assert res.exit_code == 0, res.output
-    assert "3 backward time steps" in res.output and "1 rows with a repeated" in res.output
+    # counted per individual: 3 backward steps and one exact duplicate row each
+    assert "9 backward time steps" in res.output
+    assert "3 exact duplicate rows dropped" in res.output
     fits = json.loads((out / "fits.json").read_text())
     dq = fits["data_quality"]
-    assert dq["n_times_input"] == 61 and dq["n_times"] == 60
+    assert dq["n_duplicate_rows"] == 3 and dq["n_samples"] == 3 * 60
     assert dq["n_missing_positions"] == 1 and dq["n_gaps"] == 1
     assert fits["n_samples"] == 3 * 59 - 2
     assert fits["energy"]["one_phase"]["kT"] == pytest.approx(50.0, rel=1e-9)  # v^2/2

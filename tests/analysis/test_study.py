@@ -250,7 +250,7 @@ def test_analyze_file_writes_three_outputs(tmp_path, two_phase_tracks):
     assert fits["settings"]["regions"] == str(regions)
     with xr.open_dataset(out / "kinematics.nc", engine="h5netcdf") as kin:
         assert {"speed", "energy", "heading", "steering_rate", "valid", "region"} <= set(kin)
-        assert kin.attrs["n_steps_valid"] == fits["n_samples"]
+        assert kin.attrs["n_steps_used"] == fits["n_samples"]
         np.testing.assert_allclose(
             kin["energy"].values, res.kinematics["energy"].values.astype(np.float32)
         )

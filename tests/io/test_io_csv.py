@@ -188,7 +188,11 @@ def test_sniff_tells_tidy_wide_and_dlc_apart(tmp_path):
             {"fps": 1, "units": "mm"},
             r"non-numeric value 'abc' in column 'x' \(data row 1\)",
         ),
-        ("id,frame,x,y\na,0,1,2\na,0,3,4\n", {"fps": 1, "units": "mm"}, r"individual 'a' at frame 0: two different samples"),
+        (
+            "id,frame,x,y\na,0,1,2\na,0,3,4\n",
+            {"fps": 1, "units": "mm"},
+            r"individual 'a' at frame 0: two different samples",
+        ),
         ("id,frame,x,y\n", {"fps": 1, "units": "mm"}, r"no data rows"),
         ("id,frame,x\na,0,1\n", {"fps": 1, "units": "mm"}, r"no x/y columns"),
         ("id,frame,x,y\na,0,1,2,9,9\n", {"fps": 1, "units": "mm"}, r"malformed CSV"),

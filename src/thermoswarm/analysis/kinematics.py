@@ -37,6 +37,10 @@ the counts sum to ``n_steps_total``), checked in this order:
 ``time_gap``
     longer than ``gap_factor`` times the individual's own median step: an average,
     not an instantaneous, velocity;
+``static_track``
+    the individual's positions stay within ``min_track_extent`` mm (bounding-box
+    diagonal): a static object the tracker followed (debris, a shadow), not an
+    animal; off unless ``min_track_extent`` is given;
 ``over_max_speed``
     faster than ``max_speed``;
 ``implausible``
@@ -107,6 +111,7 @@ __all__ = [
 STEP_CLASSES = (
     "missing_position",
     "time_gap",
+    "static_track",
     "over_max_speed",
     "implausible",
     "resting",
@@ -162,6 +167,7 @@ DATA_QUALITY_KEYS = (
     "n_resting_kept",
     "resting_fraction",
     "n_individuals_all_implausible",
+    "n_static_tracks",
     "n_zero_speed",
     "n_steering_samples",
     "n_steering_undefined",
@@ -242,9 +248,7 @@ def _clean_columns(
             t,
             np.column_stack([X[keep, i], Y[keep, i]]),
             rule,
-            describe=lambda _g, when, i=i: (
-                f"{src}: individual {names[i]!r} at time {when:.10g} s"
-            ),
+            describe=lambda _g, when, i=i: f"{src}: individual {names[i]!r} at time {when:.10g} s",
         )
         counts["n_duplicate_rows"] += n_exact
         counts["n_conflicting_duplicates"] += n_conflict
@@ -444,6 +448,7 @@ def compute_kinematics(
     body_length: float | None = None,
     max_body_lengths_per_s: float = 50.0,
     keep_implausible: bool = False,
+    min_track_extent: float | None = None,
 ) -> xr.Dataset:
     """Kinematics of every step of every track.
 
@@ -490,6 +495,9 @@ def compute_kinematics(
     implausible_factor, body_length, max_body_lengths_per_s, keep_implausible
         The implausible-motion rule (:func:`implausible_thresholds`); implausible
         steps are left out unless ``keep_implausible``.  ``body_length`` in mm.
+    min_track_extent
+        Individuals whose positions stay within this many mm (bounding-box diagonal)
+        are static objects, not animals: their steps are left out (``static_track``).
 
     Returns
     -------
@@ -512,6 +520,7 @@ def compute_kinematics(
         "stationary_duration", stationary_duration, allow_none=False
     )
     min_confidence = _check_param("min_confidence", min_confidence)
+    min_track_extent = _check_param("min_track_extent", min_track_extent, positive=True)
     resting_speed = _check_param("resting_speed", resting_speed, allow_none=False)
     implausible_factor = _check_param(
         "implausible_factor", implausible_factor, positive=True, allow_none=False
@@ -533,15 +542,13 @@ def compute_kinematics(
             f"duplicates must be one of {', '.join(DUPLICATE_RULES)}, got {duplicates!r}"
         )
     if held_positions not in ("resting", "missing"):
-        raise ConfigError(
-            f"held_positions must be 'resting' or 'missing', got {held_positions!r}"
-        )
+        raise ConfigError(f"held_positions must be 'resting' or 'missing', got {held_positions!r}")
     if stationary_speed is None:
         stationary_speed = min_speed
 
     counts: dict[str, Any] = dict.fromkeys(DATA_QUALITY_KEYS, 0)
-    for k in ("n_duplicate_rows", "n_conflicting_duplicates"):
-        counts[k] = int(ds.attrs.get(k, 0) or 0)  # what the reader resolved
+    for k in ("n_duplicate_rows", "n_conflicting_duplicates", "n_decreasing_timestamps"):
+        counts[k] = int(ds.attrs.get(k, 0) or 0)  # what the reader sorted and resolved
     position = ds["position"]
     if min_confidence is not None and "confidence" in ds:
         low = (ds["confidence"] < min_confidence).values
@@ -609,8 +616,7 @@ def compute_kinematics(
     idx = np.arange(T.shape[0])[:, None]
     seen_before = np.maximum.accumulate(np.where(present, idx, -1), axis=0) >= 0
     seen_after = (
-        np.minimum.accumulate(np.where(present, idx, T.shape[0])[::-1], axis=0)[::-1]
-        < T.shape[0]
+        np.minimum.accumulate(np.where(present, idx, T.shape[0])[::-1], axis=0)[::-1] < T.shape[0]
     )
     holes = sample & ~present
     counts["n_missing_positions"] = int(holes.sum())
@@ -633,6 +639,21 @@ def compute_kinematics(
     cls[exists & ~both] = _CODE["missing_position"]
     cls[both & gap] = _CODE["time_gap"]
     measured = both & ~gap
+    if min_track_extent is not None:
+        with np.errstate(invalid="ignore"):
+            xs, ys = np.where(present, X, np.nan), np.where(present, Y, np.nan)
+        ok_cols = present.any(axis=0)
+        extent = np.zeros(n_i)
+        if ok_cols.any():
+            px, py = xs[:, ok_cols], ys[:, ok_cols]
+            extent[ok_cols] = np.hypot(
+                np.nanmax(px, axis=0) - np.nanmin(px, axis=0),
+                np.nanmax(py, axis=0) - np.nanmin(py, axis=0),
+            )
+        static = ok_cols & (extent < min_track_extent)
+        counts["n_static_tracks"] = int(static.sum())
+        cls[measured & static[None, :]] = _CODE["static_track"]
+        measured &= ~static[None, :]
     with np.errstate(invalid="ignore", divide="ignore"):
         speed_s = np.where(measured, np.hypot(dx, dy) / np.where(measured, dt, 1.0), np.nan)
     cand = measured.copy()
@@ -771,6 +792,7 @@ def compute_kinematics(
         "stationary_duration_s": stationary_duration,
         "drop_stationary": int(bool(drop_stationary)),
         "min_confidence": min_confidence,
+        "min_track_extent": min_track_extent,
         "duplicates": duplicates,
         "held_positions": held_positions,
         "resting_speed": resting_speed,

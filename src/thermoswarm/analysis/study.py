@@ -37,6 +37,7 @@ regions
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -57,7 +58,7 @@ from thermoswarm.analysis.fit import (
     goodness_of_fit,
     naive_ks,
 )
-from thermoswarm.analysis.kinematics import compute_kinematics, data_quality
+from thermoswarm.analysis.kinematics import compute_kinematics, data_quality, excluded_summary
 from thermoswarm.analysis.regions import OUTSIDE, Region, assign_regions, load_regions
 from thermoswarm.analysis.sampling import (
     autocorrelation,
@@ -66,6 +67,7 @@ from thermoswarm.analysis.sampling import (
     integrated_autocorr_time,
 )
 from thermoswarm.errors import ConfigError, InputError
+from thermoswarm.tracks import combine_tracks
 
 __all__ = [
     "analyze_tracks",
@@ -94,6 +96,16 @@ _KINEMATICS_KEYS = (
     "stationary_duration",
     "drop_stationary",
     "min_confidence",
+    "regular_tolerance",
+    "duplicates",
+    "held_positions",
+    "resting_speed",
+    "keep_resting",
+    "implausible_factor",
+    "body_length",
+    "max_body_lengths_per_s",
+    "keep_implausible",
+    "min_track_extent",
 )
 
 
@@ -302,13 +314,17 @@ def _group_codes(
             codes = np.where(codes == OUTSIDE, len(regions), codes)
         return codes, labels
     if spec.kind == "time":
-        t = kin["time"].values
+        t = kin["step_time"].values
         w = spec.window
-        k = np.floor((t - t[0]) / w).astype(np.int64)
-        used = np.unique(k)
-        remap = np.searchsorted(used, k)
-        labels = [f"{t[0] + w * j:g}-{t[0] + w * (j + 1):g} s" for j in used.tolist()]
-        return np.broadcast_to(remap[:, None], (n_t, n_i)).copy(), labels
+        t0 = float(np.nanmin(t))
+        with np.errstate(invalid="ignore"):
+            k = np.floor((t - t0) / w)
+        finite = np.isfinite(k)
+        used = np.unique(k[finite]).astype(np.int64)
+        codes = np.full(t.shape, -1, dtype=np.int64)
+        codes[finite] = np.searchsorted(used, k[finite].astype(np.int64))
+        labels = [f"{t0 + w * j:g}-{t0 + w * (j + 1):g} s" for j in used.tolist()]
+        return codes, labels
     name = spec.name
     if name not in ds.data_vars or name in ("position", "confidence"):
         options = [v for v in ds.data_vars if v not in ("position", "confidence")]
@@ -324,12 +340,15 @@ def _group_codes(
         )
     var = var.transpose(*[d for d in ("time", "individuals") if d in var.dims])
     values = var.values
-    if "time" in var.dims:
-        values = values[kin["input_row"].values]
-    if "time" not in var.dims:
+    rows = kin["input_row"].values  # (time, individuals); -1: no sample
+    cols = np.broadcast_to(np.arange(n_i)[None, :], (n_t, n_i))
+    safe = np.maximum(rows, 0)
+    if "time" in var.dims and "individuals" in var.dims:
+        values = values[safe, cols]
+    elif "time" in var.dims:
+        values = values[safe]
+    else:
         values = np.broadcast_to(values[None, :], (n_t, n_i))
-    elif "individuals" not in var.dims:
-        values = np.broadcast_to(values[:, None], (n_t, n_i))
     flat = values.ravel()
     if flat.dtype.kind == "f":
         missing = ~np.isfinite(flat)
@@ -338,6 +357,7 @@ def _group_codes(
         missing = np.isin(flat, ["", "None", "nan", "NaN"])
     else:
         missing = np.zeros(flat.shape, dtype=bool)
+    missing |= (rows < 0).ravel()  # rows after an individual's last sample
     keys = flat[~missing]
     uniq, inv = np.unique(keys, return_inverse=True)
     if uniq.size > 100:
@@ -752,6 +772,70 @@ def _regions_block(
 
 
 # --------------------------------------------------------------------------------------
+# Plausibility of the fitted temperatures
+
+
+def plausibility(
+    block: dict[str, Any],
+    kin: xr.Dataset,
+    *,
+    mass: float | None,
+    max_plausible_speed: float | None,
+) -> dict[str, Any]:
+    """Whether each fitted temperature describes motion the animal can make.
+
+    A temperature ``kT`` (per unit mass) is the mean energy ``<v^2>/2`` of its phase,
+    so its root-mean-square speed is ``sqrt(2 kT)`` (``sqrt(2 kT / m)`` with a mass).
+    The bound: ``max_plausible_speed`` (mm/s) when given (the animal's top speed),
+    otherwise the implausible-motion threshold of the kinematics -- a phase whose
+    typical speed is one that the data's own rule calls a tracking glitch describes
+    glitches, not the animal.
+    """
+    rule = json.loads(kin.attrs.get("implausible_rule", "{}"))
+    if max_plausible_speed is not None:
+        bound = float(max_plausible_speed)
+        source = "max_plausible_speed (the animal's top speed, given)"
+    elif rule.get("threshold_mm_s"):
+        bound = float(rule["threshold_mm_s"])
+        source = f"implausible-motion threshold ({rule.get('rule')} rule)"
+    else:
+        bound, source = None, "none (no moving steps to set a scale)"
+    temps: dict[str, dict[str, Any]] = {}
+    if "one_phase" in block:
+        named = [("kT", block["one_phase"].get("kT"))]
+        if not block["two_phase"].get("degenerate"):
+            named += [
+                ("kT1", block["two_phase"].get("kT1")),
+                ("kT2", block["two_phase"].get("kT2")),
+            ]
+        for name, kt in named:
+            if kt is None or not np.isfinite(kt) or kt <= 0:
+                continue
+            rms = math.sqrt(2.0 * kt / mass) * 1e3 if mass else math.sqrt(2.0 * kt)
+            temps[name] = {
+                "value": kt,
+                "rms_speed_mm_s": rms,
+                "plausible": None if bound is None else bool(rms <= bound),
+            }
+    bad = [k for k, v in temps.items() if v["plausible"] is False]
+    out: dict[str, Any] = {
+        "bound_mm_s": bound,
+        "bound_source": source,
+        "rule": "a phase is plausible when its rms speed sqrt(2 kT) is at most the bound",
+        "temperatures": temps,
+        "all_plausible": None if bound is None else not bad,
+    }
+    if bad:
+        out["warning"] = (
+            f"implausible temperature(s) {', '.join(bad)}: rms speed "
+            + ", ".join(f"{temps[k]['rms_speed_mm_s']:.4g}" for k in bad)
+            + f" mm/s above {bound:.4g} mm/s ({source}); the fit describes tracking errors "
+            "or mixes animals; check identities, units and --max-speed"
+        )
+    return out
+
+
+# --------------------------------------------------------------------------------------
 # The study
 
 
@@ -769,6 +853,7 @@ def run_study(
     thin: str | int = "auto",
     alpha: float = 0.05,
     seed: int | None = 0,
+    max_plausible_speed: float | None = None,
     progress: Callable[[str], None] | None = None,
     **kinematics_options: Any,
 ) -> StudyResult:
@@ -803,11 +888,18 @@ def run_study(
         Level of the LR test that picks the preferred model, and of the intervals.
     seed
         Seed of every random draw (same seed, same output).
+    max_plausible_speed
+        The animal's top speed (mm/s) for the plausibility of the fitted temperatures
+        (:func:`plausibility`); default: the implausible-motion threshold.
     progress
         Called with a short message at each stage.
     **kinematics_options
         Passed to :func:`thermoswarm.analysis.kinematics.compute_kinematics`
-        (``smooth``, ``min_speed``, ``max_speed``, ``gap_factor``, ``max_gap``, ...).
+        (``smooth``, ``min_speed``, ``max_speed``, ``gap_factor``, ``max_gap``,
+        ``duplicates``, ``resting_speed``, ``body_length``, ...).
+
+    Raises :class:`InputError` when no step is left to fit (every step missing, a
+    gap, resting or implausible): the message gives the counts.
     """
     unknown = [k for k in kinematics_options if k not in _KINEMATICS_KEYS]
     if unknown:
@@ -835,10 +927,24 @@ def run_study(
     root = np.random.SeedSequence(seed)
     s_energy, s_steer, s_regions, s_groups = root.spawn(4)
 
+    if max_plausible_speed is not None:
+        mp = float(max_plausible_speed)
+        if not (math.isfinite(mp) and mp > 0):
+            raise ConfigError(f"max_plausible_speed must be a positive number, got {mp!r}")
     say("kinematics")
     kin = compute_kinematics(ds, fps=fps, mass=mass, **kinematics_options)
     energy = kin["energy"].values
     valid = kin["valid"].values & np.isfinite(energy)
+    if not valid.any():
+        dq = data_quality(kin)
+        buckets = ", ".join(
+            f"{v} {k.replace('_', ' ')}" for k, v in dq["step_buckets"].items() if v
+        )
+        src = ds.attrs.get("source_file", "the input")
+        raise InputError(
+            f"{src}: no step left to fit ({dq['n_steps_total']} steps: {buckets or 'none'}); "
+            "see --keep-resting, --keep-implausible, --gap-factor, --max-gap"
+        )
     region_codes = None
     if regions:
         region_codes = assign_regions(regions, kin["x_mid"].values, kin["y_mid"].values)
@@ -880,7 +986,9 @@ def run_study(
             **{k: kinematics_options.get(k) for k in _KINEMATICS_KEYS},
         },
         "data_quality": data_quality(kin),
+        "excluded": excluded_summary(kin),
     }
+    fits["settings"]["max_plausible_speed"] = max_plausible_speed
     result = StudyResult(fits, kin, regions=regions)
 
     say("energy: one vs two phases")
@@ -891,6 +999,9 @@ def run_study(
     )  # fmt: skip
     block["unit"] = e_unit
     fits["energy"] = block
+    fits["plausibility"] = plausibility(
+        block, kin, mass=mass, max_plausible_speed=max_plausible_speed
+    )
     result.energy = cmp_
 
     say("steering")
@@ -960,7 +1071,7 @@ def _write_kinematics(kin: xr.Dataset, path: Path) -> None:
 
 
 def analyze_file(
-    path: str | os.PathLike,
+    path: str | os.PathLike | Sequence[str | os.PathLike],
     out: str | os.PathLike,
     *,
     format: str | None = None,
@@ -975,23 +1086,41 @@ def analyze_file(
     """Read trajectories, run the study, write ``fits.json``, ``kinematics.nc`` and
     ``report.html`` into directory ``out`` (its parent must exist; files are written
     atomically).  ``format``, ``px_per_mm``, ``allow_pickle`` and ``read_options`` go
-    to :func:`thermoswarm.io.read_tracks`; the other options as :func:`run_study`."""
+    to :func:`thermoswarm.io.read_tracks`; the other options as :func:`run_study`.
+
+    ``path`` may be several files (one per video or recording): each is read with the
+    same options and their individuals are analysed together, named ``FILE:NAME``
+    (:func:`thermoswarm.tracks.combine_tracks`)."""
     from thermoswarm.fsutil import atomic_write_json, atomic_write_text, prepare_output_dir
-    from thermoswarm.io import read_tracks
+    from thermoswarm.io import detect_format, formats, read_tracks
 
     out = Path(out)
+    paths = [Path(p) for p in path] if isinstance(path, list | tuple) else [Path(path)]
+    if not paths:
+        raise InputError("no input file given")
+    read_options = dict(read_options or {})
+    if options.get("duplicates") is not None and "duplicates" not in read_options:
+        # one rule for the reader and the kinematics, where the reader takes it
+        name = format or detect_format(paths[0])
+        reader = formats().get(name)
+        if reader is not None and "duplicates" in getattr(reader.load(), "OPTIONS", {}):
+            read_options["duplicates"] = options["duplicates"]
     regions_list = load_regions(regions) if regions is not None else None
     prepare_output_dir(out)
-    ds = read_tracks(
-        path,
-        format,
-        fps=fps,
-        px_per_mm=px_per_mm,
-        allow_pickle=allow_pickle,
-        **(read_options or {}),
-    )
+    read = [
+        read_tracks(
+            p, format, fps=fps, px_per_mm=px_per_mm, allow_pickle=allow_pickle, **read_options
+        )
+        for p in paths
+    ]
+    if len(read) == 1:
+        ds = read[0]
+    else:
+        stems = [p.stem for p in paths]
+        prefixes = stems if len(set(stems)) == len(stems) else [str(p) for p in paths]
+        ds = combine_tracks(read, prefixes, fps=fps)
     if "position" not in ds:
-        raise InputError(f"{path}: the reader returned no positions")
+        raise InputError(f"{paths[0]}: the reader returned no positions")
     result = run_study(ds, fps=fps, regions=regions_list, **options)
     if regions is not None:
         result.fits["settings"]["regions"] = str(regions)

@@ -282,8 +282,10 @@ def assemble_long(
 
     Returns a dict with ``position``, ``confidence`` (or None), ``time`` (``(time,)``
     or ``(time, individuals)`` seconds), ``individuals``, ``keypoints`` and ``attrs``
-    (the duplicate counts).  ``individual_sources`` (one file per individual, in
-    ``individual_order``) names the file in error messages instead of ``path``.
+    (the duplicate counts and ``n_decreasing_timestamps``, the backward steps in the
+    input order of each individual and keypoint).  ``individual_sources`` (one file
+    per individual, in ``individual_order``) names the file in error messages instead
+    of ``path``.
     """
     n = len(time)
     if n == 0:
@@ -324,11 +326,19 @@ def assemble_long(
         where = path if individual_sources is None else individual_sources[ii]
         return f"{where}: {what} at {at}"
 
+    group = ind_idx * n_k + kp_idx
+    by_group = np.argsort(group, kind="stable")  # each group's rows in input order
+    same_group = group[by_group][1:] == group[by_group][:-1]
+    n_back = int((same_group & (np.diff(key[by_group]) < 0)).sum())
     rows, vals, n_exact, n_conflict = resolve_duplicates(
-        key, values, duplicates, group=ind_idx * n_k + kp_idx, describe=describe
+        key, values, duplicates, group=group, describe=describe
     )
     key, ind_idx, kp_idx = key[rows], ind_idx[rows], kp_idx[rows]
-    attrs = {"n_duplicate_rows": n_exact, "n_conflicting_duplicates": n_conflict}
+    attrs = {
+        "n_duplicate_rows": n_exact,
+        "n_conflicting_duplicates": n_conflict,
+        "n_decreasing_timestamps": n_back,
+    }
     if n_exact or n_conflict:
         attrs["duplicates_rule"] = duplicates
     if frame_rate is not None:

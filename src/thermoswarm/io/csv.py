@@ -19,6 +19,8 @@ are exact duplicates (dropped, counted) or conflicts, resolved by the ``duplicat
 option (``"error"`` by default, ``"first"`` or ``"mean"``) and counted
 (``attrs["n_duplicate_rows"]``, ``attrs["n_conflicting_duplicates"]``).
 
+Lines starting with ``#`` among the rows are comments and skipped.
+
 Units.  Lengths are in pixels when ``px_per_mm`` is given; otherwise the unit must
 be stated: by the ``units`` option, by unit-suffixed columns (``x_mm``, ``y_px``), or
 by a ``# space_unit: mm`` line at the top of the file (what :func:`write` puts
@@ -168,7 +170,28 @@ def _find(columns: list[str], role: str, given: Any, path: Path) -> str | None:
     return None
 
 
+def _comment_lines(path: Path, n_meta: int) -> list[int]:
+    """Line numbers (0-based) of lines starting with ``#`` after the header.
+
+    Some trackers write comments among the rows (YetAnotherTracker puts the video name
+    and its command line after the header); ``comment="#"`` would also cut names like
+    TRex's ``X#wcentroid``, so only whole lines are skipped.
+    """
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return []
+    if b"\n#" not in data:
+        return []
+    arr = np.frombuffer(data, dtype=np.uint8)
+    starts = np.flatnonzero(arr[:-1] == 10) + 1  # the character after each newline
+    lines = np.flatnonzero(arr[starts] == ord("#")) + 1
+    return [int(v) for v in lines if v > n_meta]
+
+
 def _read_table(path: Path, n_meta: int, sep: str, text_cols: list[str]) -> pd.DataFrame:
+    comments = _comment_lines(path, n_meta)
+    skip: int | list[int] = [*range(n_meta), *comments] if comments else n_meta
     try:
         with warnings.catch_warnings():
             # pandas only warns when a row has more fields than the header, and drops them
@@ -176,7 +199,7 @@ def _read_table(path: Path, n_meta: int, sep: str, text_cols: list[str]) -> pd.D
             df = pd.read_csv(
                 path,
                 sep=sep,
-                skiprows=n_meta,
+                skiprows=skip,
                 index_col=False,
                 dtype={c: object for c in text_cols},
                 skipinitialspace=True,
