@@ -830,7 +830,7 @@ def plausibility(
             f"implausible temperature(s) {', '.join(bad)}: rms speed "
             + ", ".join(f"{temps[k]['rms_speed_mm_s']:.4g}" for k in bad)
             + f" mm/s above {bound:.4g} mm/s ({source}); the fit describes tracking errors "
-            "or mixes animals; check identities, units and --max-speed"
+            "or mixes animals; check the frame rate, the units, identities and --max-speed"
         )
     return out
 
