@@ -420,8 +420,8 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int) -> dict[str, Any]:
     import matplotlib.pyplot as plt
     import xarray as xr
 
-    from thermoswarm.analysis.figures import plot_density_fit
     from thermoswarm.analysis.study import run_study
+    from thermoswarm.report.analysis_figures import plot_density_fit
     from thermoswarm.tracking.synth import SynthConfig, generate
 
     ants = generate(SynthConfig(n_frames=600), np.random.default_rng(seed)).tracks

@@ -9,13 +9,15 @@ import pytest
 import xarray as xr
 from analysis_helpers import MIXTURE, STEER_T
 
+from thermoswarm.analysis.region_stats import high_T_fraction
 from thermoswarm.analysis.regions import regions_from_mapping
-from thermoswarm.analysis.study import analyze_file, analyze_tracks, high_T_fraction, run_study
+from thermoswarm.analysis.study import analyze_tracks, run_study
 from thermoswarm.analysis.synthetic import synthetic_tracks
 from thermoswarm.errors import ConfigError
 from thermoswarm.fsutil import dumps_json
 from thermoswarm.io import write_tracks
 from thermoswarm.maxent import EnergyLaw, EnergyMixture
+from thermoswarm.report.analysis_run import analyze_file
 from thermoswarm.tracks import make_tracks
 
 HALVES = regions_from_mapping(

@@ -172,11 +172,55 @@ class _FittedLaw:
         n = self.n_ if x is None else np.size(x)
         return 2.0 * self.nllf(x) + self.n_params * math.log(n)
 
-    def plot(self, ax: Any, x: Any = None, **kwargs: Any) -> Any:
-        """Draw the fitted density (and the histogram of ``x``) on log-y axes."""
-        from thermoswarm.analysis.figures import plot_density_fit
+    def density_curves(self, grid: Any, *, label_scale: float = 1.0) -> dict[str, Any]:
+        """What a figure of the fit needs, on ``grid`` (the unit of the data).
 
-        return plot_density_fit(ax, self, x, **kwargs)
+        ``{"label": str, "total": pdf on grid, "components": [(weight, kT, weighted
+        pdf on grid), ...]}`` -- one component for one exponential, two for a mixture
+        that has not collapsed.  ``label_scale`` multiplies the temperatures in the
+        label (e.g. 1e10 for J shown in 1e-10 J).
+        """
+        q = float(label_scale)
+        grid = np.asarray(grid, dtype=np.float64)
+        comps: list[tuple[float, float, np.ndarray]] = []
+        if isinstance(self.law_, EnergyMixture):
+            label = (
+                f"2 phases: phi={self.phi_:.2f}, kT1={self.kT1_ * q:.3g}, kT2={self.kT2_ * q:.3g}"
+            )
+            if not getattr(self, "degenerate_", False):
+                for w, k in ((self.phi_, self.kT1_), (1.0 - self.phi_, self.kT2_)):
+                    comps.append((float(w), float(k), w * np.exp(-grid / k) / k))
+        else:
+            label = f"1 phase: kT={self.law_.kT * q:.3g}"
+            comps.append((1.0, float(self.law_.kT), self.pdf(grid)))
+        return {"label": label, "total": self.pdf(grid), "components": comps}
+
+    def plot(self, ax: Any, x: Any = None, *, bins: int = 60) -> Any:
+        """Draw the fitted density (and a histogram of ``x``) on log-y axes ``ax``.
+
+        Uses only the axes' own methods (no figure module): the paper-style panels are
+        in :mod:`thermoswarm.report.analysis_figures`.
+        """
+        hi = None
+        if x is not None:
+            xs = np.asarray(x, dtype=np.float64)
+            xs = xs[np.isfinite(xs)]
+            if xs.size:
+                hi = float(np.quantile(xs, 0.999))
+                dens, edges = np.histogram(xs, bins=bins, range=(0.0, hi), density=True)
+                mid = 0.5 * (edges[1:] + edges[:-1])
+                ax.plot(mid[dens > 0], dens[dens > 0], "o", ms=3, color="0.3", label="data")
+        if hi is None or not hi > 0:
+            hi = 5.0 * float(self.law_.mean())
+        grid = np.linspace(0.0, hi, 400)
+        curves = self.density_curves(grid)
+        ax.plot(grid, curves["total"], "-", color="C3", label=curves["label"])
+        if len(curves["components"]) > 1:
+            for _, _, c in curves["components"]:
+                ax.plot(grid, c, ":", color="C3", lw=1)
+        ax.set_yscale("log")
+        ax.set_ylabel("probability density")
+        return ax
 
 
 class ExponentialFit(_FittedLaw):

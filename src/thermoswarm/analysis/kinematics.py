@@ -85,15 +85,26 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from scipy.signal import savgol_filter
 
+from thermoswarm.analysis.exclusions import (
+    CODE,
+    STEP_BUCKETS,
+    STEP_CLASSES,
+    excluded_summary,
+    implausible_thresholds,
+)
+from thermoswarm.analysis.samples import (
+    clean_columns,
+    interpolate_gaps,
+    runs,
+    smooth_positions,
+)
 from thermoswarm.errors import ConfigError, InputError
 from thermoswarm.tracks import (
     DUPLICATE_RULES,
     centroid,
     individual_times,
     per_individual,
-    resolve_duplicates,
     validate_tracks,
 )
 
@@ -106,33 +117,6 @@ __all__ = [
     "STEP_CLASSES",
     "STEP_BUCKETS",
 ]
-
-#: ``step_class`` codes, in the order the buckets are checked (``-1``: no step).
-STEP_CLASSES = (
-    "missing_position",
-    "time_gap",
-    "static_track",
-    "over_max_speed",
-    "implausible",
-    "resting",
-    "stationary_dropped",
-    "used",
-)
-#: The data-quality key of each bucket; their values sum to ``n_steps_total``.
-STEP_BUCKETS = tuple(f"n_steps_{c}" for c in STEP_CLASSES)
-_CODE = {c: np.int8(i) for i, c in enumerate(STEP_CLASSES)}
-
-#: Implausible motion (no body length given): a step is implausible when its speed
-#: exceeds ``implausible_factor`` times the individual's robust speed scale, the
-#: ``IMPLAUSIBLE_QUANTILE`` quantile of its measured, non-resting speeds, clipped to
-#: [1, ``IMPLAUSIBLE_SPREAD``] times the median of all individuals' scales.  A high
-#: quantile, not the median: a mostly resting animal's median moving speed is its
-#: tracker's jitter.  The clip keeps a slow individual's threshold at the group's level
-#: and catches an individual whose every step is a glitch.
-IMPLAUSIBLE_QUANTILE = 0.9
-IMPLAUSIBLE_SPREAD = 3.0
-#: Fewer measured moving steps than this: an individual's scale is the group's.
-MIN_STEPS_FOR_SCALE = 10
 
 #: The counters written to ``attrs`` and ``fits.json["data_quality"]``, in order.
 DATA_QUALITY_KEYS = (
@@ -193,230 +177,12 @@ def _check_param(name: str, value: Any, *, positive: bool = False, allow_none: b
     return v
 
 
-def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Runs of True along axis 0 of ``mask (rows, individuals)``.
-
-    Returns ``(individual, start, stop)`` arrays (``stop`` exclusive), ordered by
-    individual then row.
-    """
-    n_t, n_i = mask.shape
-    padded = np.zeros((n_i, n_t + 2), dtype=np.int8)
-    padded[:, 1:-1] = mask.T
-    d = np.diff(padded, axis=1)
-    si, st = np.nonzero(d == 1)
-    _, en = np.nonzero(d == -1)
-    return si, st, en
-
-
 # --------------------------------------------------------------------------------------
 # Samples: each individual's own, sorted, duplicates resolved
 
 
-def _clean_columns(
-    T: np.ndarray, X: np.ndarray, Y: np.ndarray, rule: str, names: list[str], src: str,
-    counts: dict[str, Any], padded: bool,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
-    """Per individual: drop samples without a time, sort, resolve equal times.
-
-    Returns padded ``(T, X, Y, input_row)``: column ``i`` holds individual ``i``'s
-    samples in time order from row 0, NaN (``-1`` for rows) after its last.  With
-    ``padded`` (per-individual clocks) a NaN time after an individual's last sample
-    is padding, not a missing timestamp.
-    """
-    n_t, n_i = T.shape
-    finite = np.isfinite(T)
-    rows_all = np.broadcast_to(np.arange(n_t)[:, None], (n_t, n_i))
-    with np.errstate(invalid="ignore"):
-        d = np.diff(T, axis=0)
-    both = finite[1:] & finite[:-1]
-    # clean: every column's times finite up to its last sample, strictly increasing
-    prefix = np.all(finite[1:] <= finite[:-1], axis=0)  # no sample after a missing time
-    increasing = not np.any(both & ~(d > 0))
-    if prefix.all() and increasing:
-        return np.array(T, dtype=np.float64), X, Y, np.where(finite, rows_all, -1)
-    # Padding after an individual's last sample is not a missing timestamp
-    last = np.where(finite.any(axis=0), n_t - 1 - np.argmax(finite[::-1], axis=0), -1)
-    if not padded:
-        last[:] = n_t - 1
-    counts["n_missing_timestamps"] = int((~finite & (rows_all <= last[None, :])).sum())
-    cols = []
-    for i in range(n_i):
-        keep = np.flatnonzero(finite[:, i])
-        t = T[keep, i]
-        counts["n_decreasing_timestamps"] += int((np.diff(t) < 0).sum())
-        idx, vals, n_exact, n_conflict = resolve_duplicates(
-            t,
-            np.column_stack([X[keep, i], Y[keep, i]]),
-            rule,
-            describe=lambda _g, when, i=i: f"{src}: individual {names[i]!r} at time {when:.10g} s",
-        )
-        counts["n_duplicate_rows"] += n_exact
-        counts["n_conflicting_duplicates"] += n_conflict
-        cols.append((t[idx], vals[:, 0], vals[:, 1], keep[idx]))
-    m = max((c[0].size for c in cols), default=0)
-    T2 = np.full((m, n_i), np.nan)
-    X2 = np.full((m, n_i), np.nan)
-    Y2 = np.full((m, n_i), np.nan)
-    R2 = np.full((m, n_i), -1, dtype=np.int64)
-    for i, (t, x, y, r) in enumerate(cols):
-        T2[: t.size, i], X2[: t.size, i], Y2[: t.size, i], R2[: t.size, i] = t, x, y, r
-    return T2, X2, Y2, R2
-
-
-def _interpolate_gaps(T, X, Y, sample, max_gap, counts):
-    """Fill missing positions inside tracks whose gap lasts at most ``max_gap`` s."""
-    present = np.isfinite(X) & np.isfinite(Y)
-    n_t = T.shape[0]
-    idx = np.arange(n_t)[:, None]
-    prev = np.maximum.accumulate(np.where(present, idx, -1), axis=0)
-    nxt = np.minimum.accumulate(np.where(present, idx, n_t)[::-1], axis=0)[::-1]
-    inside = sample & ~present & (prev >= 0) & (nxt < n_t)
-    pc = np.clip(prev, 0, n_t - 1)
-    nc = np.clip(nxt, 0, n_t - 1)
-    cols = np.broadcast_to(np.arange(X.shape[1]), X.shape)
-    tp, tn = T[pc, cols], T[nc, cols]
-    with np.errstate(invalid="ignore"):
-        fill = inside & (tn - tp <= max_gap)
-    if fill.any():
-        with np.errstate(invalid="ignore", divide="ignore"):
-            w = np.where(fill, (T - tp) / np.where(fill, tn - tp, 1.0), 0.0)
-        X = np.where(fill, X[pc, cols] + w * (X[nc, cols] - X[pc, cols]), X)
-        Y = np.where(fill, Y[pc, cols] + w * (Y[nc, cols] - Y[pc, cols]), Y)
-    counts["n_interpolated_positions"] = int(fill.sum())
-    return X, Y
-
-
-def _savgol(v: np.ndarray, window: int, polyorder: int) -> np.ndarray:
-    return savgol_filter(v, window, polyorder, axis=0, mode="interp")
-
-
-def _smooth(T, X, Y, link, med, smooth, polyorder, irregular, counts):
-    """Savitzky-Golay smoothing of positions, segment by segment (``link``: the step
-    from row k to k+1 joins one segment)."""
-    windows = []
-    for m in med:
-        if not np.isfinite(m):
-            windows.append(0)
-            continue
-        w = int(round(smooth / m))
-        windows.append(w + 1 if w % 2 == 0 else w)
-    ok_w = [w for w in windows if w > 0]
-    if ok_w and min(ok_w) <= polyorder:
-        m = float(med[int(np.argmin([w if w > 0 else 10**9 for w in windows]))])
-        raise ConfigError(
-            f"smoothing window {smooth:g} s is {min(ok_w)} samples at the median step "
-            f"{m:g} s; it must exceed polyorder {polyorder}"
-        )
-    counts["smooth_window_samples"] = int(max(ok_w, default=0))
-    present = np.isfinite(X) & np.isfinite(Y)
-    starts = np.ones_like(present)
-    starts[1:] = ~link
-    si, st, en = _runs(present)
-    segments = []
-    for i, s, e in zip(si.tolist(), st.tolist(), en.tolist(), strict=True):
-        cuts = np.nonzero(starts[s + 1 : e, i])[0] + s + 1
-        bounds = [s, *cuts.tolist(), e]
-        segments.extend((i, a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True))
-    counts["n_segments"] = len(segments)
-    Xs, Ys = X.copy(), Y.copy()
-    n_sm = n_rs = n_un = 0
-    for i, a, b in segments:
-        window = windows[i]
-        length = b - a
-        w = window if length >= window else (length if length % 2 else length - 1)
-        if w <= polyorder:
-            n_un += 1
-            continue
-        if irregular[a : b - 1, i].any():
-            tt = T[a:b, i]
-            n_grid = int(round((tt[-1] - tt[0]) / med[i])) + 1
-            grid = np.linspace(tt[0], tt[-1], n_grid)  # about the median step, ends kept
-            w = window if n_grid >= window else (n_grid if n_grid % 2 else n_grid - 1)
-            if w <= polyorder:
-                n_un += 1
-                continue
-            gx = _savgol(np.interp(grid, tt, X[a:b, i]), w, polyorder)
-            gy = _savgol(np.interp(grid, tt, Y[a:b, i]), w, polyorder)
-            Xs[a:b, i] = np.interp(tt, grid, gx)
-            Ys[a:b, i] = np.interp(tt, grid, gy)
-            n_rs += 1
-        else:
-            Xs[a:b, i] = _savgol(X[a:b, i], w, polyorder)
-            Ys[a:b, i] = _savgol(Y[a:b, i], w, polyorder)
-        n_sm += 1
-    counts.update(n_segments_smoothed=n_sm, n_segments_resampled=n_rs, n_segments_unsmoothed=n_un)
-    return Xs, Ys
-
-
 # --------------------------------------------------------------------------------------
 # Implausible motion
-
-
-def implausible_thresholds(
-    speed: np.ndarray,
-    candidate: np.ndarray,
-    *,
-    factor: float,
-    body_length: float | None = None,
-    max_body_lengths_per_s: float = 50.0,
-) -> tuple[np.ndarray, dict[str, Any]]:
-    """Speed above which a step of each individual is implausible (mm/s), and the rule.
-
-    ``speed`` ``(steps, individuals)``; ``candidate`` marks the measured steps that
-    are not resting.  With a ``body_length`` (mm) the bound is
-    ``max_body_lengths_per_s * body_length`` for everyone.  Otherwise individual
-    ``i``'s scale ``s_i`` is the ``IMPLAUSIBLE_QUANTILE`` quantile of its candidate
-    speeds (the group's when it has fewer than ``MIN_STEPS_FOR_SCALE``), ``S`` the
-    median of the scales, and the threshold ``factor * clip(s_i, S,
-    IMPLAUSIBLE_SPREAD * S)``.  Under one exponential energy law the 0.9 quantile of
-    the speed is ``sqrt(2 kT ln 10)``, so a speed above 5 times it has probability
-    ``10**-25``; with two phases whose temperatures differ by a factor ``r`` it is at
-    most about ``10**(-25 / r)`` (``6e-7`` for ``r = 4``).
-    """
-    n_i = speed.shape[1]
-    if body_length is not None:
-        bound = float(max_body_lengths_per_s * body_length)
-        rule = {
-            "rule": "body length",
-            "body_length_mm": float(body_length),
-            "max_body_lengths_per_s": float(max_body_lengths_per_s),
-            "threshold_mm_s": bound,
-        }
-        return np.full(n_i, bound), rule
-    vals = np.where(candidate, speed, np.nan)
-    n = candidate.sum(axis=0)
-    scale = np.full(n_i, np.nan)
-    enough = n >= MIN_STEPS_FOR_SCALE
-    if enough.any():
-        scale[enough] = np.nanquantile(vals[:, enough], IMPLAUSIBLE_QUANTILE, axis=0)
-    finite = scale[np.isfinite(scale) & (scale > 0)]
-    if finite.size:
-        group = float(np.median(finite))
-    else:
-        pooled = speed[candidate]
-        group = float(np.quantile(pooled, IMPLAUSIBLE_QUANTILE)) if pooled.size else np.nan
-    if not (np.isfinite(group) and group > 0):
-        return np.full(n_i, np.inf), {
-            "rule": "robust",
-            "note": "too few moving steps to set a scale: nothing flagged",
-            "threshold_mm_s": None,
-        }
-    s = np.where(np.isfinite(scale) & (scale > 0), scale, group)
-    thr = factor * np.clip(s, group, IMPLAUSIBLE_SPREAD * group)
-    rule = {
-        "rule": "robust",
-        "quantile": IMPLAUSIBLE_QUANTILE,
-        "factor": float(factor),
-        "group_scale_mm_s": group,
-        "threshold_mm_s": float(factor * group),
-        "threshold_max_mm_s": float(factor * IMPLAUSIBLE_SPREAD * group),
-        "description": (
-            f"speed above {factor:g} x the individual's {IMPLAUSIBLE_QUANTILE:g}-quantile "
-            f"of its moving speeds, that scale clipped to [1, {IMPLAUSIBLE_SPREAD:g}] x the "
-            "median over individuals"
-        ),
-    }
-    return thr, rule
 
 
 # --------------------------------------------------------------------------------------
@@ -575,7 +341,7 @@ def compute_kinematics(
     if nonfinite.any():
         X = np.where(nonfinite, np.nan, X)
         Y = np.where(nonfinite, np.nan, Y)
-    T, X, Y, input_row = _clean_columns(
+    T, X, Y, input_row = clean_columns(
         T0, X, Y, duplicates, names, src, counts, per_individual(ds)
     )
     sample = np.isfinite(T)
@@ -620,15 +386,17 @@ def compute_kinematics(
     )
     holes = sample & ~present
     counts["n_missing_positions"] = int(holes.sum())
-    counts["n_gaps"] = int(_runs(holes & seen_before & seen_after)[0].size)
+    counts["n_gaps"] = int(runs(holes & seen_before & seen_after)[0].size)
     if max_gap > 0:
-        X, Y = _interpolate_gaps(T, X, Y, sample, max_gap, counts)
+        X, Y = interpolate_gaps(T, X, Y, sample, max_gap, counts)
         present = sample & np.isfinite(X) & np.isfinite(Y)
     if smooth is not None:
         link = present[:-1] & present[1:] & exists & ~gap
-        X, Y = _smooth(T, X, Y, link, med, smooth, int(polyorder), exists & ~regular, counts)
+        X, Y = smooth_positions(
+            T, X, Y, link, med, smooth, int(polyorder), exists & ~regular, counts
+        )
     else:
-        si, _, _ = _runs(present)
+        si, _, _ = runs(present)
         counts["n_segments"] = int(si.size + (present[:-1] & present[1:] & gap).sum())
 
     # Buckets, in order
@@ -636,8 +404,8 @@ def compute_kinematics(
     dx = np.diff(X, axis=0)
     dy = np.diff(Y, axis=0)
     cls = np.full(dt.shape, -1, dtype=np.int8)
-    cls[exists & ~both] = _CODE["missing_position"]
-    cls[both & gap] = _CODE["time_gap"]
+    cls[exists & ~both] = CODE["missing_position"]
+    cls[both & gap] = CODE["time_gap"]
     measured = both & ~gap
     if min_track_extent is not None:
         with np.errstate(invalid="ignore"):
@@ -652,14 +420,14 @@ def compute_kinematics(
             )
         static = ok_cols & (extent < min_track_extent)
         counts["n_static_tracks"] = int(static.sum())
-        cls[measured & static[None, :]] = _CODE["static_track"]
+        cls[measured & static[None, :]] = CODE["static_track"]
         measured &= ~static[None, :]
     with np.errstate(invalid="ignore", divide="ignore"):
         speed_s = np.where(measured, np.hypot(dx, dy) / np.where(measured, dt, 1.0), np.nan)
     cand = measured.copy()
     if max_speed is not None:
         fast = cand & (speed_s > max_speed)
-        cls[fast] = _CODE["over_max_speed"]
+        cls[fast] = CODE["over_max_speed"]
         cand &= ~fast
     resting = cand & (speed_s <= resting_speed)
     thr, rule = implausible_thresholds(
@@ -673,20 +441,20 @@ def compute_kinematics(
     if keep_implausible:
         counts["n_implausible_kept"] = int(implausible.sum())
     else:
-        cls[implausible] = _CODE["implausible"]
+        cls[implausible] = CODE["implausible"]
         cand &= ~implausible
     resting &= cand
     n_rest = int(resting.sum())
     if keep_resting:
         counts["n_resting_kept"] = n_rest
     else:
-        cls[resting] = _CODE["resting"]
+        cls[resting] = CODE["resting"]
         cand &= ~resting
 
     # Long stationary periods (among measured, plausible steps)
     still = (cand | resting) & (speed_s <= stationary_speed)
     stationary = np.zeros_like(still)
-    si, st, en = _runs(still)
+    si, st, en = runs(still)
     if si.size:
         dur = T[en, si] - T[st, si]  # a run of steps st..en-1 spans samples st..en
         long_ = dur >= stationary_duration
@@ -698,12 +466,12 @@ def compute_kinematics(
     counts["n_stationary_steps"] = int(stationary.sum())
     if drop_stationary:
         drop = cand & stationary
-        cls[drop] = _CODE["stationary_dropped"]
+        cls[drop] = CODE["stationary_dropped"]
         cand &= ~drop
     used = cand
-    cls[used] = _CODE["used"]
+    cls[used] = CODE["used"]
     for c, key in zip(STEP_CLASSES, STEP_BUCKETS, strict=True):
-        counts[key] = int((cls == _CODE[c]).sum())
+        counts[key] = int((cls == CODE[c]).sum())
     counts["n_steps_used_regular"] = int((used & regular).sum())
     counts["n_steps_used_irregular"] = int((used & ~regular).sum())
     denom = int(used.sum()) + (0 if keep_resting else n_rest)  # plausible measured steps
@@ -819,74 +587,3 @@ def data_quality(kin: xr.Dataset) -> dict[str, Any]:
         out[k] = float(v) if isinstance(v, float | np.floating) else int(v)
     out["step_buckets"] = {c: out[k] for c, k in zip(STEP_CLASSES, STEP_BUCKETS, strict=True)}
     return out
-
-
-def excluded_summary(kin: xr.Dataset, n_worst: int = 5) -> dict[str, Any]:
-    """What the fits leave out, and why: implausible motion and resting steps.
-
-    ``implausible``: the rule, the count, the individuals all of whose moving steps
-    were implausible, and the ``n_worst`` fastest examples (individual, time, speed);
-    ``resting``: count and fraction; ``statement``: one line for the output.
-    """
-    attrs = kin.attrs
-    cls = kin["step_class"].values
-    speed = kin["speed"].values
-    t = kin["step_time"].values
-    names = [str(v) for v in kin["individuals"].values]
-    rule = json.loads(attrs.get("implausible_rule", "{}"))
-    kept = bool(attrs.get("keep_implausible", 0))
-    if kept:
-        thr = kin["implausible_threshold"].values
-        flag = np.isfinite(speed) & (speed > thr[None, :])
-    else:
-        flag = cls == _CODE["implausible"]
-    rows, cols = np.nonzero(flag)
-    order = np.argsort(-speed[rows, cols], kind="stable")[:n_worst]
-    worst = [
-        {
-            "individual": names[int(cols[j])],
-            "time_s": float(t[rows[j], cols[j]]),
-            "speed_mm_s": float(speed[rows[j], cols[j]]),
-            "threshold_mm_s": float(kin["implausible_threshold"].values[cols[j]]),
-        }
-        for j in order
-    ]
-    moving = np.isin(cls, [_CODE["implausible"], _CODE["used"], _CODE["stationary_dropped"]])
-    whole = [
-        names[i]
-        for i in range(len(names))
-        if flag[:, i].any() and (flag[:, i] | ~moving[:, i]).all() and not kept
-    ]
-    n_impl = int(flag.sum())
-    n_rest = int(attrs.get("n_steps_resting", 0) or attrs.get("n_resting_kept", 0))
-    frac = float(attrs.get("resting_fraction", 0.0))
-    rest_kept = bool(attrs.get("keep_resting", 0))
-    parts = []
-    if n_impl:
-        parts.append(
-            f"{n_impl} implausible step(s) {'kept' if kept else 'left out'} "
-            f"({rule.get('rule', '?')} rule"
-            + (f", above {rule['threshold_mm_s']:.4g} mm/s" if rule.get("threshold_mm_s") else "")
-            + ")"
-        )
-    if n_rest:
-        parts.append(
-            f"{n_rest} resting step(s) (speed <= {float(attrs.get('resting_speed', 0)):g} mm/s, "
-            f"{100 * frac:.1f} % of measured steps) {'kept' if rest_kept else 'left out'}"
-        )
-    return {
-        "implausible": {
-            **rule,
-            "n": n_impl,
-            "excluded": not kept,
-            "individuals_all_implausible": whole,
-            "worst": worst,
-        },
-        "resting": {
-            "n": n_rest,
-            "fraction": frac,
-            "resting_speed_mm_s": float(attrs.get("resting_speed", 0.0)),
-            "excluded": not rest_kept,
-        },
-        "statement": "; ".join(parts) if parts else "no step left out as implausible or resting",
-    }

@@ -1,6 +1,6 @@
 """``thermoswarm analyze``: the paper's statistics of any trajectories.
 
-Thin: parses the options, calls :func:`thermoswarm.analysis.study.analyze_file`, prints a
+Thin: parses the options, calls :func:`thermoswarm.report.analysis_run.analyze_file`, prints a
 summary.  Every option is documented in ``docs/analysis.md``.
 """
 
@@ -285,8 +285,8 @@ def analyze(
     Several files (one per video) are analysed together, each individual on its own
     clock.  Writes OUT/fits.json, OUT/report.html and OUT/kinematics.nc.
     """
-    from thermoswarm.analysis.study import analyze_file
     from thermoswarm.io import parse_read_options
+    from thermoswarm.report.analysis_run import analyze_file
 
     read_options = parse_read_options(read_option)
     if fps is not None and not fps > 0:

@@ -1,4 +1,7 @@
-"""Figures in the manner of the paper's panels, and the analysis report.
+"""Figures in the manner of the paper's panels, and the analysis report (``report.html``).
+
+They draw what the fits expose (:meth:`~thermoswarm.analysis.fit.ExponentialFit.density_curves`)
+and what the study computed; nothing in :mod:`thermoswarm.analysis` imports this module.
 
 Every function draws on :class:`matplotlib.figure.Figure` objects (no pyplot, no
 display: the Agg canvas renders them), so it runs headless and leaves no global state.
@@ -18,13 +21,13 @@ display: the Agg canvas renders them), so it runs headless and leaves no global 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
 
-if TYPE_CHECKING:  # pragma: no cover
-    from thermoswarm.analysis.study import StudyResult
+from thermoswarm.analysis.fit import PhaseComparison
+from thermoswarm.analysis.study import StudyResult
 
 __all__ = [
     "energy_axis",
@@ -86,8 +89,6 @@ def plot_density_fit(
     :class:`~thermoswarm.analysis.fit.PhaseComparison` (both fits drawn).  ``scale``
     multiplies the x axis (e.g. 1e10 for J shown in 1e-10 J).
     """
-    from thermoswarm.analysis.fit import ExponentialFit, ExponentialMixtureFit, PhaseComparison
-
     hi = ymin = None
     if x is not None:
         hi, ymin = _hist(ax, x, scale, bins, color, "data")
@@ -103,18 +104,12 @@ def plot_density_fit(
     else:
         fits = [(model, "C3", "-")]
     for m, c, ls in fits:
-        if isinstance(m, ExponentialMixtureFit):
-            lab = (
-                f"2 phases: $\\phi$={m.phi_:.2f}, kT1={m.kT1_ * scale:.3g}, "
-                f"kT2={m.kT2_ * scale:.3g}"
-            )
-            ax.plot(grid, m.pdf(native) / scale, ls, color=c, lw=1.6, label=lab)
-            if components and not m.degenerate_:
-                for w, k in ((m.phi_, m.kT1_), (1 - m.phi_, m.kT2_)):
-                    ax.plot(grid, w * np.exp(-native / k) / k / scale, ":", color=c, lw=1)
-        elif isinstance(m, ExponentialFit):
-            lab = f"1 phase: kT={m.kT_ * scale:.3g}"
-            ax.plot(grid, m.pdf(native) / scale, ls, color=c, lw=1.6, label=lab)
+        curves = m.density_curves(native, label_scale=scale)
+        label = curves["label"]
+        ax.plot(grid, curves["total"] / scale, ls, color=c, lw=1.6, label=label)
+        if components and len(curves["components"]) > 1:
+            for _, _, comp in curves["components"]:
+                ax.plot(grid, comp / scale, ":", color=c, lw=1)
     ax.set_yscale("log")
     ax.set_xlim(0, hi)
     if ymin is not None:
