@@ -54,6 +54,14 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
     return "-" if v is None else format(v, spec)
 
 
+def _p(p: float | None, n_boot: int | None) -> str:
+    """``= 0.03``, ``< 0.005`` (the bootstrap's floor) or ``n/a``."""
+    from thermoswarm.analysis.explain import format_p_value
+
+    text = format_p_value(p, n_boot, digits=3)
+    return text if text.startswith("<") else f"= {text}"
+
+
 @click.command("analyze")
 @click.argument("inputs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option(
@@ -161,9 +169,9 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
 @click.option(
     "--gap-factor",
     type=float,
-    default=2.0,
+    default=1.5,
     show_default=True,
-    help="Steps longer than this many median steps are gaps.",
+    help="Steps longer than this many of the individual's median steps are gaps.",
 )
 @click.option("--keypoint", default=None, help="Keypoint to follow (default: the centroid).")
 @click.option(
@@ -285,6 +293,7 @@ def analyze(
     Several files (one per video) are analysed together, each individual on its own
     clock.  Writes OUT/fits.json, OUT/report.html and OUT/kinematics.nc.
     """
+    from thermoswarm.analysis.explain import explain_phases, trend_statement
     from thermoswarm.io import parse_read_options
     from thermoswarm.report.analysis_run import analyze_file
 
@@ -352,11 +361,14 @@ def analyze(
     if "one_phase" in e:
         two = e["two_phase"]
         click.echo(
-            f"energy: {e['preferred']} preferred ({e['preferred_by']}; LR p = "
-            f"{_fmt(e['lr_p_value'], '.3g')}, n = {e['lr_n']}); one phase kT = "
+            f"energy: {e['preferred']} preferred ({e['preferred_by']}; LR p "
+            f"{_p(e['lr_p_value'], e.get('n_bootstrap'))}, n = {e['lr_n']}); one phase kT = "
             f"{_fmt(e['one_phase']['kT'])}; two phases phi = {_fmt(two['phi'], '.3f')}, "
             f"kT1 = {_fmt(two['kT1'])}, kT2 = {_fmt(two['kT2'])}"
         )
+        why = explain_phases(e)
+        if why:
+            click.echo(f"  why: {why}")
     else:
         click.echo(f"energy: not fitted ({e.get('skipped')})")
     warning = fits.get("plausibility", {}).get("warning")
@@ -364,15 +376,11 @@ def analyze(
         click.echo(f"warning: {warning}")
     tr = fits["steering"].get("trend", {})
     if tr.get("slope") is not None:
-        click.echo(
-            f"steering: kT_theta {tr['direction'] or 'no significant trend'} with energy "
-            f"(slope {tr['slope']:.3g}, "
-            f"p = {_fmt(tr['p_value'], '.3g')}, {tr['k']} bins)"
-        )
+        click.echo(f"steering: {trend_statement(tr)}")
     for d in fits.get("regions", {}).get("differences", []):
         click.echo(
             f"regions: hot fraction {d['a']} - {d['b']} = {d['difference']:+.3f} "
-            f"(p = {_fmt(d['p_value'], '.3g')})"
+            f"(p {_p(d['p_value'], None)})"
         )
     files = ["fits.json", "kinematics.nc"] + ([] if no_report else ["report.html"])
     click.echo("wrote " + ", ".join(str(out / f) for f in files))
