@@ -12,7 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from thermoswarm.analysis.fit import goodness_of_fit, likelihood_ratio_test, naive_ks
+from thermoswarm.analysis.fit import naive_ks
+from thermoswarm.analysis.phase_tests import goodness_of_fit, likelihood_ratio_test
 from thermoswarm.analysis.sampling import draw_test_sample
 from thermoswarm.maxent import EnergyLaw, EnergyMixture
 

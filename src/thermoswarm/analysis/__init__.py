@@ -7,8 +7,9 @@ the study -> :mod:`thermoswarm.report.analysis_figures` (figures, the HTML repor
 
 - :mod:`~thermoswarm.analysis.kinematics`: speed, energy, heading, steering rate per step,
   with every messy case of real tracks handled and counted;
-- :mod:`~thermoswarm.analysis.fit`: one and two exponentials, bootstrap goodness of fit,
-  bootstrap likelihood-ratio test, BIC;
+- :mod:`~thermoswarm.analysis.fit`: one and two exponentials (ML), BIC;
+- :mod:`~thermoswarm.analysis.phase_tests`: bootstrap goodness of fit, bootstrap
+  likelihood-ratio test, one phase against two;
 - :mod:`~thermoswarm.analysis.sampling`: the thinned test sample the tests run on;
 - :mod:`~thermoswarm.analysis.regions`: named polygons from TOML;
 - :mod:`~thermoswarm.analysis.study`: the paper's study (:func:`analyze_tracks`), built
@@ -19,14 +20,13 @@ the study -> :mod:`thermoswarm.report.analysis_figures` (figures, the HTML repor
 - :mod:`~thermoswarm.analysis.synthetic`: tracks drawn from known laws.
 """
 
-from thermoswarm.analysis.fit import (
-    ExponentialFit,
-    ExponentialMixtureFit,
+from thermoswarm.analysis.fit import ExponentialFit, ExponentialMixtureFit
+from thermoswarm.analysis.kinematics import compute_kinematics
+from thermoswarm.analysis.phase_tests import (
     compare_phases,
     goodness_of_fit,
     likelihood_ratio_test,
 )
-from thermoswarm.analysis.kinematics import compute_kinematics
 from thermoswarm.analysis.study import analyze_tracks, run_study
 
 __all__ = [

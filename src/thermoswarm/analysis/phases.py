@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from thermoswarm.analysis.fit import PhaseComparison, compare_phases
+from thermoswarm.analysis.phase_tests import PhaseComparison, compare_phases
 from thermoswarm.analysis.sampling import (
     autocorrelation,
     decorrelation_lag,

@@ -19,7 +19,7 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from thermoswarm.analysis.fit import PhaseComparison
+from thermoswarm.analysis.phase_tests import PhaseComparison
 from thermoswarm.analysis.phases import MIN_SAMPLES
 from thermoswarm.analysis.regions import OUTSIDE, Region
 

@@ -16,7 +16,8 @@ import numpy as np
 import xarray as xr
 from scipy import stats
 
-from thermoswarm.analysis.fit import ExponentialFit, goodness_of_fit, naive_ks
+from thermoswarm.analysis.fit import ExponentialFit, naive_ks
+from thermoswarm.analysis.phase_tests import goodness_of_fit
 from thermoswarm.analysis.phases import MIN_SAMPLES, dependence, test_sample_info
 from thermoswarm.analysis.sampling import draw_test_sample
 

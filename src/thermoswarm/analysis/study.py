@@ -48,9 +48,9 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm import __version__
-from thermoswarm.analysis.fit import PhaseComparison
 from thermoswarm.analysis.groups import group_codes, ks_comparison, parse_group_by
 from thermoswarm.analysis.kinematics import compute_kinematics, data_quality, excluded_summary
+from thermoswarm.analysis.phase_tests import PhaseComparison
 from thermoswarm.analysis.phases import MIN_SAMPLES, dependence, phase_block, plausibility
 from thermoswarm.analysis.region_stats import regions_block
 from thermoswarm.analysis.regions import OUTSIDE, Region, assign_regions, load_regions

@@ -27,7 +27,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from thermoswarm.analysis.explain import explain_phases, format_p_value, trend_statement
-from thermoswarm.analysis.fit import PhaseComparison
+from thermoswarm.analysis.phase_tests import PhaseComparison
 from thermoswarm.analysis.study import StudyResult
 
 __all__ = [
