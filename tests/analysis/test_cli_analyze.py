@@ -119,3 +119,9 @@ def test_read_options_and_allow_pickle_reach_the_reader(tracks_file, tmp_path):
     res = run(tracks_file, "--out", tmp_path / "o", "--bootstrap", 0, "--no-report", "-q",
               "--read-option", 'units="mm"', "--allow-pickle")  # fmt: skip
     assert res.exit_code == 0, res.output
+    # the reader got the option: units="cm" contradicts the file, and it says so
+    res = run(tracks_file, "--out", tmp_path / "o2", "--bootstrap", 0, "--no-report", "-q",
+              "--read-option", 'units="cm"')  # fmt: skip
+    assert res.exit_code == 2
+    assert "units='cm' contradicts" in res.output and "Traceback" not in res.output
+    assert not (tmp_path / "o2" / "fits.json").exists()
