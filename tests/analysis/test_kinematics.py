@@ -280,3 +280,14 @@ def test_bad_options_are_config_errors(kwargs, match):
 def test_too_few_times_is_an_input_error():
     with pytest.raises(InputError, match="at least 2 samples of one individual"):
         compute_kinematics(make_tracks(np.zeros((1, 2, 1)), fps=1.0))
+
+
+def test_a_table_too_large_is_refused_at_once(monkeypatch):
+    # fragmented identities: one long track beside many short ones would need a
+    # (samples x individuals) table far larger than the samples; the bound is checked
+    # before anything is allocated (lowered here so the test stays small)
+    import thermoswarm.analysis.kinematics as kinematics
+
+    monkeypatch.setattr(kinematics, "MAX_CELLS", 100)
+    with pytest.raises(InputError, match=r"merge fragmented track ids"):
+        compute_kinematics(straight_tracks(n=60, n_ind=2))

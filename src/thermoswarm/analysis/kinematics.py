@@ -118,6 +118,11 @@ __all__ = [
     "STEP_BUCKETS",
 ]
 
+#: Largest (samples x individuals) table the kinematics work on: about 170 bytes per
+#: cell are held at the peak (positions, steps, energies, flags), so 5e7 cells is
+#: about 8.5 GB; above it the analysis refuses at once instead of exhausting memory.
+MAX_CELLS = 50_000_000
+
 #: The counters written to ``attrs`` and ``fits.json["data_quality"]``, in order.
 DATA_QUALITY_KEYS = (
     "n_individuals",
@@ -341,6 +346,14 @@ def compute_kinematics(
     if nonfinite.any():
         X = np.where(nonfinite, np.nan, X)
         Y = np.where(nonfinite, np.nan, Y)
+    if T0.shape[0] * n_i > MAX_CELLS:
+        n_samples = int(np.isfinite(T0).sum())
+        raise InputError(
+            f"{src}: {n_i} individuals x {T0.shape[0]} samples (the longest track) is "
+            f"{T0.shape[0] * n_i:.3g} cells, above the {MAX_CELLS:.0e} the analysis works "
+            f"on ({100 * n_samples / (T0.shape[0] * n_i):.1f} % of them hold samples); "
+            "merge fragmented track ids or analyse the recording in parts"
+        )
     T, X, Y, input_row = clean_columns(
         T0, X, Y, duplicates, names, src, counts, per_individual(ds)
     )
