@@ -280,8 +280,9 @@ def combine_tracks(
 ) -> xr.Dataset:
     """Put the individuals of several datasets (e.g. one file per video) side by side.
 
-    Individual ``n`` of the dataset with prefix ``p`` is named ``p:n``.  Keypoints must
-    agree.  Each individual keeps its own times; when they all coincide the result has
+    Individual ``n`` of the dataset with prefix ``p`` is named ``p:n``; the variable
+    ``recording(individuals)`` holds ``p`` (so ``--group-by recording`` compares the
+    recordings).  Keypoints must agree.  Each individual keeps its own times; when they all coincide the result has
     one shared axis, otherwise per-individual clocks (see the module docstring).
     Confidence is kept when every dataset has it.  ``fps`` converts frame-numbered
     inputs.
@@ -289,7 +290,7 @@ def combine_tracks(
     if len(datasets) != len(prefixes) or not datasets:
         raise InputError("combine_tracks: need one prefix per dataset, at least one dataset")
     kps = [str(k) for k in datasets[0]["keypoints"].values]
-    cols_t, cols_p, cols_c, names = [], [], [], []
+    cols_t, cols_p, cols_c, names, recordings = [], [], [], [], []
     with_conf = all("confidence" in d for d in datasets)
     for d, prefix in zip(datasets, prefixes, strict=True):
         here = [str(k) for k in d["keypoints"].values]
@@ -306,6 +307,7 @@ def combine_tracks(
             cols_p.append(pos[keep, :, :, i])
             cols_c.append(None if conf is None else conf[keep, :, i])
             names.append(f"{prefix}:{name}")
+            recordings.append(str(prefix))
     n = max(c.size for c in cols_t)
     shared = all(c.size == n and np.array_equal(c, cols_t[0]) for c in cols_t)
     position = np.full((n, 2, len(kps), len(names)), np.nan)
@@ -317,7 +319,7 @@ def combine_tracks(
         if confidence is not None:
             confidence[: t.size, :, i] = c
     first = datasets[0].attrs
-    return make_tracks(
+    out = make_tracks(
         position,
         time=cols_t[0] if shared else clock,
         individuals=names,
@@ -330,6 +332,8 @@ def combine_tracks(
             for k in ("n_duplicate_rows", "n_conflicting_duplicates", "n_decreasing_timestamps")
         },
     )
+    out["recording"] = (("individuals",), np.asarray(recordings, dtype=object))
+    return out
 
 
 def resolve_duplicates(
