@@ -282,8 +282,9 @@ def combine_tracks(
 
     Individual ``n`` of the dataset with prefix ``p`` is named ``p:n``; the variable
     ``recording(individuals)`` holds ``p`` (so ``--group-by recording`` compares the
-    recordings).  Keypoints must agree.  Each individual keeps its own times; when they all coincide the result has
-    one shared axis, otherwise per-individual clocks (see the module docstring).
+    recordings).  Keypoints must agree.  Each individual keeps its own times; when
+    they all coincide the result has one shared axis, otherwise per-individual clocks
+    (see the module docstring).
     Confidence is kept when every dataset has it.  ``fps`` converts frame-numbered
     inputs.
     """

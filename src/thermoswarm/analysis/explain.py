@@ -31,7 +31,7 @@ def format_p_value(p: float | None, n_boot: int | None = None, *, digits: int = 
     if n_boot:
         floor = 1.0 / (int(n_boot) + 1)
         if p <= floor * (1 + 1e-9):
-            return f"< {floor:.{digits}g}"
+            return f"< {floor:.2g}"
     return f"{p:.{digits}g}"
 
 

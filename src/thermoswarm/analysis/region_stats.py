@@ -33,7 +33,9 @@ def _score(x: np.ndarray, w: float, k1: float, k2: float) -> np.ndarray:
     """Per-sample score ``d/dw log((1-w) p1 + w p2)`` for fixed exponential components."""
     L = math.log(k1 / k2) + x * (1.0 / k1 - 1.0 / k2)  # log p2/p1
     u = np.exp(-np.abs(L))
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # at w = 0 (or 1) a sample far in one component's tail scores p2/p1 - 1, which may
+    # exceed the float range: +-inf is the right answer there
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         pos = (1.0 - u) / ((1.0 - w) * u + w)
         neg = (u - 1.0) / ((1.0 - w) + w * u)
     return np.where(L > 0, pos, neg)
