@@ -36,6 +36,11 @@ def test_two_phases_in_a_one_temperature_box_are_explained_by_collisions():
     assert "collisions stall robots" in explain_phases(block, one_temperature=True)
     assert "resting" in explain_phases(block, rest_speed=3.0)  # rms sqrt(4) = 2 mm/s
     assert explain_phases({"preferred": "one_phase"}) is None
+    # a cold phase 17 times slower (kT 300 times lower): pausing or jitter, not walking
+    far = {"preferred": "two_phase", "two_phase": {"kT1": 0.03, "kT2": 9.0}}
+    assert "far slower" in explain_phases(far)
+    near = {"preferred": "two_phase", "two_phase": {"kT1": 20.0, "kT2": 80.0}}
+    assert "two modes of motion" in explain_phases(near)
 
 
 def test_diffusion_below_theory_names_collisions_and_walls():

@@ -47,11 +47,13 @@ CODE = {c: np.int8(i) for i, c in enumerate(STEP_CLASSES)}
 #: [1, ``IMPLAUSIBLE_SPREAD``] times the median of all individuals' scales.  A high
 #: quantile, not the median: a mostly resting animal's median moving speed is its
 #: tracker's jitter.  The clip keeps a slow individual's threshold at the group's level
-#: and catches an individual whose every step is a glitch.
+#: and catches an individual whose every step is a glitch.  Its upper end is wide (10):
+#: among many static objects the tracker followed (debris, jitter-only tracks) the
+#: median scale is the jitter's, and a narrow clip would cut a real animal's fast steps.
 IMPLAUSIBLE_QUANTILE = 0.9
 
 
-IMPLAUSIBLE_SPREAD = 3.0
+IMPLAUSIBLE_SPREAD = 10.0
 
 
 #: Fewer measured moving steps than this: an individual's scale is the group's.

@@ -62,7 +62,8 @@ def explain_phases(
     a second phase there comes from collisions, which stall robots (steps at nearly
     zero speed form a cold phase).  Otherwise, when the cold phase's rms speed
     ``sqrt(2 kT1)`` is at or below ``rest_speed`` (mm/s; e.g. the tracker's jitter),
-    it is resting or jitter rather than a mode of motion.
+    it is resting or jitter rather than a mode of motion; a cold phase more than five
+    times slower than the hot one is said to be pausing or jitter.
     """
     if block.get("preferred") != "two_phase":
         return None
@@ -74,16 +75,23 @@ def explain_phases(
             "and the stalled steps form a cold phase beside the driven one"
         )
     if k1 and k2 and k1 > 0:
-        rms1 = math.sqrt(2 * k1 / mass) * 1e3 if mass else math.sqrt(2 * k1)
+        rms = (lambda k: math.sqrt(2 * k / mass) * 1e3) if mass else (lambda k: math.sqrt(2 * k))
+        rms1, rms2 = rms(k1), rms(k2)
         if rest_speed is not None and rms1 <= rest_speed:
             return (
                 f"the cold phase (rms speed {rms1:.3g} mm/s) is no faster than resting or "
                 f"tracker jitter ({rest_speed:.3g} mm/s): it is a resting phase, not a "
                 "mode of motion"
             )
+        if rms1 < 0.2 * rms2:
+            return (
+                f"the cold phase (rms speed {rms1:.3g} mm/s) is far slower than the hot one "
+                f"({rms2:.3g} mm/s): pausing animals, or the tracker's jitter while they "
+                "stand, rather than a second way of walking"
+            )
         return (
-            f"two temperatures {k2 / k1:.3g} times apart: a slow and a fast mode of "
-            "motion (or individuals that differ) mixed in the sample"
+            f"two modes of motion (rms speeds {rms1:.3g} and {rms2:.3g} mm/s), or "
+            "individuals that differ, mixed in the sample"
         )
     return None
 
