@@ -6,7 +6,9 @@ the study -> :mod:`thermoswarm.report.analysis_figures` (figures, the HTML repor
 -> the CLI.  Nothing here imports the report or the CLI.
 
 - :mod:`~thermoswarm.analysis.kinematics`: speed, energy, heading, steering rate per step,
-  with every messy case of real tracks handled and counted;
+  each individual on its own clock, every step in one counted bucket; built on
+  :mod:`~thermoswarm.analysis.samples` (sorting, duplicates, gaps, smoothing) and
+  :mod:`~thermoswarm.analysis.exclusions` (implausible motion, resting, the buckets);
 - :mod:`~thermoswarm.analysis.fit`: one and two exponentials (ML), BIC;
 - :mod:`~thermoswarm.analysis.phase_tests`: bootstrap goodness of fit, bootstrap
   likelihood-ratio test, one phase against two;
