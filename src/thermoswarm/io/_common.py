@@ -327,12 +327,19 @@ def assemble_long(
         return f"{where}: {what} at {at}"
 
     group = ind_idx * n_k + kp_idx
-    by_group = np.argsort(group, kind="stable")  # each group's rows in input order
-    same_group = group[by_group][1:] == group[by_group][:-1]
-    n_back = int((same_group & (np.diff(key[by_group]) < 0)).sum())
-    rows, vals, n_exact, n_conflict = resolve_duplicates(
-        key, values, duplicates, group=group, describe=describe
-    )
+    if n == 1 or bool(np.all(key[1:] >= key[:-1])):
+        n_back = 0  # time-major tables (every frame's rows together) are sorted already
+    else:
+        by_group = np.argsort(group, kind="stable")  # each group's rows in input order
+        same_group = group[by_group][1:] == group[by_group][:-1]
+        n_back = int((same_group & (np.diff(key[by_group]) < 0)).sum())
+    if frame_rate is not None and _one_row_per_cell(key, group, n_k * n_i):
+        # the usual frame table: no two rows in one cell, nothing to sort or resolve
+        rows, vals, n_exact, n_conflict = np.arange(n), values, 0, 0
+    else:
+        rows, vals, n_exact, n_conflict = resolve_duplicates(
+            key, values, duplicates, group=group, describe=describe
+        )
     key, ind_idx, kp_idx = key[rows], ind_idx[rows], kp_idx[rows]
     attrs = {
         "n_duplicate_rows": n_exact,
@@ -388,6 +395,20 @@ def assemble_long(
         "keypoints": kp_names,
         "attrs": attrs,
     }
+
+
+def _one_row_per_cell(frames: np.ndarray, group: np.ndarray, n_groups: int) -> bool:
+    """Whether no (frame, group) cell holds two rows (a bincount, no sort).
+
+    False (let the sort decide) when the table is too sparse for a count per cell.
+    """
+    f = frames.astype(np.int64)
+    f0 = int(f.min())
+    n_cells = (int(f.max()) - f0 + 1) * n_groups
+    if n_cells > 8 * f.size + 1024:
+        return False
+    cell = (f - f0) * n_groups + group
+    return int(np.bincount(cell, minlength=n_cells).max(initial=0)) <= 1
 
 
 def one_regular_clock(

@@ -32,6 +32,7 @@ there).  Leading lines starting with ``#`` are ``key: value`` metadata (``fps``,
 from __future__ import annotations
 
 import io as _io
+import mmap
 import re
 import warnings
 from pathlib import Path
@@ -189,9 +190,27 @@ def _comment_lines(path: Path, n_meta: int) -> list[int]:
     return [int(v) for v in lines if v > n_meta]
 
 
+def _has_comment_lines(path: Path) -> bool:
+    """Whether some line after the first starts with ``#`` (a C-speed scan of the file)."""
+    try:
+        with open(path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+            return mm.find(b"\n#") >= 0
+    except (OSError, ValueError):  # empty files cannot be mapped
+        return False
+
+
 def _read_table(path: Path, n_meta: int, sep: str, text_cols: list[str]) -> pd.DataFrame:
-    comments = _comment_lines(path, n_meta)
-    skip: int | list[int] = [*range(n_meta), *comments] if comments else n_meta
+    skip: int | list[int] = n_meta
+    if _has_comment_lines(path):  # rare: comment lines among the rows
+        comments = _comment_lines(path, n_meta)
+        if comments:
+            skip = [*range(n_meta), *comments]
+    return _parse_table(path, skip, sep, text_cols)
+
+
+def _parse_table(
+    path: Path, skip: int | list[int], sep: str, text_cols: list[str]
+) -> pd.DataFrame:
     try:
         with warnings.catch_warnings():
             # pandas only warns when a row has more fields than the header, and drops them
