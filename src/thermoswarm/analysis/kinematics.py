@@ -357,6 +357,9 @@ def compute_kinematics(
     T, X, Y, input_row = clean_columns(
         T0, X, Y, duplicates, names, src, counts, per_individual(ds)
     )
+    # One shared, clean time axis (the common case: a video's frames): every column of T
+    # is the same view, so the steps and the median step are computed once.
+    one_axis = T is T0 and not per_individual(ds)
     sample = np.isfinite(T)
     n_per = sample.sum(axis=0)
     counts["n_samples"] = int(n_per.sum())
@@ -374,13 +377,18 @@ def compute_kinematics(
         Y = np.where(held, np.nan, Y)
 
     # Steps and each individual's own median step
-    with np.errstate(invalid="ignore"):
-        dt = np.diff(T, axis=0)
     exists = sample[1:] & sample[:-1]
-    med = np.full(n_i, np.nan)
     has = exists.any(axis=0)
-    if has.any():
-        med[has] = np.nanmedian(np.where(exists[:, has], dt[:, has], np.nan), axis=0)
+    med = np.full(n_i, np.nan)
+    if one_axis:
+        dt1 = np.diff(T[:, 0])
+        dt = np.broadcast_to(dt1[:, None], exists.shape)
+        med[:] = float(np.median(dt1))
+    else:
+        with np.errstate(invalid="ignore"):
+            dt = np.diff(T, axis=0)
+        if has.any():
+            med[has] = np.nanmedian(np.where(exists[:, has], dt[:, has], np.nan), axis=0)
     meds = med[has]
     counts["median_dt"] = float(np.median(meds))
     counts["median_dt_min"] = float(meds.min())
@@ -522,8 +530,9 @@ def compute_kinematics(
         e_unit = "J"
     energy = np.where(on_rows(used, False), energy, np.nan)
     dims = ("time", "individuals")
-    shared = bool(n_i == 1 or np.array_equal(T, np.broadcast_to(T[:, :1], T.shape),
-                                             equal_nan=True))  # fmt: skip
+    shared = one_axis or bool(
+        n_i == 1 or np.array_equal(T, np.broadcast_to(T[:, :1], T.shape), equal_nan=True)
+    )
     time_coord = T[:, 0] if shared else np.arange(n_t, dtype=np.float64)
     out = xr.Dataset(
         {

@@ -55,7 +55,8 @@ def clean_columns(
     prefix = np.all(finite[1:] <= finite[:-1], axis=0)  # no sample after a missing time
     increasing = not np.any(both & ~(d > 0))
     if prefix.all() and increasing:
-        return np.array(T, dtype=np.float64), X, Y, np.where(finite, rows_all, -1)
+        # already clean: returned as given (a shared axis stays a read-only broadcast)
+        return T, X, Y, np.where(finite, rows_all, -1)
     # Padding after an individual's last sample is not a missing timestamp
     last = np.where(finite.any(axis=0), n_t - 1 - np.argmax(finite[::-1], axis=0), -1)
     if not padded:
