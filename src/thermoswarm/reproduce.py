@@ -660,8 +660,8 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
     import matplotlib.pyplot as plt
     import xarray as xr
 
-    from thermoswarm.analysis.figures import plot_density_fit
     from thermoswarm.analysis.study import run_study
+    from thermoswarm.report.analysis_figures import plot_density_fit
     from thermoswarm.tracking.synth import SynthConfig, generate
 
     ants = generate(SynthConfig(n_frames=plan.ant_frames), np.random.default_rng(seed)).tracks
