@@ -95,6 +95,8 @@ def console(block: Block) -> list[tuple[str, list[str], list[str]]]:
 NOT_OURS = [
     (lambda a: a[0] == "make", "a make target: installs, or runs the whole suite"),
     (lambda a: a[:2] == ["pip", "install"], "installs from the package index"),
+    (lambda a: a[:2] == ["git", "clone"], "fetches a dataset from its source"),
+    (lambda a: a[0] == "cd", "moves into the reader's data"),
     (lambda a: a[:3] == ["python", "-m", "pytest"], "the test suite itself"),
     (lambda a: a[0] == "python" and len(a) > 1 and a[1].startswith("benchmarks/"),
      "a benchmark script (minutes); `make bench` runs them"),
