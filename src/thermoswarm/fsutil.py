@@ -16,7 +16,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from thermoswarm.errors import OutputError
+from thermoswarm.errors import InputError, OutputError
 
 
 @contextlib.contextmanager
@@ -128,3 +128,11 @@ def prepare_output_dir(path: str | os.PathLike, *, exist_ok: bool = True) -> Pat
         raise OutputError(f"output directory {str(path)!r} already exists")
     path.mkdir(parents=True, exist_ok=True)
     return path
+
+
+def require_input(*paths: str | os.PathLike | None) -> None:
+    """A missing input file is a one-line :class:`InputError` (``None`` entries are
+    skipped); light enough to call before any heavy module is imported."""
+    for path in paths:
+        if path is not None and not Path(path).exists():
+            raise InputError(f"{path}: no such file or directory")

@@ -37,17 +37,6 @@ _COMMANDS: dict[str, str] = {
 }
 
 
-def require_input(*paths) -> None:
-    """A missing input file is a one-line error before any heavy module is imported."""
-    from pathlib import Path
-
-    from thermoswarm.errors import InputError
-
-    for path in paths:
-        if path is not None and not Path(path).exists():
-            raise InputError(f"{path}: no such file or directory")
-
-
 class LazyGroup(click.Group):
     """A group whose sub-commands are imported on first use."""
 

@@ -293,7 +293,7 @@ def analyze(
     Several files (one per video) are analysed together, each individual on its own
     clock.  Writes OUT/fits.json, OUT/report.html and OUT/kinematics.nc.
     """
-    from thermoswarm.cli import require_input
+    from thermoswarm.fsutil import require_input
 
     if fps is not None and not fps > 0:
         raise ConfigError(f"--fps must be a positive number, got {fps!r}")

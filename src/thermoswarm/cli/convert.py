@@ -48,7 +48,7 @@ def convert(
     write_option: tuple[str, ...],
 ) -> None:
     """Convert trajectories SOURCE (any readable format) to DEST (.nc, .csv, .txt)."""
-    from thermoswarm.cli import require_input
+    from thermoswarm.fsutil import require_input
 
     require_input(source)  # before the heavy imports
     from thermoswarm.io import convert_tracks, parse_read_options

@@ -136,7 +136,7 @@ def track(
     video (MOTChallenge, YOLO or COCO): the boxes written are the detections' own,
     frames keep their numbering, and --px-per-mm is needed only for tracks.nc.
     """
-    from thermoswarm.cli import require_input
+    from thermoswarm.fsutil import require_input
 
     if (video is None) == (detections is None):
         raise InputError("give either VIDEO or --detections DETS.txt (exactly one)")
@@ -233,7 +233,7 @@ def evaluate(gt: Path, pred: Path, iou: float) -> None:
     and hota, deta, assa, loca (means over IoU thresholds 0.05..0.95, as TrackEval).
     Frames may count from 0 or 1.
     """
-    from thermoswarm.cli import require_input
+    from thermoswarm.fsutil import require_input
 
     require_input(gt, pred)  # before the heavy imports
     from thermoswarm.fsutil import dumps_json

@@ -11,6 +11,8 @@ import importlib
 
 from thermoswarm.errors import ConfigError
 from thermoswarm.scenarios.base import Scenario
+from thermoswarm.scenarios.registry import REGISTRY as _REGISTRY
+from thermoswarm.scenarios.registry import register
 
 # name -> module that defines and registers it
 _MODULES: dict[str, str] = {
@@ -20,13 +22,6 @@ _MODULES: dict[str, str] = {
     "transport-connected": "thermoswarm.scenarios.transport_connected",
     "transport-free": "thermoswarm.scenarios.transport_free",
 }
-_REGISTRY: dict[str, type[Scenario]] = {}
-
-
-def register(cls: type[Scenario]) -> type[Scenario]:
-    """Class decorator: make a scenario available by its ``name``."""
-    _REGISTRY[cls.name] = cls
-    return cls
 
 
 def names() -> list[str]:

@@ -28,8 +28,8 @@ from thermoswarm.config import check, check_positive
 from thermoswarm.errors import ConfigError
 from thermoswarm.maxent import kT_for_mean_speed, speed_law
 from thermoswarm.policy import BoltzmannUniform
-from thermoswarm.scenarios import register
 from thermoswarm.scenarios.base import Numerics, Recording, Scenario, Setup
+from thermoswarm.scenarios.registry import register
 from thermoswarm.sim import kernels as K
 from thermoswarm.sim.engine import Simulator, SwarmState, place_lattice
 from thermoswarm.sim.world import Piston, box_world

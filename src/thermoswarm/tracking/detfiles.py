@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoswarm.errors import InputError
-from thermoswarm.tracking.detect import FrameDetections
+from thermoswarm.tracking.detection import FrameDetections
 
 __all__ = [
     "DetectionTable",

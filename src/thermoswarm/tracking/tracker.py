@@ -63,7 +63,7 @@ from scipy.optimize import linear_sum_assignment
 from thermoswarm.config import check
 from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy, kalman
-from thermoswarm.tracking.detect import FrameDetections
+from thermoswarm.tracking.detection import FrameDetections
 
 __all__ = ["TrackerConfig", "Tracker", "TrackResult", "track_detections", "estimate_length_px"]
 

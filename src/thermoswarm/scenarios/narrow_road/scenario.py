@@ -15,7 +15,6 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm.policy import Action, NarrowRoad, Observation, Policy
-from thermoswarm.scenarios import register
 from thermoswarm.scenarios.base import Scenario, Setup, wrap
 from thermoswarm.scenarios.narrow_road.geometry import (
     RoadGeometry,
@@ -31,6 +30,7 @@ from thermoswarm.scenarios.narrow_road.metrics import (
     section_stats,
 )
 from thermoswarm.scenarios.narrow_road.params import DIRECTIONS, NarrowRoadParams
+from thermoswarm.scenarios.registry import register
 from thermoswarm.sim.engine import Simulator, SwarmState, place_lattice
 from thermoswarm.sim.light import DirectionalLight, SensingParams, sense
 from thermoswarm.sim.world import World
