@@ -4,8 +4,9 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= out
-# Numba compiles once per machine and keeps the result beside the sources.
-export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba-cache
+# Numba compiles once per machine: the package keeps its kernels in the user's cache
+# directory (`thermoswarm cache` prints it; NUMBA_CACHE_DIR overrides it), the same for
+# make, the thermoswarm command and Python; `make install` compiles them.
 
 .PHONY: install lock run test test-latest test-slow test-all bench lint clean
 
@@ -14,7 +15,7 @@ export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba-cache
 # `make lock` refreshes the lock from the newest versions the ranges allow, and
 # `make test-latest` runs the suite on those newest versions without touching the lock.
 LOCK   := requirements/lock.txt
-EXTRAS := io,track,video,bench,dev,dask
+EXTRAS := io,track,video,bench,dev,dask,gpu
 # The CPU build of PyTorch: pip takes torch==2.13.0 from this machine's local wheels; an
 # unpinned torch would pull several GB of CUDA packages.  The lock pins the same version.
 TORCH  := torch==2.13.0
@@ -27,6 +28,7 @@ $(STAMP): pyproject.toml $(LOCK)
 	$(PY) -m pip install -q -r $(LOCK)
 	$(PY) -m pip install -q --no-deps -e '.[$(EXTRAS)]'
 	$(PY) -m pip check
+	$(PY) -m thermoswarm cache --warm
 	touch $(STAMP)
 
 # Resolve the newest allowed versions in a scratch venv and freeze them into the lock.

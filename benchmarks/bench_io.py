@@ -5,6 +5,9 @@ Each case writes one file with the format's own library, then times
 a baseline that gets the same numbers into a NumPy array the usual way:
 
 * ``sleap_analysis_h5``: ``sleap_io.load_analysis_h5(...).numpy()``
+* ``sleap_analysis_h5_h5py``: ``h5py`` reads ``tracks`` and ``point_scores`` directly
+  and transposes them to (time, space, keypoints, individuals) -- what ``movement``'s
+  SLEAP loader does, the fastest route there is
 * ``sleap_slp``: ``sleap_io.load_slp(...).numpy()`` (what ``movement`` does)
 * ``dlc_h5``: ``pandas.read_hdf`` + reshape to (time, space, keypoints, individuals)
   (what ``movement`` does; ``read_hdf`` unpickles the file's attributes)
@@ -77,8 +80,18 @@ def case_sleap(tmp: Path, rng, n_frames: int, n_ind: int, repeat: int) -> list[d
     sio.save_analysis_h5(labels, str(h5))
     size = f"{n_frames} frames x {n_ind} tracks x 3 nodes"
     out = []
+
+    def direct() -> np.ndarray:
+        import h5py
+
+        with h5py.File(h5, "r") as f:  # movement: tracks (n_tracks, 2, n_nodes, n_frames)
+            pos = f["tracks"][:].transpose(3, 1, 2, 0) / 3.04
+            scores = f["point_scores"][:].transpose(2, 1, 0)
+        return pos, scores
+
     for name, path, baseline in (
         ("sleap_analysis_h5", h5, lambda: sio.load_analysis_h5(str(h5)).numpy()),
+        ("sleap_analysis_h5_h5py", h5, direct),
         ("sleap_slp", slp, lambda: sio.load_slp(str(slp), open_videos=False).numpy()),
     ):
         ours = best(lambda p=path: read_tracks(p, fps=30.0, px_per_mm=3.04), repeat)

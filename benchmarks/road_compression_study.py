@@ -135,17 +135,18 @@ def claims(out: Path) -> dict:
 
 def compression(out: Path) -> dict:
     from thermoswarm.scenarios import compression as C
+    from thermoswarm.sweep import compression as CS
 
     # 200 robots, walls 8 m wide, heading re-drawn every 0.2 s: persistence length
     # <v> tau = 4 mm at 20 mm/s, relaxation times up to ~1000 s (free height ~500 mm)
     base = {"n": 200, "width": 8000.0, "duration": 20000.0, "tau": 0.2}
     kT = kT_for_mean_speed(20.0)
-    iso = C.isotherm([10.0, 20.0, 40.0, 80.0, 160.0], kT=kT, out=out / "isotherm", base=base)
-    temp = C.temperature_series(
+    iso = CS.isotherm([10.0, 20.0, 40.0, 80.0, 160.0], kT=kT, out=out / "isotherm", base=base)
+    temp = CS.temperature_series(
         [kT_for_mean_speed(v) for v in (10.0, 15.0, 20.0, 25.0, 30.0)],
         force=20.0, walls="held", out=out / "temperature", base=base,
     )  # fmt: skip
-    dens = C.temperature_for_density(
+    dens = CS.temperature_for_density(
         [10.0, 20.0, 40.0, 80.0], packing_fraction=0.1, out=out / "density", base=base
     )
     fig = C.study_figure(iso, temp, dens)

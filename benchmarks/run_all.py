@@ -1,6 +1,8 @@
 """``make bench``: every benchmark, one after the other, each against its own baseline.
 
-Prints the engine table (thermoswarm vs pymunk) and a summary line per other benchmark;
+Prints the engine table (thermoswarm on 1 and 2 threads beside pymunk's batch API,
+single-threaded and threaded, and NVIDIA Warp on the CPU) and a summary line per other
+benchmark;
 the full JSON of each goes to ``bench-out/<name>.json``.  Every figure is a ratio
 against a baseline measured in the same process (these machines are noisy); the load
 average is printed with each result.
@@ -52,11 +54,13 @@ def main(argv: list[str] | None = None) -> int:
 
     if want("engine"):
         sys.path.insert(0, str(HERE))
-        from bench_engine import main as engine_main
+        from bench_engine import table
 
         ns = ["--n", "1200", "--n", "10000", "--n", "100000"] if a.quick else []
-        print("## engine (thermoswarm vs pymunk, same workload, same process)\n")
-        engine_main(ns)
+        print("## engine (thermoswarm, pymunk and Warp: same workload, same command)\n")
+        d = _run("bench_engine", ns)
+        if d:
+            print(table(d["engine"]))
         print()
     if want("analysis"):
         args = ["--n-tracks", "200", "--n-frames", "5000"] if a.quick else []

@@ -26,11 +26,14 @@ Box(n=10, kT=50.0)
 from __future__ import annotations
 
 import dataclasses
+import difflib
+import inspect
 import math
+import re
 import tomllib
 import types
 import typing
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal, TypeVar, get_args, get_origin
 
@@ -49,6 +52,10 @@ __all__ = [
     "to_dict",
     "dumps_toml",
     "replace",
+    "describe",
+    "standin",
+    "type_spec",
+    "type_from_spec",
 ]
 
 
@@ -155,7 +162,10 @@ def _from_mapping(cls: type[T], data: Mapping[str, Any], prefix: str = "") -> T:
     unknown = [k for k in data if k not in fields]
     if unknown:
         expected = ", ".join(sorted(fields))
-        raise ConfigError(f"unknown key {prefix + unknown[0]!r}; expected one of: {expected}")
+        hint = _did_you_mean(cls, unknown[0], prefix)
+        raise ConfigError(
+            f"unknown key {prefix + unknown[0]!r}{hint}; expected one of: {expected}"
+        )
     kwargs = {k: _convert(v, hints[k], prefix + k) for k, v in data.items()}
     try:
         return cls(**kwargs)
@@ -164,6 +174,26 @@ def _from_mapping(cls: type[T], data: Mapping[str, Any], prefix: str = "") -> T:
         if prefix and not msg.startswith(prefix):
             msg = prefix + msg
         raise ConfigError(msg) from None
+
+
+def _did_you_mean(cls: type, key: str, prefix: str) -> str:
+    """`` (did you mean 'engine.dt'?)`` for a typo or a key of a nested section."""
+    if not isinstance(key, str):
+        return ""
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls) if f.init]
+    close = difflib.get_close_matches(key, names, n=1, cutoff=0.75)
+    if close:
+        return f" (did you mean {prefix + close[0]!r}?)"
+    for name in names:  # `dt` written for `engine.dt`
+        tp = hints[name]
+        if dataclasses.is_dataclass(tp) and key in {f.name for f in dataclasses.fields(tp)}:
+            return f" (did you mean {prefix + name + '.' + key!r}?)"
+    close = difflib.get_close_matches(key.lower(), [n.lower() for n in names], n=1, cutoff=0.6)
+    if close:
+        real = next(n for n in names if n.lower() == close[0])
+        return f" (did you mean {prefix + real!r}?)"
+    return ""
 
 
 def from_mapping(cls: type[T], data: Mapping[str, Any], *, source: str | None = None) -> T:
@@ -258,3 +288,200 @@ def replace(obj: T, **changes: Any) -> T:
     data = to_dict(obj)
     data.update(changes)
     return from_mapping(type(obj), data)
+
+
+# ----------------------------------------------------------------------------- listing
+# What `thermoswarm scenarios NAME` prints and what `--set` is checked against before
+# the heavy modules are imported: every field of a config class (nested sections as
+# dotted keys) with its type, default, unit and one-line meaning, as plain data.  The
+# unit and meaning come from the class's numpydoc "Attributes"/"Parameters" section.
+
+_UNIT = re.compile(
+    r"^(mm\^2/s\^2|mm/s|mm|s|deg/s|deg|rad/s|rad|J|px|fps|robot drags|drag units)"
+    r"(?: per unit mass)?$"
+)
+
+
+def _field_docs(cls: type) -> dict[str, str]:
+    """``{field: description}`` from the class docstring's Attributes/Parameters."""
+    doc = inspect.getdoc(cls) or ""
+    out: dict[str, str] = {}
+    lines = doc.splitlines()
+    in_section = False
+    names: list[str] = []
+    for i, line in enumerate(lines):
+        if line.strip() in ("Attributes", "Parameters") and i + 1 < len(lines):
+            in_section = set(lines[i + 1].strip()) == {"-"}
+            names = []
+            continue
+        if not in_section or set(line.strip()) == {"-"}:
+            continue
+        if line and not line.startswith(" "):
+            head = line.split(" : ")[0] if " : " in line else line.split(":")[0]
+            if not re.fullmatch(r"[A-Za-z_][\w]*(, *[A-Za-z_][\w]*)*", head.strip()):
+                in_section = False
+                continue
+            names = [n.strip() for n in head.split(",")]
+            for n in names:
+                out.setdefault(n, "")
+        elif names:
+            for n in names:
+                out[n] = (out[n] + " " + line.strip()).strip()
+    return out
+
+
+def _unit_of(name: str, kind: str, text: str) -> str:
+    if kind not in ("int", "float", "tuple", "optional"):
+        return ""
+    for group in re.findall(r"\(([^()]*)\)", text):
+        first = re.split(r"[,;]", group)[0].strip()
+        if _UNIT.match(first):
+            return first.replace(" per unit mass", "")
+        for piece in re.split(r"[,;]", group):
+            m = re.match(r"^\s*(?:in\s+)?(robot drags|drag units)\b", piece)
+            if m:
+                return m.group(1)
+    low = text.lower()
+    if low.startswith(("simulated seconds", "seconds")):
+        return "s"
+    m = re.search(r"\bin (robot drags|drag units)\b", low)
+    if m:
+        return m.group(1)
+    # the house's conventions (mm, s, mm^2/s^2) where the text states no unit
+    if name.endswith("_deg"):
+        return "deg"
+    if re.fullmatch(r"kT(_[a-z]+)?", name) and name != "kT_theta":
+        return "mm^2/s^2"
+    if re.search(r"(^|_)(x|y|dx|dy|radius|diameter|width|height|length|distance|amplitude|"
+                 r"leg|depth|clearance|taper)$", name):  # fmt: skip
+        return "mm"
+    if re.search(r"\bfraction\b|\bratio\b|\bprobability\b|robot area /", low):
+        return "1"
+    if re.search(r"\blight level\b|\breading\b|light-level units|standard deviation", low):
+        return "light level"
+    if "relaxation times" in low:
+        return "t_relax"
+    if name.endswith("threshold"):
+        return "light level"
+    if name.endswith("tolerance"):
+        return "1"
+    return ""
+
+
+def _meaning(text: str) -> str:
+    """The first sentence of a description (outside parentheses), at most 90 characters."""
+    text = re.sub(r":(class|meth|func|attr|mod):`~?([^`]*)`", r"\2", text)
+    text = re.sub(r"``([^`]*)``", r"\1", text).strip()
+    depth, end = 0, len(text)
+    for i, ch in enumerate(text):
+        depth += {"(": 1, "[": 1, ")": -1, "]": -1}.get(ch, 0)
+        if depth == 0 and ch in ".;" and (i + 1 == len(text) or text[i + 1] == " "):
+            end = i
+            break
+    first = text[:end].strip()
+    return first if len(first) <= 90 else first[:87].rstrip() + "..."
+
+
+def type_spec(tp: Any) -> dict[str, Any]:
+    """A JSON-able description of a config field type (inverse: :func:`type_from_spec`)."""
+    origin = get_origin(tp)
+    if tp in (int, float, bool, str):
+        return {"kind": tp.__name__}
+    if origin is Literal:
+        return {"kind": "literal", "values": list(get_args(tp))}
+    if origin in (types.UnionType, typing.Union):
+        args = [a for a in get_args(tp) if a is not type(None)]
+        inner = [type_spec(a) for a in args]
+        spec = inner[0] if len(inner) == 1 else {"kind": "union", "of": inner}
+        if type(None) in get_args(tp):
+            return {"kind": "optional", "of": spec}
+        return spec
+    if origin in (tuple, list):
+        args = get_args(tp)
+        if not args or args[-1] is Ellipsis:
+            return {"kind": "tuple", "of": type_spec(args[0]) if args else {"kind": "any"}}
+        return {"kind": "tuple", "items": [type_spec(a) for a in args]}
+    if dataclasses.is_dataclass(tp):
+        return {"kind": "section", "name": tp.__name__}
+    return {"kind": "any"}
+
+
+def type_from_spec(spec: Mapping[str, Any], sections: Mapping[str, type] | None = None) -> Any:
+    """The type described by :func:`type_spec` (sections looked up in ``sections``)."""
+    kind = spec["kind"]
+    if kind in ("int", "float", "bool", "str"):
+        return {"int": int, "float": float, "bool": bool, "str": str}[kind]
+    if kind == "literal":
+        return Literal[tuple(spec["values"])]  # type: ignore[misc]
+    if kind == "optional":
+        return type_from_spec(spec["of"], sections) | None
+    if kind == "union":
+        out = None
+        for s in spec["of"]:
+            t = type_from_spec(s, sections)
+            out = t if out is None else out | t
+        return out
+    if kind == "tuple":
+        if "items" in spec:
+            return tuple[tuple(type_from_spec(s, sections) for s in spec["items"])]  # type: ignore[misc]
+        return tuple[type_from_spec(spec["of"], sections), ...]
+    if kind == "section":
+        return (sections or {})[spec["name"]]
+    return Any
+
+
+def describe(cls: type, prefix: str = "") -> list[dict[str, Any]]:
+    """Every field of config class ``cls`` as a dict: ``key`` (dotted for sections),
+    ``type`` (:func:`type_spec`), ``type_text``, ``default``, ``unit`` (``""`` when
+    none is stated, ``"1"`` for a fraction), ``meaning``; a nested section gives a row
+    of kind ``section`` followed by its own fields."""
+    hints = typing.get_type_hints(cls)
+    docs = _field_docs(cls)
+    defaults = to_dict(cls())
+    rows: list[dict[str, Any]] = []
+    for f in dataclasses.fields(cls):
+        if not f.init:
+            continue
+        tp = hints[f.name]
+        spec = type_spec(tp)
+        text = docs.get(f.name, "")
+        if spec["kind"] == "section":
+            rows.append({"key": prefix + f.name, "type": spec, "type_text": "a table",
+                         "default": None, "unit": "", "meaning": _meaning(text) or (
+                             _meaning((inspect.getdoc(tp) or "").split("\n\n")[0]))})  # fmt: skip
+            rows.extend(describe(tp, prefix + f.name + "."))
+            continue
+        kind = spec["kind"] if spec["kind"] != "optional" else spec["of"]["kind"]
+        rows.append({
+            "key": prefix + f.name,
+            "type": spec,
+            "type_text": _type_name(tp),
+            "default": defaults.get(f.name),
+            "unit": _unit_of(f.name, kind, text),
+            "meaning": _meaning(text),
+        })  # fmt: skip
+    return rows
+
+
+def standin(rows: Sequence[Mapping[str, Any]], name: str = "Params") -> type:
+    """A config class with the fields of :func:`describe`'s ``rows`` and no range checks:
+    :func:`from_mapping` on it raises the same unknown-key and type errors as on the
+    class described, without importing that class's module."""
+    top: list[tuple[str, Any, Any]] = []
+    nested: dict[str, list[Mapping[str, Any]]] = {}
+    for r in rows:
+        head, _, rest = r["key"].partition(".")
+        if rest:
+            nested.setdefault(head, []).append({**r, "key": rest})
+    sections = {}
+    for r in rows:
+        key = r["key"]
+        if "." in key:
+            continue
+        if r["type"]["kind"] == "section":
+            sec = standin(nested.get(key, []), r["type"]["name"])
+            sections[r["type"]["name"]] = sec
+            top.append((key, sec, dataclasses.field(default=None)))
+        else:
+            top.append((key, type_from_spec(r["type"], sections), dataclasses.field(default=None)))
+    return dataclasses.make_dataclass(name, top, frozen=True)

@@ -16,7 +16,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from thermoswarm.errors import OutputError
+from thermoswarm.errors import InputError, OutputError
 
 
 @contextlib.contextmanager
@@ -96,21 +96,43 @@ def atomic_write_json(path: str | os.PathLike, obj: Any) -> None:
     atomic_write_text(path, dumps_json(obj) + "\n")
 
 
-def prepare_output_dir(path: str | os.PathLike, *, exist_ok: bool = True) -> Path:
-    """Check that ``path`` can be an output directory and create it.
+def check_output_dir(path: str | os.PathLike) -> Path:
+    """Check, without creating anything, that ``path`` can become an output directory.
 
-    The parent must already exist: a typo in a path should not silently create a
-    tree of directories.  Raises :class:`OutputError` with a one-line message.
+    Missing parents are fine (they are created, as ``mkdir -p`` does); the nearest
+    existing ancestor must be a writable directory and ``path`` itself, if it exists,
+    a directory.  Raises :class:`OutputError` with a one-line message.
     """
     path = Path(path)
-    parent = path.absolute().parent
-    if not parent.is_dir():
-        raise OutputError(f"output directory's parent {str(parent)!r} does not exist")
     if path.exists() and not path.is_dir():
         raise OutputError(f"output path {str(path)!r} exists and is not a directory")
+    ancestor = path.absolute().parent
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise OutputError(
+            f"output directory {str(path)!r}: {str(ancestor)!r} is a file, not a directory"
+        )
+    if not os.access(ancestor, os.W_OK):
+        raise OutputError(f"output directory {str(path)!r}: {str(ancestor)!r} is not writable")
+    return path
+
+
+def prepare_output_dir(path: str | os.PathLike, *, exist_ok: bool = True) -> Path:
+    """Check that ``path`` can be an output directory (:func:`check_output_dir`) and
+    create it with its missing parents.  Raises :class:`OutputError` with a one-line
+    message.
+    """
+    path = check_output_dir(path)
     if path.exists() and not exist_ok:
         raise OutputError(f"output directory {str(path)!r} already exists")
-    if not os.access(parent, os.W_OK):
-        raise OutputError(f"output directory's parent {str(parent)!r} is not writable")
-    path.mkdir(exist_ok=True)
+    path.mkdir(parents=True, exist_ok=True)
     return path
+
+
+def require_input(*paths: str | os.PathLike | None) -> None:
+    """A missing input file is a one-line :class:`InputError` (``None`` entries are
+    skipped); light enough to call before any heavy module is imported."""
+    for path in paths:
+        if path is not None and not Path(path).exists():
+            raise InputError(f"{path}: no such file or directory")

@@ -12,12 +12,9 @@ law to different variables:
 - heading: uniform, or normal around a goal direction (:class:`UniformHeading`,
   :class:`NormalHeading`).
 
-Decisions (PAPER_NOTES section 6): the paper's speed density
-``(1/kT) exp(-v^2 / 2kT)`` is not normalised; we sample the *energy* from the
-exponential law and move at ``v = sqrt(2E)``, so the speed is Rayleigh -- exactly the
-2D Maxwell-Boltzmann law -- and the energy is exactly the maximum-entropy law that the
-analysis tests.  The literal half-normal reading is offered as :class:`HalfNormalSpeed`.
-The steering density is one-sided; it applies to ``|rate|`` with a random sign.
+Speeds are sampled through the energy: ``E ~ Exponential(kT)``, ``v = sqrt(2E)``
+(Rayleigh; the paper's literal speed density, normalised, is
+:class:`HalfNormalSpeed`).  The steering law applies to ``|rate|`` with a random sign.
 
 Units: energies per unit mass in mm^2/s^2 (multiply by a mass for joules), speeds in
 mm/s, angles in radians, rates in rad/s.  This module imports nothing of thermoswarm

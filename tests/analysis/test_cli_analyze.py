@@ -78,12 +78,12 @@ def test_bad_input_is_one_line_and_exit_2(tracks_file, tmp_path, args, match):
     assert "Traceback" not in res.output
 
 
-def test_missing_input_and_missing_parent(tmp_path, tracks_file):
+def test_missing_input_and_an_output_under_a_file(tmp_path, tracks_file):
     res = run(tmp_path / "none.nc", "--out", tmp_path / "o")
     assert res.exit_code == 2 and "no such file" in res.output
+    (tmp_path / "a").write_text("")
     res = run(tracks_file, "--out", tmp_path / "a" / "b")
-    assert res.exit_code == 2 and "does not exist" in res.output
-    assert not (tmp_path / "a").exists()
+    assert res.exit_code == 2 and "is a file, not a directory" in res.output
 
 
 def test_messy_pixel_csv_end_to_end(tmp_path):
@@ -103,10 +103,12 @@ def test_messy_pixel_csv_end_to_end(tmp_path):
     out = tmp_path / "o"
     res = run(path, "--px-per-mm", "paper", "--out", out, "--bootstrap", 0, "-q")
     assert res.exit_code == 0, res.output
-    assert "3 backward time steps" in res.output and "1 rows with a repeated" in res.output
+    # counted per individual: 3 backward steps and one exact duplicate row each
+    assert "9 backward time steps" in res.output
+    assert "3 exact duplicate rows dropped" in res.output
     fits = json.loads((out / "fits.json").read_text())
     dq = fits["data_quality"]
-    assert dq["n_times_input"] == 61 and dq["n_times"] == 60
+    assert dq["n_duplicate_rows"] == 3 and dq["n_samples"] == 3 * 60
     assert dq["n_missing_positions"] == 1 and dq["n_gaps"] == 1
     assert fits["n_samples"] == 3 * 59 - 2
     assert fits["energy"]["one_phase"]["kT"] == pytest.approx(50.0, rel=1e-9)  # v^2/2
@@ -117,3 +119,58 @@ def test_read_options_and_allow_pickle_reach_the_reader(tracks_file, tmp_path):
     res = run(tracks_file, "--out", tmp_path / "o", "--bootstrap", 0, "--no-report", "-q",
               "--read-option", 'units="mm"', "--allow-pickle")  # fmt: skip
     assert res.exit_code == 0, res.output
+    # the reader got the option: units="cm" contradicts the file, and it says so
+    res = run(tracks_file, "--out", tmp_path / "o2", "--bootstrap", 0, "--no-report", "-q",
+              "--read-option", 'units="cm"')  # fmt: skip
+    assert res.exit_code == 2
+    assert "units='cm' contradicts" in res.output and "Traceback" not in res.output
+    assert not (tmp_path / "o2" / "fits.json").exists()
+
+
+def _ant_folder(folder, n_ants=6, glitch=False, seed=4):
+    """``t x y`` files of ants walking at about 15 mm/s; with ``glitch`` one more track
+    that jumps 400 mm every frame (a tracker following nothing)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(120) / 10.0
+    for i in range(n_ants):
+        xy = np.cumsum(rng.normal(0.0, 1.0, (120, 2)), axis=0)
+        np.savetxt(folder / f"ant{i}.txt", np.column_stack([t, xy]), fmt="%.5f")
+    if glitch:
+        xy = 400.0 * (np.arange(120) % 2)[:, None] * np.ones(2)
+        np.savetxt(folder / "ghost.txt", np.column_stack([t, xy]), fmt="%.5f")
+
+
+def _one_line_error(res, *needles):
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), res.output
+    for n in needles:
+        assert n in lines[0], lines[0]
+
+
+def test_bad_real_world_input_is_one_line_or_a_counted_exclusion(tmp_path):
+    (tmp_path / "dup").mkdir()
+    (tmp_path / "dup" / "a.txt").write_text("0 0 0\n0.1 1 0\n0.1 1.5 0\n0.2 2 0\n")
+    common = ("--read-option", "units=mm", "--bootstrap", 0, "--no-report", "-q")
+    # two different samples at one time under the default rule
+    _one_line_error(run(tmp_path / "dup", "--out", tmp_path / "o1", *common),
+                    "a.txt", "individual 'a'", "--duplicates")  # fmt: skip
+    # a file with one sample
+    (tmp_path / "one.txt").write_text("0 1 2\n")
+    _one_line_error(run(tmp_path / "one.txt", "--out", tmp_path / "o2", *common),
+                    "at least 2 samples")  # fmt: skip
+    # an individual whose every step is implausible, among ants: left out and counted
+    (tmp_path / "ants").mkdir()
+    _ant_folder(tmp_path / "ants", glitch=True)
+    res = run(tmp_path / "ants", "--out", tmp_path / "o3", *common)
+    assert res.exit_code == 0, res.output
+    assert "1 individuals whose every moving step is implausible" in res.output
+    fits = json.loads((tmp_path / "o3" / "fits.json").read_text())
+    assert fits["excluded"]["implausible"]["individuals_all_implausible"] == ["ghost"]
+    assert fits["n_tracks"] == 6
+    # alone, with the animal's body length: nothing is left to fit -- one line, no files
+    (tmp_path / "ghost").mkdir()
+    (tmp_path / "ants" / "ghost.txt").rename(tmp_path / "ghost" / "ghost.txt")
+    res = run(tmp_path / "ghost", "--out", tmp_path / "o4", *common, "--body-length", 5)
+    _one_line_error(res, "no step left to fit", "implausible")
+    assert not (tmp_path / "o4" / "fits.json").exists()

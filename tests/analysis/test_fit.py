@@ -10,15 +10,8 @@ from matplotlib.figure import Figure
 from scipy import optimize, stats
 
 from thermoswarm.analysis import _kernels as K
-from thermoswarm.analysis.fit import (
-    ExponentialFit,
-    ExponentialMixtureFit,
-    compare_phases,
-    goodness_of_fit,
-    ks_statistic,
-    likelihood_ratio_test,
-    naive_ks,
-)
+from thermoswarm.analysis.fit import ExponentialFit, ExponentialMixtureFit, ks_statistic, naive_ks
+from thermoswarm.analysis.phase_tests import compare_phases, goodness_of_fit, likelihood_ratio_test
 from thermoswarm.errors import InputError
 from thermoswarm.maxent import EnergyLaw, EnergyMixture
 
@@ -62,7 +55,9 @@ def test_mixture_standard_errors_are_calibrated():
         z.append((f.kT2_ - 40.0) / f.kT2_se_)
     z = np.asarray(z)
     assert abs(z.std(ddof=1) - 1) < 3 / math.sqrt(2 * z.size)
-    assert abs(z.mean()) < 3 / math.sqrt(z.size) + 0.1  # ML bias is O(1/n)
+    # the mean of 40 unit-spread z-scores has SE 1/sqrt(40); the ML bias of kT2 is O(1/n),
+    # i.e. O(1/sqrt(n)) = O(0.02) standard errors at n = 3000: nothing to add to 3 SE
+    assert abs(z.mean()) < 3 / math.sqrt(z.size)
 
 
 def test_mixture_fit_is_the_likelihood_maximum():

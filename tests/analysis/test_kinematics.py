@@ -30,8 +30,8 @@ def test_circle_speed_heading_and_turn_rate_are_exact():
     np.testing.assert_allclose(np.angle(np.exp(1j * (k["heading"].values[:-1, 0] - expect))), 0,
                                atol=1e-9)  # fmt: skip
     dq = data_quality(k)
-    assert dq["n_steps_valid"] == 199 and dq["n_steering_samples"] == 198
-    assert set(dq) == set(DATA_QUALITY_KEYS)
+    assert dq["n_steps_used"] == 199 and dq["n_steering_samples"] == 198
+    assert set(dq) == {*DATA_QUALITY_KEYS, "step_buckets"}
 
 
 def test_clockwise_turns_are_negative_and_mass_gives_joules():
@@ -92,22 +92,26 @@ def test_short_gaps_are_interpolated_when_asked():
     assert not k["valid"].values[9:14, 0].any()
 
 
-def test_repeated_timestamps_are_merged_by_mean():
+def test_repeated_timestamps_follow_the_duplicates_rule():
     ds = straight_tracks(speed=10.0, fps=10.0, n=20)
     pos = ds["position"].values
     t = ds["time"].values
-    # duplicate row 7 twice: once identical, once displaced by +1 mm and -1 mm in x
-    rows = [*range(8), 7, 7, *range(8, 20)]
+    # row 7 three more times: once identical, then displaced by +1 mm and -1 mm in x
+    rows = [*range(8), 7, 7, 7, *range(8, 20)]
     pos2 = pos[rows].copy()
-    pos2[8, 0] += 1.0
-    pos2[9, 0] -= 1.0
+    pos2[9, 0] += 1.0
+    pos2[10, 0] -= 1.0
     messy = make_tracks(pos2, time=t[rows])
-    k = compute_kinematics(messy)
+    with pytest.raises(InputError, match=r"individual 'id_0' at time 0.7 s: two different"):
+        compute_kinematics(messy)
     clean = compute_kinematics(ds)
-    assert k.attrs["n_repeated_timestamps"] == 2
+    k = compute_kinematics(messy, duplicates="mean")
+    assert k.attrs["n_duplicate_rows"] == 1 and k.attrs["n_conflicting_duplicates"] == 2
     assert k.sizes["time"] == 20
     np.testing.assert_allclose(k["speed"].values, clean["speed"].values, rtol=1e-9)
-    assert list(k["input_row"].values[:10]) == [*range(8), 10, 11]  # rows of the input
+    first = compute_kinematics(messy, duplicates="first")
+    np.testing.assert_allclose(first["speed"].values, clean["speed"].values, rtol=1e-9)
+    assert list(first["input_row"].values[:10, 0]) == [*range(8), 11, 12]  # rows of the input
 
 
 def test_decreasing_and_missing_timestamps_are_sorted_and_dropped():
@@ -119,8 +123,8 @@ def test_decreasing_and_missing_timestamps_are_sorted_and_dropped():
     pos = np.concatenate([ds["position"].values[order], np.zeros((1, 2, 1, 2))])
     k = compute_kinematics(make_tracks(pos, time=t_nan))
     clean = compute_kinematics(ds)
-    assert k.attrs["n_missing_timestamps"] == 1
-    assert k.attrs["n_decreasing_timestamps"] == int((np.diff(t) < 0).sum())
+    assert k.attrs["n_missing_timestamps"] == 2  # one row, two individuals
+    assert k.attrs["n_decreasing_timestamps"] == 2 * int((np.diff(t) < 0).sum())
     np.testing.assert_allclose(k["speed"].values, clean["speed"].values, rtol=1e-9)
     np.testing.assert_array_equal(k["time"].values, clean["time"].values)
 
@@ -130,47 +134,70 @@ def test_time_gaps_are_not_used_as_steps():
     keep = np.r_[0:15, 20:40]  # 0.6 s jump after row 14
     gappy = make_tracks(ds["position"].values[keep], time=ds["time"].values[keep])
     k = compute_kinematics(gappy)
-    assert k.attrs["n_time_gaps"] == 1
-    assert k.attrs["n_steps_over_time_gap"] == 1
+    assert k.attrs["n_steps_time_gap"] == 1
     assert not k["valid"].values[14, 0]
     assert np.isnan(k["steering_rate"].values[15, 0])
     np.testing.assert_allclose(k["speed"].values[k["valid"].values], 10.0, rtol=1e-9)
     k2 = compute_kinematics(gappy, gap_factor=10.0)
-    assert k2["valid"].values[14, 0] and k2.attrs["n_time_gaps"] == 0
+    assert k2["valid"].values[14, 0] and k2.attrs["n_steps_time_gap"] == 0
+    assert k2.attrs["n_steps_used_irregular"] == 1  # used with its own duration
 
 
-def test_zero_speed_leaves_heading_undefined_and_counts_stationary_periods():
+def test_rounded_timestamps_are_regular_steps():
+    # 10 Hz stamps rounded to the millisecond, with +-3 ms of clock noise
+    rng = np.random.default_rng(1)
+    t = np.round(np.arange(200) * 0.1 + rng.uniform(-0.003, 0.003, 200), 3)
+    pos = np.stack([t * 10.0, np.zeros_like(t)], axis=1)[:, :, None]
+    k = compute_kinematics(make_tracks(pos, time=t))
+    assert k.attrs["n_irregular_steps"] == 0
+    assert k.attrs["n_steps_used_regular"] == 199
+    np.testing.assert_allclose(k["speed"].values[:-1, 0], 10.0, rtol=1e-9)
+
+
+def test_resting_steps_are_counted_and_left_out_unless_kept():
     fps = 10.0
     x = np.concatenate([np.arange(10) * 1.0, np.full(15, 9.0), 9.0 + np.arange(1, 11) * 1.0])
     pos = np.stack([x, np.zeros_like(x)])[None].transpose(2, 1, 0)  # (time, 2, 1)
     k = compute_kinematics(make_tracks(pos, fps=fps), stationary_duration=1.0)
     dq = data_quality(k)
     # 15 repeated positions: steps 9..23 have zero length (15 steps, 1.5 s)
-    assert dq["n_zero_speed"] == 15
+    assert dq["n_steps_resting"] == 15 and dq["n_steps_used"] == 19
+    assert dq["resting_fraction"] == pytest.approx(15 / 34)
     assert dq["n_stationary_periods"] == 1 and dq["n_stationary_steps"] == 15
     assert dq["stationary_seconds"] == pytest.approx(1.5)
+    assert not k["valid"].values[9:24, 0].any()
     assert np.all(np.isnan(k["heading"].values[9:24, 0]))
+    kept = compute_kinematics(make_tracks(pos, fps=fps), keep_resting=True)
+    dq = data_quality(kept)
+    assert kept["valid"].values[9:24, 0].all()  # zero energies, announced
+    assert dq["n_resting_kept"] == 15 and dq["n_zero_speed"] == 15
     # turns into and out of the stop are undefined; 16 turns in all touch a stop
     assert dq["n_steering_undefined"] == 16
-    assert k["valid"].values[9:24, 0].all()  # the energies (zero) still count
-    k2 = compute_kinematics(make_tracks(pos, fps=fps), drop_stationary=True)
+    k2 = compute_kinematics(make_tracks(pos, fps=fps), keep_resting=True, drop_stationary=True)
     assert not k2["valid"].values[9:24, 0].any()
-    assert k2.attrs["n_steps_dropped_stationary"] == 15
+    assert k2.attrs["n_steps_stationary_dropped"] == 15
     k3 = compute_kinematics(make_tracks(pos, fps=fps), stationary_duration=2.0)
     assert k3.attrs["n_stationary_periods"] == 0
+    held = compute_kinematics(make_tracks(pos, fps=fps), held_positions="missing")
+    # the 15 held samples are missing: the 16 steps touching them, nothing rests
+    assert held.attrs["n_held_positions"] == 15 and held.attrs["n_steps_resting"] == 0
+    assert held.attrs["n_steps_missing_position"] == 16
 
 
 def test_min_speed_max_speed_and_wrap_counts():
-    ds = straight_tracks(speed=10.0, fps=10.0, n=20)
+    ds = straight_tracks(speed=10.0, fps=10.0, n=40)
     pos = ds["position"].values.copy()
     pos[10, 0, 0, 0] += 50.0  # a 500 mm/s jump out and back
     k = compute_kinematics(ds.assign(position=(ds["position"].dims, pos)), max_speed=100.0)
     assert k.attrs["n_steps_over_max_speed"] == 2
     assert not k["valid"].values[9:11, 0].any()
     k2 = compute_kinematics(ds.assign(position=(ds["position"].dims, pos)))
+    assert k2.attrs["n_steps_implausible"] == 2  # 50 x the other speeds
+    k2 = compute_kinematics(ds.assign(position=(ds["position"].dims, pos)), keep_implausible=True)
+    assert k2.attrs["n_implausible_kept"] == 2
     assert k2.attrs["n_steering_near_wrap"] == 2  # turning back at and after the outlier
     k3 = compute_kinematics(ds, min_speed=10.5)
-    assert k3.attrs["n_zero_speed"] == 19 and k3.attrs["n_steering_samples"] == 0
+    assert k3.attrs["n_zero_speed"] == 39 and k3.attrs["n_steering_samples"] == 0
 
 
 def test_savgol_noise_reduction_matches_the_linear_filter_theory():
@@ -251,5 +278,16 @@ def test_bad_options_are_config_errors(kwargs, match):
 
 
 def test_too_few_times_is_an_input_error():
-    with pytest.raises(InputError, match="at least 2"):
+    with pytest.raises(InputError, match="at least 2 samples of one individual"):
         compute_kinematics(make_tracks(np.zeros((1, 2, 1)), fps=1.0))
+
+
+def test_a_table_too_large_is_refused_at_once(monkeypatch):
+    # fragmented identities: one long track beside many short ones would need a
+    # (samples x individuals) table far larger than the samples; the bound is checked
+    # before anything is allocated (lowered here so the test stays small)
+    import thermoswarm.analysis.kinematics as kinematics
+
+    monkeypatch.setattr(kinematics, "MAX_CELLS", 100)
+    with pytest.raises(InputError, match=r"merge fragmented track ids"):
+        compute_kinematics(straight_tracks(n=60, n_ind=2))

@@ -34,7 +34,8 @@ def test_tables_from_mapping_and_rows():
     assert html.count("\u2013") >= 2  # None and NaN
     heads = re.findall(r"<th>(\w+)</th>", html.split("rows")[1])
     assert heads == ["a", "b", "c"]
-    assert format_value(np.float64(0.5)) == "0.5" and format_value([1, 2]) == "[1, 2]"
+    assert format_value(np.float64(0.5)) == "0.5" and format_value([1, 2]) == "1, 2"
+    assert format_value({"+x": 627, "-x": 0.25}) == "+x: 627, -x: 0.25"  # never raw JSON
 
 
 def test_figure_and_animations_are_embedded(tmp_path):

@@ -85,3 +85,22 @@ def test_draw_test_sample_thins_and_caps():
     np.testing.assert_array_equal(a, b)
     with pytest.raises(ValueError, match="thin"):
         draw_test_sample(held, valid, thin=0, rng=np.random.default_rng(0))
+
+
+def test_autocorrelation_of_short_tracks_beside_a_long_one_equals_the_dense_sum():
+    # the batches sorted by track length give the sums over all pairs of each track
+    rng = np.random.default_rng(3)
+    v = np.full((400, 30), np.nan)
+    v[:, 0] = rng.exponential(1.0, 400)
+    v[:7, 1:] = rng.exponential(1.0, (7, 29))
+    ok = np.isfinite(v)
+    rho = autocorrelation(v, ok, chunk=4)
+    num = np.zeros(400)
+    cnt = np.zeros(400)
+    for i in range(30):
+        x = v[ok[:, i], i] - v[ok[:, i], i].mean()
+        for k in range(x.size):
+            num[k] += (x[: x.size - k] * x[k:]).sum()
+            cnt[k] += x.size - k
+    expect = np.where(cnt > 0, num / np.where(cnt > 0, cnt, 1), np.nan)
+    np.testing.assert_allclose(rho, expect / expect[0], rtol=1e-9, atol=1e-12)

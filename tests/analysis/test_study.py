@@ -9,13 +9,15 @@ import pytest
 import xarray as xr
 from analysis_helpers import MIXTURE, STEER_T
 
+from thermoswarm.analysis.region_stats import high_T_fraction
 from thermoswarm.analysis.regions import regions_from_mapping
-from thermoswarm.analysis.study import analyze_file, analyze_tracks, high_T_fraction, run_study
+from thermoswarm.analysis.study import analyze_tracks, run_study
 from thermoswarm.analysis.synthetic import synthetic_tracks
 from thermoswarm.errors import ConfigError
 from thermoswarm.fsutil import dumps_json
 from thermoswarm.io import write_tracks
 from thermoswarm.maxent import EnergyLaw, EnergyMixture
+from thermoswarm.report.analysis_run import analyze_file
 from thermoswarm.tracks import make_tracks
 
 HALVES = regions_from_mapping(
@@ -250,7 +252,7 @@ def test_analyze_file_writes_three_outputs(tmp_path, two_phase_tracks):
     assert fits["settings"]["regions"] == str(regions)
     with xr.open_dataset(out / "kinematics.nc", engine="h5netcdf") as kin:
         assert {"speed", "energy", "heading", "steering_rate", "valid", "region"} <= set(kin)
-        assert kin.attrs["n_steps_valid"] == fits["n_samples"]
+        assert kin.attrs["n_steps_used"] == fits["n_samples"]
         np.testing.assert_allclose(
             kin["energy"].values, res.kinematics["energy"].values.astype(np.float32)
         )

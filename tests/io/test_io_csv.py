@@ -129,15 +129,41 @@ def test_wide_idtracker_style(tmp_path, truth):
     assert_tracks(ds, c.mm, truth.times, ["id_1", "id_2"], ["centroid"])
 
 
-def test_wide_named_suffix_keeps_row_order(tmp_path):
+def test_wide_sorts_rows_and_resolves_duplicates_by_rule(tmp_path):
     df = pd.DataFrame(
-        {"frame": [0, 2, 1, 1], "ant_x": [1.0, 2.0, 3.0, 4.0], "ant_y": [5.0, 6.0, 7.0, 8.0]}
+        {
+            "frame": [0, 2, 1, 1, 2],
+            "ant_x": [1.0, 2.0, 3.0, 4.0, 2.0],
+            "ant_y": [5.0, 6.0, 7.0, 8.0, 6.0],
+        }
     )
     df.to_csv(tmp_path / "w.csv", index=False)
-    ds = read_tracks(tmp_path / "w.csv", fps=1.0, units="mm")
-    np.testing.assert_array_equal(ds.time.values, [0.0, 2.0, 1.0, 1.0])  # kept as given
-    np.testing.assert_array_equal(ds.position.values[:, 0, 0, 0], [1.0, 2.0, 3.0, 4.0])
-    assert list(ds.individuals.values) == ["ant"]
+    # frame 2 twice with the same position: dropped; frame 1 twice, different: a conflict
+    with pytest.raises(InputError, match=r"w\.csv: individual 'ant' at frame 1: two different"):
+        read_tracks(tmp_path / "w.csv", fps=1.0, units="mm")
+    first = read_tracks(tmp_path / "w.csv", fps=1.0, units="mm", duplicates="first")
+    np.testing.assert_array_equal(first.time.values, [0.0, 1.0, 2.0])
+    np.testing.assert_array_equal(first.position.values[:, 0, 0, 0], [1.0, 3.0, 2.0])
+    assert first.attrs["n_duplicate_rows"] == 1
+    assert first.attrs["n_conflicting_duplicates"] == 1
+    mean = read_tracks(tmp_path / "w.csv", fps=1.0, units="mm", duplicates="mean")
+    np.testing.assert_array_equal(mean.position.values[:, 1, 0, 0], [5.0, 7.5, 6.0])
+    assert list(mean.individuals.values) == ["ant"]
+
+
+def test_wide_frame_like_first_column_is_recognised(tmp_path):
+    # a colony tracker's layout: the frame number in a column named "position"
+    text = "position,x0,y0,x1,y1\n0,1,2,3,4\n1,1.5,2,3,4.5\n2,2,2,3,5\n"
+    (tmp_path / "colony.csv").write_text(text)
+    assert detect_format(tmp_path / "colony.csv") == "wide_csv"
+    ds = read_tracks(tmp_path / "colony.csv", fps=29.97, units="mm")
+    np.testing.assert_allclose(ds.time.values, np.arange(3) / 29.97)
+    np.testing.assert_array_equal(ds.position.values[:, 0, 0, 1], [3.0, 3.0, 3.0])
+    assert "position" in ds.attrs["time_from"]
+    # a first column of non-integers is not a frame number: not recognised
+    (tmp_path / "other.csv").write_text("speed,x0,y0\n0.5,1,2\n")
+    with pytest.raises(InputError, match="--format"):
+        detect_format(tmp_path / "other.csv")
 
 
 def test_sniff_tells_tidy_wide_and_dlc_apart(tmp_path):
@@ -162,7 +188,11 @@ def test_sniff_tells_tidy_wide_and_dlc_apart(tmp_path):
             {"fps": 1, "units": "mm"},
             r"non-numeric value 'abc' in column 'x' \(data row 1\)",
         ),
-        ("id,frame,x,y\na,0,1,2\na,0,3,4\n", {"fps": 1, "units": "mm"}, r"two rows.*'a'"),
+        (
+            "id,frame,x,y\na,0,1,2\na,0,3,4\n",
+            {"fps": 1, "units": "mm"},
+            r"individual 'a' at frame 0: two different samples",
+        ),
         ("id,frame,x,y\n", {"fps": 1, "units": "mm"}, r"no data rows"),
         ("id,frame,x\na,0,1\n", {"fps": 1, "units": "mm"}, r"no x/y columns"),
         ("id,frame,x,y\na,0,1,2,9,9\n", {"fps": 1, "units": "mm"}, r"malformed CSV"),

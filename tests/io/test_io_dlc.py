@@ -8,6 +8,7 @@ import h5py
 import numpy as np
 import pandas as pd
 import pytest
+import tables  # noqa: F401  (pandas writes the DeepLabCut .h5 fixtures with it)
 from io_truth import FPS, SCALE, Truth, assert_tracks
 
 from thermoswarm.errors import InputError
@@ -84,7 +85,6 @@ def test_csv_unique_bodyparts_become_union_of_keypoints(tmp_path, truth):
 
 @pytest.mark.parametrize("fmt", ["table", "fixed"])
 def test_h5_written_by_pandas(tmp_path, truth, fmt):
-    pytest.importorskip("tables")
     path = tmp_path / f"videoDLC_{fmt}.h5"
     _frame(truth).to_hdf(path, key="df_with_missing", format=fmt, mode="w")
     assert detect_format(path) == "dlc"
@@ -93,7 +93,6 @@ def test_h5_written_by_pandas(tmp_path, truth, fmt):
 
 
 def test_h5_single_animal_table(tmp_path, truth):
-    pytest.importorskip("tables")
     path = tmp_path / "single.h5"
     _frame(truth, multi=False).to_hdf(path, key="df_with_missing", format="table", mode="w")
     ds = read_tracks(path, fps=FPS, px_per_mm=SCALE)
@@ -113,7 +112,6 @@ class _Boom:
 
 
 def test_h5_with_code_in_pickled_attribute_is_refused(tmp_path, truth):
-    pytest.importorskip("tables")
     path = tmp_path / "evil.h5"
     _frame(truth).to_hdf(path, key="df_with_missing", format="table", mode="w")
     marker = tmp_path / "pwned"

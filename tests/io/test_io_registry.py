@@ -8,6 +8,7 @@ import h5py
 import numpy as np
 import pandas as pd
 import pytest
+import tables  # noqa: F401  (pandas writes the DeepLabCut .h5 fixtures with it)
 from click.testing import CliRunner
 from io_truth import FPS, SCALE
 
@@ -38,7 +39,6 @@ def _idtracker_h5(path):
 
 
 def _dlc_h5(path):
-    pytest.importorskip("tables")
     cols = pd.MultiIndex.from_tuples(
         [("s", "body", c) for c in ("x", "y", "likelihood")],
         names=["scorer", "bodyparts", "coords"],
@@ -248,6 +248,11 @@ def test_cli_convert_read_option(tmp_path):
         ],
     )
     assert res.exit_code == 0, res.output
+    # the options reached the reader: the renamed columns give individual a at (1, 2) mm
+    back = read_tracks(tmp_path / "o.csv")
+    assert list(back.individuals.values) == ["a"]
+    np.testing.assert_array_equal(back.position.values[0, :, 0, 0], [1.0, 2.0])
+    assert back.attrs["space_unit"] == "mm" and back.time.values.tolist() == [0.0]
 
 
 @pytest.mark.parametrize(
@@ -305,7 +310,6 @@ def _bigger_idtracker_h5(path):
 
 
 def _bigger_dlc_h5(path):
-    pytest.importorskip("tables")
     cols = pd.MultiIndex.from_tuples(
         [("s", f"b{k}", c) for k in range(5) for c in ("x", "y", "likelihood")],
         names=["scorer", "bodyparts", "coords"],

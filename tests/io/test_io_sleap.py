@@ -5,12 +5,11 @@ from __future__ import annotations
 import h5py
 import numpy as np
 import pytest
+import sleap_io as sio  # part of the [io] extra: a missing one must fail, not skip
 from io_truth import FPS, SCALE, Truth, assert_tracks
 
 from thermoswarm.errors import InputError
 from thermoswarm.io import detect_format, read_tracks
-
-sio = pytest.importorskip("sleap_io")
 
 
 def _labels(truth: Truth, *, tracks: bool = True):

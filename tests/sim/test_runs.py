@@ -155,9 +155,19 @@ def test_bad_config_file_names_the_file(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
-def test_missing_output_parent_and_unknown_scenario(tmp_path):
-    res = CliRunner().invoke(cli, ["simulate", "box", "--out", str(tmp_path / "no" / "x")])
-    assert res.exit_code == 2 and "does not exist" in res.output
+def test_output_parents_are_created_a_file_in_the_way_and_unknown_scenario(tmp_path):
+    out = tmp_path / "runs" / "deeper" / "box"
+    res = CliRunner().invoke(cli, ["simulate", "box", "--out", str(out), "--set", "n=5",
+                                   "--set", "duration=1"])  # fmt: skip
+    assert res.exit_code == 0, res.output
+    assert (out / "metrics.json").is_file()
+    # a bad value creates no parent
+    bad = tmp_path / "other" / "box"
+    res = CliRunner().invoke(cli, ["simulate", "box", "--out", str(bad), "--set", "n=-1"])
+    assert res.exit_code == 2 and not (tmp_path / "other").exists()
+    (tmp_path / "file").write_text("")
+    res = CliRunner().invoke(cli, ["simulate", "box", "--out", str(tmp_path / "file" / "x")])
+    assert res.exit_code == 2 and "is a file, not a directory" in res.output
     res = CliRunner().invoke(cli, ["simulate", "warp", "--out", str(tmp_path / "o")])
     assert res.exit_code == 2 and "unknown scenario 'warp'" in res.output
     res = CliRunner().invoke(cli, ["simulate", "--resume", str(tmp_path)])

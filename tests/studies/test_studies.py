@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from thermoswarm.errors import ConfigError
+from thermoswarm.errors import ConfigError, OutputError
 from thermoswarm.studies import effect, verdict
 from thermoswarm.studies.mechanism import markdown_table, run_mechanism, summarize
 from thermoswarm.studies.regime import run_regime
@@ -132,31 +132,84 @@ def test_run_mechanism_end_to_end_tiny(tmp_path):
 
 
 def test_run_scaling_end_to_end_tiny(tmp_path, ex):
+    # 20 mm in 20 s: within reach of some of these runs, not of all; the horizon (10 s)
+    # holds three of the frames recorded every 5 s
+    target, duration, horizon = 20.0, 20.0, 10.0
     res = run_scaling(
         tmp_path / "s",
         "quick",
         ns=[20, 60],
         seeds=2,
-        duration=5.0,
-        target_distance=1.0,
-        horizon=3.0,
+        duration=duration,
+        target_distance=target,
+        horizon=horizon,
         overrides={"width": 500.0, "height": 500.0},
         executor=ex,
         progress=False,
     )
     assert list(res.summary["n"]) == [20, 60]
-    assert (res.runs["target_y"] == 251.0).all()
-    # the horizon's maximum is taken over the recorded path up to 3 s
-    for _, r in res.runs.iterrows():
-        path = json.loads((Path(r["run_dir"]) / "metrics.json").read_text())["object_path"]
-        t, p = np.asarray(path["time"]), np.asarray(path["progress"])
-        assert r["max_displacement"] == p[t <= 3.0].max()
+    assert (res.runs["target_y"] == 270.0).all()  # the start (250 mm) + 20 mm
+    runs = res.runs
+    assert sorted(zip(runs["n"], runs["seed"], strict=True)) == [
+        (20, 0),
+        (20, 1),
+        (60, 0),
+        (60, 1),
+    ]
+    for _, r in runs.iterrows():
+        # each row is what its own run wrote, for its own size and seed
+        m = json.loads((Path(r["run_dir"]) / "metrics.json").read_text())
+        assert m["n"] == r["n"] and m["target_y"] == r["target_y"] == 270.0
+        assert r["max_displacement_run"] == m["max_displacement_toward_target"]
+        assert r["displacement"] == m["displacement_toward_target"]
+        # the horizon's maximum is taken over the recorded path up to 10 s after warm-up
+        t, p = np.asarray(m["object_path"]["time"]), np.asarray(m["object_path"]["progress"])
+        within = t <= m["warmup"] + horizon + 1e-9
+        assert within.sum() >= 3 and r["max_displacement"] == p[within].max()
+        assert r["max_displacement"] <= r["max_displacement_run"]
+        # the whole run's maximum includes the start (0) and the end
+        assert r["max_displacement_run"] >= max(0.0, r["displacement"]) - 1e-9
+        # reached exactly when the whole run's maximum got to the target, within the run
+        tt = r["time_to_target"]
+        reached = tt is not None and not (isinstance(tt, float) and math.isnan(tt))
+        assert reached == (m["time_to_target"] is not None)
+        assert reached == (r["max_displacement_run"] >= target)
+        assert not reached or (0.0 < tt <= duration and tt == m["time_to_target"])
+    # (these seeds exercise both branches: some runs reach the target, some do not)
+    assert 0 < res.summary["reached"].sum() < len(runs)
+    # the summary, recomputed here from the runs
+    for _, s in res.summary.iterrows():
+        g = runs[runs["n"] == s["n"]]
+        md = g["max_displacement"].to_numpy(float)
+        assert s["seeds"] == 2
+        assert s["maxdisp_mean"] == pytest.approx(md.mean())
+        assert s["maxdisp_sd"] == pytest.approx(md.std(ddof=1))
+        assert s["maxdisp_median"] == pytest.approx(np.median(md))
+        assert (s["maxdisp_min"], s["maxdisp_max"]) == (md.min(), md.max())
+        # two values: the interval of the median is their range
+        assert (s["maxdisp_ci_low"], s["maxdisp_ci_high"]) == (md.min(), md.max())
+        assert s["disp_mean"] == pytest.approx(g["displacement"].mean())
+        times = sorted(float(x) for x in g["time_to_target"] if x is not None and x == x)
+        assert s["reached"] == len(times)
+        # two seeds: the median is the mean of both times, unknown if either is missing
+        want = sum(times) / 2 if len(times) == 2 else None
+        assert (s["time_median"] is None or pd.isna(s["time_median"])) == (want is None)
+        assert want is None or s["time_median"] == pytest.approx(want)
+    # the files say the same
+    data = json.loads((tmp_path / "s" / "scaling.json").read_text())
+    for row, (_, s) in zip(data["summary"], res.summary.iterrows(), strict=True):
+        assert row["n"] == s["n"] and row["maxdisp_mean"] == pytest.approx(s["maxdisp_mean"])
+        assert row["reached"] == s["reached"]
     assert (tmp_path / "s" / "scaling.png").stat().st_size > 1000
-    assert "| fixed | 20 |" in (tmp_path / "s" / "scaling.md").read_text()
+    md_rows = (tmp_path / "s" / "scaling.md").read_text().splitlines()[2:]
+    for line, (_, s) in zip(md_rows, res.summary.iterrows(), strict=True):
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[:2] == ["fixed", str(s["n"])] and cells[7] == f"{s['reached']}/2"
+        assert cells[5].startswith(f"{s['maxdisp_mean']:.0f} ± ")
     # a later call with other sizes and the same setting adds them to the study
     more = run_scaling(
-        tmp_path / "s", "quick", ns=[40], seeds=2, duration=5.0, target_distance=1.0,
-        horizon=3.0, overrides={"width": 500.0, "height": 500.0}, executor=ex,
+        tmp_path / "s", "quick", ns=[40], seeds=2, duration=duration, target_distance=target,
+        horizon=horizon, overrides={"width": 500.0, "height": 500.0}, executor=ex,
         progress=False,
     )  # fmt: skip
     assert list(more.summary["n"]) == [20, 40, 60]
@@ -198,16 +251,15 @@ def test_median_interval_order_statistics():
     assert hits / 2000 > 0.979 - 4 * math.sqrt(0.979 * 0.021 / 2000)
 
 
-def test_run_regime_end_to_end_tiny(tmp_path):
+def test_run_regime_end_to_end_tiny(tmp_path, ex):
     """Two maps on a tiny swarm (the quick setting's 3 x 3 corners): every cell has its
     seeds, the drift is the run's displacement over its duration, the tables and the
     figure are written; a later call with another map adds it to the study."""
     over = {"n": 30, "width": 400.0, "height": 400.0, "duration": 2.0}
-    with ThreadPoolExecutor(1) as ex:  # in-process: no worker start-up for 36 tiny runs
-        res = run_regime(tmp_path / "r", "quick", maps=["cold"], seeds=2, overrides=over,
-                         executor=ex, progress=False)  # fmt: skip
-        res = run_regime(tmp_path / "r", "quick", maps=["light"], seeds=2, overrides=over,
-                         executor=ex, progress=False)  # fmt: skip
+    res = run_regime(tmp_path / "r", "quick", maps=["cold"], seeds=2, overrides=over,
+                     executor=ex, progress=False)  # fmt: skip
+    res = run_regime(tmp_path / "r", "quick", maps=["light"], seeds=2, overrides=over,
+                     executor=ex, progress=False)  # fmt: skip
     s = res.summary
     assert list(s["map"].unique()) == ["cold", "light"]
     assert len(s[s["map"] == "cold"]) == 9 and len(s[s["map"] == "light"]) == 9
@@ -222,8 +274,9 @@ def test_run_regime_end_to_end_tiny(tmp_path):
 def test_bad_setting_and_missing_parent(tmp_path):
     with pytest.raises(ConfigError, match="setting"):
         run_mechanism(tmp_path / "m", "medium")
-    with pytest.raises(ConfigError, match="parent"):
-        run_scaling(tmp_path / "no" / "such", "quick")
+    (tmp_path / "file").write_text("")
+    with pytest.raises(OutputError, match="not a directory"):
+        run_scaling(tmp_path / "file" / "such", "quick")
 
 
 def test_set_overrides_become_the_dotted_keys_of_a_grid_base():
@@ -245,11 +298,3 @@ def test_study_cli_bad_value_is_one_line_exit_2_and_writes_nothing(tmp_path):
         err = r.stderr.strip().splitlines()
         assert len(err) == 1 and "unknown key 'nope'" in err[0]
         assert not out.exists()
-
-
-def test_python_m_study_module_is_the_study_command(tmp_path):
-    from thermoswarm.studies.scaling import main
-
-    with pytest.raises(SystemExit) as exc:
-        main(["--out", str(tmp_path / "no" / "such")])
-    assert exc.value.code == 2

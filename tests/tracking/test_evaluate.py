@@ -7,6 +7,7 @@ import io
 
 import numpy as np
 import pytest
+import trackeval
 
 from thermoswarm.errors import InputError
 from thermoswarm.io.mot import write_mot_table
@@ -110,7 +111,6 @@ def _random_fixture(seed: int, n_obj: int = 6, n_frames: int = 60):
 
 
 def _trackeval(tmp_path, gt: np.ndarray, pred: np.ndarray, iou: float) -> dict:
-    trackeval = pytest.importorskip("trackeval")
     n_frames = int(max(gt[:, 0].max(), pred[:, 0].max()))
     seq = "seq01"
     gt_dir = tmp_path / "gt" / seq / "gt"
@@ -143,10 +143,15 @@ def _trackeval(tmp_path, gt: np.ndarray, pred: np.ndarray, iou: float) -> dict:
     with contextlib.redirect_stdout(io.StringIO()):
         evaluator = trackeval.Evaluator(ev_cfg)
         dataset = trackeval.datasets.MotChallenge2DBox(ds_cfg)
-        metrics = [trackeval.metrics.CLEAR(metric_cfg), trackeval.metrics.Identity(metric_cfg)]
+        metrics = [
+            trackeval.metrics.CLEAR(metric_cfg),
+            trackeval.metrics.Identity(metric_cfg),
+            trackeval.metrics.HOTA({"PRINT_CONFIG": False}),
+        ]
         res, _ = evaluator.evaluate([dataset], metrics)
     out = res["MotChallenge2DBox"]["ours"][seq]["pedestrian"]
-    return {**out["CLEAR"], **out["Identity"]}
+    hota = {k: float(np.mean(out["HOTA"][k])) for k in ("HOTA", "DetA", "AssA", "LocA")}
+    return {**out["CLEAR"], **out["Identity"], **hota}
 
 
 @pytest.mark.parametrize(("seed", "iou"), [(1, 0.5), (2, 0.5), (3, 0.3)])
@@ -167,6 +172,10 @@ def test_agrees_with_trackeval(tmp_path, seed, iou):
         ("idr", "IDR"),
     ]:
         assert ours[key] == pytest.approx(float(te[te_key]), abs=1e-4), key
+    # HOTA and its parts (means over the 19 thresholds), the same sums in the same order.
+    for key, te_key in [("hota", "HOTA"), ("deta", "DetA"), ("assa", "AssA"), ("loca", "LocA")]:
+        assert ours[key] == pytest.approx(te[te_key], abs=1e-6), key
+    assert 0.1 < ours["assa"] < 0.95 and 0.1 < ours["deta"] < 0.95  # neither trivial
     for key, te_key in [
         ("idsw", "IDSW"),
         ("fp", "CLR_FP"),
@@ -195,3 +204,45 @@ def test_evaluate_files_errors(tmp_path):
         evaluate_files(gt, dets)
     with pytest.raises(InputError, match="iou must be in"):
         evaluate_files(gt, gt, iou=0.0)
+
+
+def test_hand_computed_hota():
+    """One object over 4 frames, tracked as id 7 in frames 1-2 and id 8 in frames 3-4,
+    all boxes exact (IoU 1): DetA 1 at every threshold; each matched pair's Jaccard
+    index is 2 / (4 + 2 - 2) = 1/2, so AssA 1/2 and HOTA sqrt(1/2); LocA 1."""
+    gt = np.array([_row(f, 1, 0, 0) for f in range(1, 5)])
+    pred = np.array([_row(f, 7 if f <= 2 else 8, 0, 0) for f in range(1, 5)])
+    m = evaluate_tables(gt, pred)
+    assert m["deta"] == pytest.approx(1.0) and m["loca"] == pytest.approx(1.0)
+    assert m["assa"] == pytest.approx(0.5) and m["hota"] == pytest.approx(np.sqrt(0.5))
+    # A box of IoU 0.5 with its object counts only at thresholds <= 0.5 (10 of 19).
+    pred = np.array([_row(f, 7, 0, 0, w=20.0) for f in range(1, 5)])
+    m = evaluate_tables(gt, pred)
+    assert m["deta"] == pytest.approx(10 / 19) and m["assa"] == pytest.approx(10 / 19)
+    # LocA is 0.5 where boxes match and, by TrackEval's convention, 1 where none does.
+    assert m["loca"] == pytest.approx((10 * 0.5 + 9 * 1.0) / 19)
+
+
+def test_six_column_tables_and_frame_zero():
+    """A 6-column table (frame, id, box) is a table (conf 1); rows of frame 0 count,
+    with every frame counted from 0, never silently dropped."""
+    gt6 = np.array([[f, 1, 0.0, 0.0, 10.0, 10.0] for f in range(0, 4)])
+    pred6 = np.array([[f, 5, 0.0, 0.0, 10.0, 10.0] for f in range(0, 4) if f != 2])
+    m = evaluate_tables(gt6, pred6)
+    assert (m["n_gt"], m["tp"], m["fn"], m["fp"], m["n_frames"]) == (4, 3, 1, 0, 4)
+    assert m["mota"] == pytest.approx(0.75)
+    with pytest.raises(InputError, match="frame -1.0 is not an integer >= 0"):
+        evaluate_tables(np.array([[-1, 1, 0, 0, 10, 10]]), pred6)
+    with pytest.raises(InputError, match="6 to 10 columns"):
+        evaluate_tables(np.array([[1, 1, 0, 0, 10]]), pred6)
+
+
+def test_huge_frame_numbers_are_refused_not_allocated(tmp_path):
+    gt = tmp_path / "gt.txt"
+    gt.write_text("1,1,0,0,10,10,1\n100000000000,1,0,0,10,10,1\n")
+    with pytest.raises(InputError, match="more than the 10,000,000 accepted"):
+        evaluate_files(gt, gt)
+    with pytest.raises(InputError, match="span more than"):
+        evaluate_tables(
+            np.array([[1, 1, 0, 0, 10, 10], [1e11, 1, 0, 0, 10, 10]]), np.zeros((0, 6))
+        )

@@ -221,3 +221,21 @@ def test_write_sequence_round_trip(tmp_path):
         assert list(z["keypoint_names"]) == ["head", "body", "tail"]
     with pytest.raises(InputError, match="video_format"):
         write_sequence(v, tmp_path / "seq2", video_format="gif")
+
+
+def test_command_line_reports_ants_at_a_time_and_over_the_video(tmp_path):
+    """``python -m thermoswarm.tracking.synth`` states the configured number of ants on
+    the road and, separately, how many distinct ants the video holds."""
+    import subprocess
+    import sys
+
+    out = subprocess.run(
+        [sys.executable, "-m", "thermoswarm.tracking.synth", str(tmp_path / "s"), "--seed", "1",
+         "--format", "frames", "--set", "n_ants=6", "--set", "n_frames=40",
+         "--set", "width=480", "--set", "height=200"],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    v = generate(
+        SynthConfig(n_ants=6, n_frames=40, width=480, height=200), np.random.default_rng(1)
+    )
+    assert f"6 ants on the road at a time, {v.ids.size} over the video" in out.stdout

@@ -11,8 +11,7 @@ import pytest
 
 # Before torch starts its OpenMP runtime (see thermoswarm.tracking.unet).
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-torch = pytest.importorskip("torch")
-
+import torch  # noqa: E402  (a missing torch fails: make install installs it)
 from click.testing import CliRunner  # noqa: E402
 from tracking_fixtures import small_video  # noqa: E402
 
@@ -287,7 +286,8 @@ def _labelled_images(tmp_path, n=2):
 
 
 def test_read_slp_with_embedded_images(tmp_path):
-    sio = pytest.importorskip("sleap_io")
+    import sleap_io as sio  # a missing sleap-io fails: make install installs it
+
     imgs, pts = _labelled_images(tmp_path)
     skel = sio.Skeleton(["gaster", "thorax", "head", "antenna"])
     video = sio.Video.from_filename([str(tmp_path / "img0.png"), str(tmp_path / "img1.png")])

@@ -1,95 +1,144 @@
 """Speed, energy, heading and steering-angle rate from positions, with messy data counted.
 
-Input: the trajectory format (:mod:`thermoswarm.tracks`).  Output: an
-:class:`xarray.Dataset` on ``(time, individuals)``, one row per *step*:
+Input: the trajectory format (:mod:`thermoswarm.tracks`), on a shared clock or with
+each individual on its own clock.  Output: an :class:`xarray.Dataset` on
+``(time, individuals)`` where row ``k`` of an individual is the *step* from its
+``k``-th sample to its ``k+1``-th, computed from that individual's own consecutive
+samples and their real time difference (see ``docs/analysis.md`` for every key):
 
 =================  ==========  =====================================================
 variable           unit        meaning of row ``k``
 =================  ==========  =====================================================
-``dt``             s           duration of step ``k``: ``t[k+1] - t[k]``
-``speed``          mm/s        ``|x[k+1] - x[k]| / dt[k]``
+``step_time``      s           time of the step's first sample
+``dt``             s           duration of the step: ``t[k+1] - t[k]``
+``speed``          mm/s        ``|x[k+1] - x[k]| / dt`` (NaN: not measured)
 ``energy``         mm^2/s^2    ``speed^2 / 2`` per unit mass, or ``m v^2 / 2`` in J
-                               with ``mass`` (kg)
-``heading``        rad         direction of step ``k``, ``atan2(dy, dx)`` in (-pi, pi]
+                               with ``mass`` (kg); only for steps used in the fits
+``heading``        rad         direction of the step, ``atan2(dy, dx)`` in (-pi, pi]
 ``steering_rate``  rad/s       turn from step ``k-1`` to step ``k``, wrapped into
                                [-pi, pi), divided by the time between the steps'
                                midpoints ``(dt[k-1] + dt[k]) / 2``
-``x_mid, y_mid``   mm          midpoint of step ``k`` (where regions are looked up)
-``valid``          bool        the step's speed and energy are usable
+``x_mid, y_mid``   mm          midpoint of the step (where regions are looked up)
+``step_class``     code        the one bucket the step falls in (``STEP_CLASSES``)
+``valid``          bool        the step is used (its energy enters the fits)
 ``steering_valid`` bool        the steering rate is usable
 ``stationary``     bool        the step is part of a long stationary period
+``input_row``      index       the input row of the step's first sample (-1: none)
 =================  ==========  =====================================================
 
+On a shared clock the ``time`` coordinate holds the seconds; with per-individual
+clocks it is the sample index (each individual's times are in ``step_time``).
+
+Every step lands in exactly one bucket (``step_class``, counted in ``data_quality``;
+the counts sum to ``n_steps_total``), checked in this order:
+
+``missing_position``
+    an end's position is missing (NaN, inf, or ``confidence < min_confidence``);
+``time_gap``
+    longer than ``gap_factor`` times the individual's own median step: an average,
+    not an instantaneous, velocity;
+``static_track``
+    the individual's positions stay within ``min_track_extent`` mm (bounding-box
+    diagonal): a static object the tracker followed (debris, a shadow), not an
+    animal; off unless ``min_track_extent`` is given;
+``over_max_speed``
+    faster than ``max_speed``;
+``implausible``
+    faster than the individual's implausible-motion threshold (identity swaps,
+    tracker glitches; :func:`implausible_thresholds`); kept with
+    ``keep_implausible``;
+``resting``
+    speed at or below ``resting_speed`` (default 0: the tracker reports no motion);
+    the energy law is about moving animals, so resting steps are left out of the fits
+    and their fraction reported; kept with ``keep_resting``;
+``stationary_dropped``
+    in a long stationary period, with ``drop_stationary``;
+``used``
+    everything else; ``n_steps_used_regular`` of them lie within
+    ``regular_tolerance`` of the individual's median step, ``n_steps_used_irregular``
+    do not (each uses its own duration either way).
+
+Before the steps: samples without a time are dropped (``n_missing_timestamps``);
+each individual's samples are sorted by time (``n_decreasing_timestamps`` counts the
+backward steps); samples at equal times are exact duplicates (dropped,
+``n_duplicate_rows``) or conflicts resolved by ``duplicates`` (``"error"``,
+``"first"`` or ``"mean"``; ``n_conflicting_duplicates``; readers count theirs too);
+missing-position gaps up to ``max_gap`` s are interpolated
+(``n_interpolated_positions``); with ``held_positions="missing"``, a sample whose
+position repeats the previous one exactly is taken as held by the tracker and missing.
+
 The turn at row ``k`` is paired with the speed of the step that follows it (the
-robots' algorithms sample a heading and a speed together, then turn and move), so
-binning steering rates by ``energy`` uses the same row.  Velocities are differences of
-consecutive (optionally smoothed) positions, not central differences: a central
-difference averages two steps and would change the very distribution under test.
-
-Messy data, each handled one way and counted in ``attrs`` (and in ``fits.json`` under
-``data_quality``; see ``docs/analysis.md`` for every key):
-
-- missing timestamps (NaN): the rows are dropped (``n_missing_timestamps``);
-- decreasing timestamps: rows are sorted by time, stably (``n_decreasing_timestamps``
-  counts the backward steps);
-- repeated timestamps: rows with equal times are merged into one whose position is the
-  mean of the rows' present positions (``n_repeated_timestamps`` rows merged);
-- irregular steps: every step uses its own ``dt`` (``n_irregular_steps`` differ from
-  the median step by more than 1 %);
-- time gaps: a step longer than ``gap_factor`` median steps gives an average, not an
-  instantaneous, velocity; it is not used (``n_time_gaps``);
-- missing positions (NaN, inf, or ``confidence < min_confidence``): steps touching
-  them are not used (``n_missing_positions``, ``n_gaps`` runs inside tracks);
-  ``max_gap`` seconds bridges shorter gaps by linear interpolation
-  (``n_interpolated_positions``);
-- implausible speeds above ``max_speed``: not used (``n_steps_over_max_speed``);
-- heading undefined at (near) zero speed: heading is NaN when ``speed <= min_speed``
-  (``n_zero_speed``) and so are the steering rates on either side
-  (``n_steering_undefined``);
-- turns of nearly half a circle between two frames are ambiguous (the wrap cannot
-  tell left from right): counted (``n_steering_near_wrap``);
-- long stationary periods: runs of steps with ``speed <= stationary_speed`` lasting at
-  least ``stationary_duration`` s are flagged (``n_stationary_periods``,
-  ``n_stationary_steps``, ``stationary_seconds``) and, with ``drop_stationary``, not
-  used for energies.
-
-Smoothing (``smooth`` seconds) applies a Savitzky-Golay filter
-(:func:`scipy.signal.savgol_filter`, ``polyorder``) to the positions of each
-contiguous segment, the window being the odd number of samples nearest to ``smooth``
-s; irregularly sampled segments are interpolated onto a regular grid at the median
-step, filtered and interpolated back; segments shorter than the window get the
-largest odd window that fits, and segments too short for any are left as they are
-(``n_segments_unsmoothed``).
+robots' algorithms sample a heading and a speed together, then turn and move).
+Velocities are differences of consecutive (optionally smoothed) positions, not central
+differences: a central difference averages two steps and would change the very
+distribution under test.  Smoothing (``smooth`` seconds): a Savitzky-Golay filter
+(:func:`scipy.signal.savgol_filter`) of each contiguous segment, the window the odd
+number of samples nearest to ``smooth`` s at the individual's median step; irregular
+segments are interpolated onto a regular grid, filtered and interpolated back.
 """
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
 import numpy as np
 import xarray as xr
-from scipy.signal import savgol_filter
 
+from thermoswarm.analysis.exclusions import (
+    CODE,
+    STEP_BUCKETS,
+    STEP_CLASSES,
+    excluded_summary,
+    implausible_thresholds,
+)
+from thermoswarm.analysis.samples import (
+    clean_columns,
+    interpolate_gaps,
+    runs,
+    smooth_positions,
+)
 from thermoswarm.errors import ConfigError, InputError
-from thermoswarm.tracks import centroid, times_seconds, validate_tracks
+from thermoswarm.tracks import (
+    DUPLICATE_RULES,
+    centroid,
+    individual_times,
+    per_individual,
+    validate_tracks,
+)
 
-__all__ = ["compute_kinematics", "DATA_QUALITY_KEYS"]
+__all__ = [
+    "compute_kinematics",
+    "data_quality",
+    "implausible_thresholds",
+    "excluded_summary",
+    "DATA_QUALITY_KEYS",
+    "STEP_CLASSES",
+    "STEP_BUCKETS",
+]
+
+#: Largest (samples x individuals) table the kinematics work on: about 170 bytes per
+#: cell are held at the peak (positions, steps, energies, flags), so 5e7 cells is
+#: about 8.5 GB; above it the analysis refuses at once instead of exhausting memory.
+MAX_CELLS = 50_000_000
 
 #: The counters written to ``attrs`` and ``fits.json["data_quality"]``, in order.
 DATA_QUALITY_KEYS = (
     "n_individuals",
-    "n_times_input",
-    "n_times",
-    "n_position_samples",
+    "n_individuals_one_sample",
+    "n_samples_input",
+    "n_samples",
     "n_missing_timestamps",
     "n_decreasing_timestamps",
-    "n_repeated_timestamps",
+    "n_duplicate_rows",
+    "n_conflicting_duplicates",
     "median_dt",
-    "n_irregular_steps",
-    "n_time_gaps",
+    "median_dt_min",
+    "median_dt_max",
     "n_nonfinite_positions",
     "n_low_confidence",
+    "n_held_positions",
     "n_missing_positions",
     "n_gaps",
     "n_interpolated_positions",
@@ -98,11 +147,16 @@ DATA_QUALITY_KEYS = (
     "n_segments_resampled",
     "n_segments_unsmoothed",
     "smooth_window_samples",
-    "n_steps",
-    "n_steps_missing_position",
-    "n_steps_over_time_gap",
-    "n_steps_over_max_speed",
-    "n_steps_valid",
+    "n_steps_total",
+    *STEP_BUCKETS,
+    "n_steps_used_regular",
+    "n_steps_used_irregular",
+    "n_irregular_steps",
+    "n_implausible_kept",
+    "n_resting_kept",
+    "resting_fraction",
+    "n_individuals_all_implausible",
+    "n_static_tracks",
     "n_zero_speed",
     "n_steering_samples",
     "n_steering_undefined",
@@ -110,7 +164,6 @@ DATA_QUALITY_KEYS = (
     "n_stationary_periods",
     "n_stationary_steps",
     "stationary_seconds",
-    "n_steps_dropped_stationary",
 )
 
 
@@ -129,139 +182,16 @@ def _check_param(name: str, value: Any, *, positive: bool = False, allow_none: b
     return v
 
 
-def _clean_times(t: np.ndarray, x: np.ndarray, y: np.ndarray, counts: dict[str, Any]):
-    """Drop NaN times, sort, merge repeated times (mean of present positions).
-
-    Also returns, for each kept row, the index of its first input row.
-    """
-    rows = np.arange(t.size)
-    ok = np.isfinite(t)
-    counts["n_missing_timestamps"] = int((~ok).sum())
-    if not ok.all():
-        t, x, y, rows = t[ok], x[ok], y[ok], rows[ok]
-    back = np.diff(t) < 0
-    counts["n_decreasing_timestamps"] = int(back.sum())
-    if back.any():
-        order = np.argsort(t, kind="stable")
-        t, x, y, rows = t[order], x[order], y[order], rows[order]
-    uniq, start = np.unique(t, return_index=True)
-    counts["n_repeated_timestamps"] = int(t.size - uniq.size)
-    if uniq.size < t.size:
-        present = np.isfinite(x) & np.isfinite(y)
-        n = np.add.reduceat(present.astype(np.int64), start, axis=0)
-        sx = np.add.reduceat(np.where(present, x, 0.0), start, axis=0)
-        sy = np.add.reduceat(np.where(present, y, 0.0), start, axis=0)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            x = np.where(n > 0, sx / n, np.nan)
-            y = np.where(n > 0, sy / n, np.nan)
-        t = uniq
-        rows = rows[start]
-    return t, x, y, rows
+# --------------------------------------------------------------------------------------
+# Samples: each individual's own, sorted, duplicates resolved
 
 
-def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Runs of True along axis 0 of ``mask (time, individuals)``.
-
-    Returns ``(individual, start, stop)`` arrays (``stop`` exclusive), ordered by
-    individual then time.
-    """
-    n_t, n_i = mask.shape
-    padded = np.zeros((n_i, n_t + 2), dtype=np.int8)
-    padded[:, 1:-1] = mask.T
-    d = np.diff(padded, axis=1)
-    si, st = np.nonzero(d == 1)
-    _, en = np.nonzero(d == -1)
-    return si, st, en
+# --------------------------------------------------------------------------------------
+# Implausible motion
 
 
-def _interpolate_gaps(t, x, y, max_gap, counts):
-    """Fill NaN runs inside tracks lasting at most ``max_gap`` s (linear in time)."""
-    present = np.isfinite(x) & np.isfinite(y)
-    n_t = t.size
-    idx = np.arange(n_t)[:, None]
-    prev = np.maximum.accumulate(np.where(present, idx, -1), axis=0)
-    nxt = np.minimum.accumulate(np.where(present, idx, n_t)[::-1], axis=0)[::-1]
-    inside = ~present & (prev >= 0) & (nxt < n_t)
-    pc = np.clip(prev, 0, n_t - 1)
-    nc = np.clip(nxt, 0, n_t - 1)
-    fill = inside & (t[nc] - t[pc] <= max_gap)
-    if fill.any():
-        w = np.where(fill, (t[:, None] - t[pc]) / np.where(fill, t[nc] - t[pc], 1.0), 0.0)
-        cols = np.broadcast_to(np.arange(x.shape[1]), x.shape)
-        xi = x[pc, cols] + w * (x[nc, cols] - x[pc, cols])
-        yi = y[pc, cols] + w * (y[nc, cols] - y[pc, cols])
-        x = np.where(fill, xi, x)
-        y = np.where(fill, yi, y)
-    counts["n_interpolated_positions"] = int(fill.sum())
-    return x, y
-
-
-def _savgol(v: np.ndarray, window: int, polyorder: int) -> np.ndarray:
-    return savgol_filter(v, window, polyorder, axis=0, mode="interp")
-
-
-def _smooth(t, x, y, gap_step, smooth, polyorder, counts):
-    """Savitzky-Golay smoothing of positions, segment by segment."""
-    dt = np.diff(t)
-    med = float(np.median(dt))
-    window = int(round(smooth / med))
-    if window % 2 == 0:
-        window += 1
-    if window <= polyorder:
-        raise ConfigError(
-            f"smoothing window {smooth:g} s is {window} samples at the median step "
-            f"{med:g} s; it must exceed polyorder {polyorder}"
-        )
-    counts["smooth_window_samples"] = window
-    present = np.isfinite(x) & np.isfinite(y)
-    # A segment: present samples joined by steps that are not time gaps.
-    link = present[:-1] & present[1:] & ~gap_step[:, None]
-    start_new = np.ones_like(present)
-    start_new[1:] = ~link
-    seg_mask = present
-    si, st, en = _runs(seg_mask)
-    # split runs at time gaps
-    segments = []
-    for i, s, e in zip(si.tolist(), st.tolist(), en.tolist(), strict=True):
-        cuts = np.nonzero(start_new[s + 1 : e, i])[0] + s + 1
-        bounds = [s, *cuts.tolist(), e]
-        segments.extend((i, a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True))
-    counts["n_segments"] = len(segments)
-    irregular = np.abs(dt - med) > 0.01 * med
-    xs = x.copy()
-    ys = y.copy()
-    n_sm = n_rs = n_un = 0
-    full = len(segments) == x.shape[1] and all(a == 0 and b == t.size for _, a, b in segments)
-    if full and not irregular.any() and t.size >= window:
-        counts.update(
-            n_segments_smoothed=len(segments), n_segments_resampled=0, n_segments_unsmoothed=0
-        )
-        return _savgol(x, window, polyorder), _savgol(y, window, polyorder)
-    for i, a, b in segments:
-        length = b - a
-        w = window if length >= window else (length if length % 2 else length - 1)
-        if w <= polyorder:
-            n_un += 1
-            continue
-        if irregular[a : b - 1].any():
-            tt = t[a:b]
-            n_grid = int(round((tt[-1] - tt[0]) / med)) + 1
-            grid = np.linspace(tt[0], tt[-1], n_grid)  # about the median step, ends kept
-            w = window if n_grid >= window else (n_grid if n_grid % 2 else n_grid - 1)
-            if w <= polyorder:
-                n_un += 1
-                continue
-            gx = _savgol(np.interp(grid, tt, x[a:b, i]), w, polyorder)
-            gy = _savgol(np.interp(grid, tt, y[a:b, i]), w, polyorder)
-            xs[a:b, i] = np.interp(tt, grid, gx)
-            ys[a:b, i] = np.interp(tt, grid, gy)
-            n_rs += 1
-        else:
-            xs[a:b, i] = _savgol(x[a:b, i], w, polyorder)
-            ys[a:b, i] = _savgol(y[a:b, i], w, polyorder)
-        n_sm += 1
-    counts.update(n_segments_smoothed=n_sm, n_segments_resampled=n_rs, n_segments_unsmoothed=n_un)
-    return xs, ys
+# --------------------------------------------------------------------------------------
+# The kinematics
 
 
 def compute_kinematics(
@@ -274,45 +204,71 @@ def compute_kinematics(
     mass: float | None = None,
     min_speed: float = 0.0,
     max_speed: float | None = None,
-    gap_factor: float = 2.0,
+    gap_factor: float = 1.5,
+    regular_tolerance: float = 0.1,
     max_gap: float = 0.0,
     stationary_speed: float | None = None,
     stationary_duration: float = 1.0,
     drop_stationary: bool = False,
     min_confidence: float | None = None,
+    duplicates: str = "error",
+    held_positions: str = "resting",
+    resting_speed: float = 0.0,
+    keep_resting: bool = False,
+    implausible_factor: float = 5.0,
+    body_length: float | None = None,
+    max_body_lengths_per_s: float = 50.0,
+    keep_implausible: bool = False,
+    min_track_extent: float | None = None,
 ) -> xr.Dataset:
     """Kinematics of every step of every track.
 
     Parameters
     ----------
     ds
-        Trajectories (positions in mm).
+        Trajectories (positions in mm), on a shared clock or per-individual clocks.
     fps
         Frame rate, needed when the time coordinate holds frame numbers.
     keypoint
         Keypoint to follow; default the centroid (:func:`thermoswarm.tracks.centroid`).
-    smooth
-        Savitzky-Golay window in seconds (``None``: no smoothing).
-    polyorder
-        Savitzky-Golay polynomial order.
+    smooth, polyorder
+        Savitzky-Golay window in seconds (``None``: no smoothing) and order.
     mass
         Mass in kg: energies ``m v^2 / 2`` in joules.  Default: per unit mass,
         ``v^2 / 2`` in mm^2/s^2.
     min_speed
         Heading is undefined for steps with ``speed <= min_speed`` (mm/s).
     max_speed
-        Steps faster than this (mm/s) are discarded as tracking errors.
+        Steps faster than this (mm/s) are not used.
     gap_factor
-        Steps longer than ``gap_factor`` times the median step are gaps.
+        Steps longer than ``gap_factor`` times the individual's median step are gaps
+        (default 1.5: one missed sample makes a gap).
+    regular_tolerance
+        A step is regular within this fraction of the individual's median step
+        (default 0.1: time stamps rounded to the millisecond at 10 Hz are regular).
     max_gap
         Missing-position gaps up to this long (s) are linearly interpolated.
-    stationary_speed, stationary_duration
+    stationary_speed, stationary_duration, drop_stationary
         A long stationary period: at least ``stationary_duration`` s of steps with
-        ``speed <= stationary_speed`` (mm/s; default ``min_speed``).
-    drop_stationary
-        Exclude steps of long stationary periods from the energies.
+        ``speed <= stationary_speed`` (mm/s; default ``min_speed``); flagged, and
+        left out of the energies with ``drop_stationary``.
     min_confidence
         Positions whose ``confidence`` is below this are treated as missing.
+    duplicates
+        Two different samples of one individual at one time: ``"error"`` (default),
+        ``"first"`` or ``"mean"``.  Exact duplicates are dropped and counted.
+    held_positions
+        ``"resting"`` (default): a repeated position is a step at zero speed;
+        ``"missing"``: it was held by the tracker, the sample is missing.
+    resting_speed, keep_resting
+        Steps at or below ``resting_speed`` (mm/s) are resting: left out of the fits
+        (counted, ``resting_fraction``) unless ``keep_resting``.
+    implausible_factor, body_length, max_body_lengths_per_s, keep_implausible
+        The implausible-motion rule (:func:`implausible_thresholds`); implausible
+        steps are left out unless ``keep_implausible``.  ``body_length`` in mm.
+    min_track_extent
+        Individuals whose positions stay within this many mm (bounding-box diagonal)
+        are static objects, not animals: their steps are left out (``static_track``).
 
     Returns
     -------
@@ -320,25 +276,50 @@ def compute_kinematics(
         See the module docstring; the counts are in ``attrs``.
     """
     ds = validate_tracks(ds, source=ds.attrs.get("source_file"))
+    src = str(ds.attrs.get("source_file") or "the input")
     smooth = _check_param("smooth", smooth, positive=True)
     mass = _check_param("mass", mass, positive=True)
     min_speed = _check_param("min_speed", min_speed, allow_none=False)
     max_speed = _check_param("max_speed", max_speed, positive=True)
     gap_factor = _check_param("gap_factor", gap_factor, positive=True, allow_none=False)
+    regular_tolerance = _check_param(
+        "regular_tolerance", regular_tolerance, positive=True, allow_none=False
+    )
     max_gap = _check_param("max_gap", max_gap, allow_none=False)
     stationary_speed = _check_param("stationary_speed", stationary_speed)
     stationary_duration = _check_param(
         "stationary_duration", stationary_duration, allow_none=False
     )
     min_confidence = _check_param("min_confidence", min_confidence)
+    min_track_extent = _check_param("min_track_extent", min_track_extent, positive=True)
+    resting_speed = _check_param("resting_speed", resting_speed, allow_none=False)
+    implausible_factor = _check_param(
+        "implausible_factor", implausible_factor, positive=True, allow_none=False
+    )
+    body_length = _check_param("body_length", body_length, positive=True)
+    max_body_lengths_per_s = _check_param(
+        "max_body_lengths_per_s", max_body_lengths_per_s, positive=True, allow_none=False
+    )
     if int(polyorder) != polyorder or polyorder < 1:
         raise ConfigError(f"polyorder must be an integer >= 1, got {polyorder!r}")
     if gap_factor < 1:
         raise ConfigError(f"gap_factor must be at least 1, got {gap_factor!r}")
+    if regular_tolerance >= 1:
+        raise ConfigError(f"regular_tolerance must be below 1, got {regular_tolerance!r}")
+    if implausible_factor <= 1:
+        raise ConfigError(f"implausible_factor must exceed 1, got {implausible_factor!r}")
+    if duplicates not in DUPLICATE_RULES:
+        raise ConfigError(
+            f"duplicates must be one of {', '.join(DUPLICATE_RULES)}, got {duplicates!r}"
+        )
+    if held_positions not in ("resting", "missing"):
+        raise ConfigError(f"held_positions must be 'resting' or 'missing', got {held_positions!r}")
     if stationary_speed is None:
         stationary_speed = min_speed
 
     counts: dict[str, Any] = dict.fromkeys(DATA_QUALITY_KEYS, 0)
+    for k in ("n_duplicate_rows", "n_conflicting_duplicates", "n_decreasing_timestamps"):
+        counts[k] = int(ds.attrs.get(k, 0) or 0)  # what the reader sorted and resolved
     position = ds["position"]
     if min_confidence is not None and "confidence" in ds:
         low = (ds["confidence"] < min_confidence).values
@@ -352,102 +333,185 @@ def compute_kinematics(
     else:
         pos = centroid(ds.assign(position=position))
     pos = pos.transpose("time", "space", "individuals")
-    t = times_seconds(ds, fps)
-    x = np.asarray(pos.sel(space="x").values, dtype=np.float64)
-    y = np.asarray(pos.sel(space="y").values, dtype=np.float64)
-    n_i = x.shape[1]
+    names = [str(v) for v in ds["individuals"].values]
+    T0 = individual_times(ds, fps)
+    X = np.asarray(pos.sel(space="x").values, dtype=np.float64)
+    Y = np.asarray(pos.sel(space="y").values, dtype=np.float64)
+    n_i = X.shape[1]
     counts["n_individuals"] = n_i
-    counts["n_times_input"] = int(t.size)
-    counts["n_position_samples"] = int(t.size * n_i)
-    nonfinite = (np.isinf(x) | np.isinf(y)) & ~(np.isnan(x) | np.isnan(y))
+    # samples given: every (row, individual) of a shared axis; the timed rows otherwise
+    counts["n_samples_input"] = int(np.isfinite(T0).sum() if per_individual(ds) else T0.size)
+    nonfinite = (np.isinf(X) | np.isinf(Y)) & ~(np.isnan(X) | np.isnan(Y))
     counts["n_nonfinite_positions"] = int(nonfinite.sum())
     if nonfinite.any():
-        x = np.where(nonfinite, np.nan, x)
-        y = np.where(nonfinite, np.nan, y)
-    t, x, y, input_rows = _clean_times(t, x, y, counts)
-    n_t = t.size
-    counts["n_times"] = int(n_t)
-    if n_t < 2:
-        src = ds.attrs.get("source_file", "the input")
-        raise InputError(f"{src}: need at least 2 distinct time samples, got {n_t}")
+        X = np.where(nonfinite, np.nan, X)
+        Y = np.where(nonfinite, np.nan, Y)
+    if T0.shape[0] * n_i > MAX_CELLS:
+        n_samples = int(np.isfinite(T0).sum())
+        raise InputError(
+            f"{src}: {n_i} individuals x {T0.shape[0]} samples (the longest track) is "
+            f"{T0.shape[0] * n_i:.3g} cells, above the {MAX_CELLS:.0e} the analysis works "
+            f"on ({100 * n_samples / (T0.shape[0] * n_i):.1f} % of them hold samples); "
+            "merge fragmented track ids or analyse the recording in parts"
+        )
+    T, X, Y, input_row = clean_columns(
+        T0, X, Y, duplicates, names, src, counts, per_individual(ds)
+    )
+    # One shared, clean time axis (the common case: a video's frames): every column of T
+    # is the same view, so the steps and the median step are computed once.
+    one_axis = T is T0 and not per_individual(ds)
+    sample = np.isfinite(T)
+    n_per = sample.sum(axis=0)
+    counts["n_samples"] = int(n_per.sum())
+    counts["n_individuals_one_sample"] = int((n_per == 1).sum())
+    if not (n_per >= 2).any():
+        raise InputError(
+            f"{src}: need at least 2 samples of one individual to form a step; the most "
+            f"any individual has is {int(n_per.max(initial=0))}"
+        )
+    if held_positions == "missing":
+        held = np.zeros_like(sample)
+        held[1:] = sample[1:] & (X[1:] == X[:-1]) & (Y[1:] == Y[:-1])
+        counts["n_held_positions"] = int(held.sum())
+        X = np.where(held, np.nan, X)
+        Y = np.where(held, np.nan, Y)
 
-    dt = np.diff(t)
-    med = float(np.median(dt))
-    counts["median_dt"] = med
-    counts["n_irregular_steps"] = int((np.abs(dt - med) > 0.01 * med).sum())
-    gap_step = dt > gap_factor * med
-    counts["n_time_gaps"] = int(gap_step.sum())
-
-    present = np.isfinite(x) & np.isfinite(y)
-    holes = ~present
-    # NaN runs strictly inside a track (between two present samples)
-    idx = np.arange(n_t)[:, None]
-    seen_before = np.maximum.accumulate(np.where(present, idx, -1), axis=0) >= 0
-    seen_after = np.minimum.accumulate(np.where(present, idx, n_t)[::-1], axis=0)[::-1] < n_t
-    inner = holes & seen_before & seen_after
-    counts["n_missing_positions"] = int(holes.sum())
-    counts["n_gaps"] = int(_runs(inner)[0].size)
-    if max_gap > 0:
-        x, y = _interpolate_gaps(t, x, y, max_gap, counts)
-        present = np.isfinite(x) & np.isfinite(y)
-
-    if smooth is not None:
-        x, y = _smooth(t, x, y, gap_step, smooth, int(polyorder), counts)
+    # Steps and each individual's own median step
+    exists = sample[1:] & sample[:-1]
+    has = exists.any(axis=0)
+    med = np.full(n_i, np.nan)
+    if one_axis:
+        dt1 = np.diff(T[:, 0])
+        dt = np.broadcast_to(dt1[:, None], exists.shape)
+        med[:] = float(np.median(dt1))
     else:
-        si, _, _ = _runs(present)
-        counts["n_segments"] = int(si.size)  # refined below by time gaps
-        counts["n_segments"] += int((present[:-1] & present[1:] & gap_step[:, None]).sum())
-
-    # Steps
-    dx = np.diff(x, axis=0)
-    dy = np.diff(y, axis=0)
-    both = present[:-1] & present[1:]
-    counts["n_steps"] = int(both.sum())
-    counts["n_steps_missing_position"] = int((~both).sum())
-    counts["n_steps_over_time_gap"] = int((both & gap_step[:, None]).sum())
-    ok = both & ~gap_step[:, None]
+        with np.errstate(invalid="ignore"):
+            dt = np.diff(T, axis=0)
+        if has.any():
+            med[has] = np.nanmedian(np.where(exists[:, has], dt[:, has], np.nan), axis=0)
+    meds = med[has]
+    counts["median_dt"] = float(np.median(meds))
+    counts["median_dt_min"] = float(meds.min())
+    counts["median_dt_max"] = float(meds.max())
     with np.errstate(invalid="ignore"):
-        speed_s = np.hypot(dx, dy) / dt[:, None]
-    if max_speed is not None:
-        fast = ok & (speed_s > max_speed)
-        counts["n_steps_over_max_speed"] = int(fast.sum())
-        ok &= ~fast
-    speed_s = np.where(ok, speed_s, np.nan)
+        regular = exists & (np.abs(dt - med) <= regular_tolerance * med)
+        gap = exists & (dt > gap_factor * med)
+    counts["n_irregular_steps"] = int((exists & ~regular).sum())
+    counts["n_steps_total"] = int(exists.sum())
 
-    # Long stationary periods
-    still = ok & (speed_s <= stationary_speed)
-    si, st, en = _runs(still)
+    present = sample & np.isfinite(X) & np.isfinite(Y)
+    idx = np.arange(T.shape[0])[:, None]
+    seen_before = np.maximum.accumulate(np.where(present, idx, -1), axis=0) >= 0
+    seen_after = (
+        np.minimum.accumulate(np.where(present, idx, T.shape[0])[::-1], axis=0)[::-1] < T.shape[0]
+    )
+    holes = sample & ~present
+    counts["n_missing_positions"] = int(holes.sum())
+    counts["n_gaps"] = int(runs(holes & seen_before & seen_after)[0].size)
+    if max_gap > 0:
+        X, Y = interpolate_gaps(T, X, Y, sample, max_gap, counts)
+        present = sample & np.isfinite(X) & np.isfinite(Y)
+    if smooth is not None:
+        link = present[:-1] & present[1:] & exists & ~gap
+        X, Y = smooth_positions(
+            T, X, Y, link, med, smooth, int(polyorder), exists & ~regular, counts
+        )
+    else:
+        si, _, _ = runs(present)
+        counts["n_segments"] = int(si.size + (present[:-1] & present[1:] & gap).sum())
+
+    # Buckets, in order
+    both = exists & present[:-1] & present[1:]
+    dx = np.diff(X, axis=0)
+    dy = np.diff(Y, axis=0)
+    cls = np.full(dt.shape, -1, dtype=np.int8)
+    cls[exists & ~both] = CODE["missing_position"]
+    cls[both & gap] = CODE["time_gap"]
+    measured = both & ~gap
+    if min_track_extent is not None:
+        with np.errstate(invalid="ignore"):
+            xs, ys = np.where(present, X, np.nan), np.where(present, Y, np.nan)
+        ok_cols = present.any(axis=0)
+        extent = np.zeros(n_i)
+        if ok_cols.any():
+            px, py = xs[:, ok_cols], ys[:, ok_cols]
+            extent[ok_cols] = np.hypot(
+                np.nanmax(px, axis=0) - np.nanmin(px, axis=0),
+                np.nanmax(py, axis=0) - np.nanmin(py, axis=0),
+            )
+        static = ok_cols & (extent < min_track_extent)
+        counts["n_static_tracks"] = int(static.sum())
+        cls[measured & static[None, :]] = CODE["static_track"]
+        measured &= ~static[None, :]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        speed_s = np.where(measured, np.hypot(dx, dy) / np.where(measured, dt, 1.0), np.nan)
+    cand = measured.copy()
+    if max_speed is not None:
+        fast = cand & (speed_s > max_speed)
+        cls[fast] = CODE["over_max_speed"]
+        cand &= ~fast
+    resting = cand & (speed_s <= resting_speed)
+    thr, rule = implausible_thresholds(
+        speed_s, cand & ~resting, factor=implausible_factor, body_length=body_length,
+        max_body_lengths_per_s=max_body_lengths_per_s,
+    )  # fmt: skip
+    implausible = cand & (speed_s > thr[None, :])
+    moving_cand = (cand & ~resting).sum(axis=0)
+    all_bad = (moving_cand > 0) & (implausible.sum(axis=0) == moving_cand)
+    counts["n_individuals_all_implausible"] = int(all_bad.sum())
+    if keep_implausible:
+        counts["n_implausible_kept"] = int(implausible.sum())
+    else:
+        cls[implausible] = CODE["implausible"]
+        cand &= ~implausible
+    resting &= cand
+    n_rest = int(resting.sum())
+    if keep_resting:
+        counts["n_resting_kept"] = n_rest
+    else:
+        cls[resting] = CODE["resting"]
+        cand &= ~resting
+
+    # Long stationary periods (among measured, plausible steps)
+    still = (cand | resting) & (speed_s <= stationary_speed)
+    stationary = np.zeros_like(still)
+    si, st, en = runs(still)
     if si.size:
-        dur = t[en] - t[st]
+        dur = T[en, si] - T[st, si]  # a run of steps st..en-1 spans samples st..en
         long_ = dur >= stationary_duration
         counts["n_stationary_periods"] = int(long_.sum())
         counts["stationary_seconds"] = float(dur[long_].sum())
-        stationary = np.zeros_like(still)
-        for i, a, b in zip(
-            si[long_].tolist(), st[long_].tolist(), en[long_].tolist(), strict=True
-        ):
+        for i, a, b in zip(si[long_].tolist(), st[long_].tolist(), en[long_].tolist(),
+                           strict=True):  # fmt: skip
             stationary[a:b, i] = True
-        counts["n_stationary_steps"] = int(stationary.sum())
-    else:
-        stationary = np.zeros_like(still)
-    valid = ok.copy()
+    counts["n_stationary_steps"] = int(stationary.sum())
     if drop_stationary:
-        valid &= ~stationary
-        counts["n_steps_dropped_stationary"] = int(stationary.sum())
-    counts["n_steps_valid"] = int(valid.sum())
+        drop = cand & stationary
+        cls[drop] = CODE["stationary_dropped"]
+        cand &= ~drop
+    used = cand
+    cls[used] = CODE["used"]
+    for c, key in zip(STEP_CLASSES, STEP_BUCKETS, strict=True):
+        counts[key] = int((cls == CODE[c]).sum())
+    counts["n_steps_used_regular"] = int((used & regular).sum())
+    counts["n_steps_used_irregular"] = int((used & ~regular).sum())
+    denom = int(used.sum()) + (0 if keep_resting else n_rest)  # plausible measured steps
+    counts["resting_fraction"] = float(n_rest / denom) if denom else 0.0
 
-    moving = ok & (speed_s > min_speed)
-    counts["n_zero_speed"] = int((ok & ~moving).sum())
+    moving = used & (speed_s > min_speed)
+    counts["n_zero_speed"] = int((used & ~moving).sum())
     heading_s = np.where(moving, np.arctan2(dy, dx), np.nan)
-    # Turns: between step k-1 and step k, both usable, divided by the midpoint spacing.
     dh = heading_s[1:] - heading_s[:-1]
     dh = (dh + np.pi) % (2 * np.pi) - np.pi
     mid_dt = 0.5 * (dt[:-1] + dt[1:])
     steer_ok = moving[:-1] & moving[1:]
     counts["n_steering_samples"] = int(steer_ok.sum())
-    counts["n_steering_undefined"] = int((ok[:-1] & ok[1:] & ~steer_ok).sum())
+    counts["n_steering_undefined"] = int((used[:-1] & used[1:] & ~steer_ok).sum())
     counts["n_steering_near_wrap"] = int((steer_ok & (np.abs(dh) > 0.9 * np.pi)).sum())
-    rate_s = np.where(steer_ok, dh / mid_dt[:, None], np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate_s = np.where(steer_ok, dh / np.where(steer_ok, mid_dt, 1.0), np.nan)
+
+    n_t = T.shape[0]
 
     def on_rows(a: np.ndarray, fill: Any, first: bool = False) -> np.ndarray:
         out = np.full((n_t, n_i), fill, dtype=a.dtype)
@@ -464,42 +528,67 @@ def compute_kinematics(
     else:
         energy = 0.5 * mass * (speed * 1e-3) ** 2
         e_unit = "J"
-    energy = np.where(on_rows(valid, False), energy, np.nan)
+    energy = np.where(on_rows(used, False), energy, np.nan)
     dims = ("time", "individuals")
+    shared = one_axis or bool(
+        n_i == 1 or np.array_equal(T, np.broadcast_to(T[:, :1], T.shape), equal_nan=True)
+    )
+    time_coord = T[:, 0] if shared else np.arange(n_t, dtype=np.float64)
     out = xr.Dataset(
         {
-            "dt": (("time",), np.append(dt, np.nan), {"units": "s"}),
+            "step_time": (dims, T, {"units": "s", "description": "time of the step's start"}),
+            "dt": (dims, on_rows(dt, np.nan), {"units": "s"}),
             "speed": (dims, speed, {"units": "mm/s"}),
             "energy": (dims, energy, {"units": e_unit}),
             "heading": (dims, on_rows(heading_s, np.nan), {"units": "rad"}),
             "steering_rate": (dims, on_rows(rate_s, np.nan, first=True), {"units": "rad/s"}),
-            "x_mid": (dims, on_rows(0.5 * (x[:-1] + x[1:]), np.nan), {"units": "mm"}),
-            "y_mid": (dims, on_rows(0.5 * (y[:-1] + y[1:]), np.nan), {"units": "mm"}),
-            "valid": (dims, on_rows(valid, False)),
+            "x_mid": (dims, on_rows(0.5 * (X[:-1] + X[1:]), np.nan), {"units": "mm"}),
+            "y_mid": (dims, on_rows(0.5 * (Y[:-1] + Y[1:]), np.nan), {"units": "mm"}),
+            "step_class": (
+                dims,
+                on_rows(cls, np.int8(-1)),
+                {"codes": ",".join(STEP_CLASSES), "no_step": -1},
+            ),
+            "valid": (dims, on_rows(used, False)),
             "steering_valid": (dims, on_rows(steer_ok, False, first=True)),
             "stationary": (dims, on_rows(stationary, False)),
+            "input_row": (dims, input_row, {"description": "input row of the step's start"}),
+            "implausible_threshold": (
+                ("individuals",),
+                np.where(np.isfinite(thr), thr, np.nan),
+                {"units": "mm/s"},
+            ),
+            "median_dt": (("individuals",), med, {"units": "s"}),
         },
-        coords={
-            "time": t,
-            "individuals": ds["individuals"].values,
-            "input_row": ("time", input_rows),
-        },
+        coords={"time": time_coord, "individuals": ds["individuals"].values},
     )
-    out["time"].attrs.update(units="s", convention="start of the step")
-    out["input_row"].attrs.update(description="index of the (first) input row of this time")
+    out["time"].attrs.update(
+        {"units": "s", "convention": "start of the step"}
+        if shared
+        else {"description": "sample index; each individual's times are in step_time"}
+    )
     params = {
         "energy_unit": e_unit,
+        "clock": "shared" if shared else "per_individual",
         "mass_kg": mass,
         "smooth_s": smooth,
         "polyorder": int(polyorder) if smooth is not None else None,
         "min_speed": min_speed,
         "max_speed": max_speed,
         "gap_factor": gap_factor,
+        "regular_tolerance": regular_tolerance,
         "max_gap_s": max_gap,
         "stationary_speed": stationary_speed,
         "stationary_duration_s": stationary_duration,
         "drop_stationary": int(bool(drop_stationary)),
         "min_confidence": min_confidence,
+        "min_track_extent": min_track_extent,
+        "duplicates": duplicates,
+        "held_positions": held_positions,
+        "resting_speed": resting_speed,
+        "keep_resting": int(bool(keep_resting)),
+        "keep_implausible": int(bool(keep_implausible)),
+        "implausible_rule": json.dumps(rule),
         "keypoint": keypoint,
         "source_file": ds.attrs.get("source_file"),
         "source_software": ds.attrs.get("source_software"),
@@ -510,9 +599,13 @@ def compute_kinematics(
 
 
 def data_quality(kin: xr.Dataset) -> dict[str, Any]:
-    """The data-quality counts of a kinematics dataset, as a plain dict."""
-    out = {}
+    """The data-quality counts of a kinematics dataset, as a plain dict.
+
+    ``step_buckets`` repeats the bucket counts by name; they sum to ``n_steps_total``.
+    """
+    out: dict[str, Any] = {}
     for k in DATA_QUALITY_KEYS:
         v = kin.attrs.get(k, 0)
         out[k] = float(v) if isinstance(v, float | np.floating) else int(v)
+    out["step_buckets"] = {c: out[k] for c, k in zip(STEP_CLASSES, STEP_BUCKETS, strict=True)}
     return out

@@ -73,19 +73,28 @@ def autocorrelation(values: np.ndarray, valid: np.ndarray, *, chunk: int = 128) 
     n_t, n_i = values.shape
     if n_t < 2 or valid.sum() < 3:
         return np.full(max(n_t, 1), np.nan)
-    nfft = scipy.fft.next_fast_len(2 * n_t, real=True)
+    # Tracks sorted by their last valid row and batched: each batch's FFT is only as
+    # long as its longest track, so many short tracks beside one long one (fragmented
+    # identities) cost their own length, not the longest track's.
+    has = valid.any(axis=0)
+    last = np.where(has, n_t - np.argmax(valid[::-1], axis=0), 0)
+    order = np.argsort(last, kind="stable")
+    order = order[has[order]]
     num = np.zeros(n_t)
     cnt = np.zeros(n_t)
-    for i0 in range(0, n_i, chunk):
-        v = values[:, i0 : i0 + chunk]
-        m = valid[:, i0 : i0 + chunk]
+    for j0 in range(0, order.size, chunk):
+        cols = order[j0 : j0 + chunk]
+        length = int(last[cols].max())
+        nfft = scipy.fft.next_fast_len(2 * length, real=True)
+        v = values[:length, cols]
+        m = valid[:length, cols]
         counts = m.sum(axis=0)
         means = np.where(counts > 0, np.where(m, v, 0.0).sum(axis=0) / np.maximum(counts, 1), 0)
         d = np.where(m, v - means, 0.0)
         fd = scipy.fft.rfft(d, n=nfft, axis=0)
-        num += scipy.fft.irfft(fd * fd.conj(), n=nfft, axis=0)[:n_t].sum(axis=1)
+        num[:length] += scipy.fft.irfft(fd * fd.conj(), n=nfft, axis=0)[:length].sum(axis=1)
         fm = scipy.fft.rfft(m.astype(np.float64), n=nfft, axis=0)
-        cnt += scipy.fft.irfft(fm * fm.conj(), n=nfft, axis=0)[:n_t].sum(axis=1)
+        cnt[:length] += scipy.fft.irfft(fm * fm.conj(), n=nfft, axis=0)[:length].sum(axis=1)
     cnt = np.rint(cnt)
     if cnt[0] <= 0 or num[0] <= 0:
         return np.full(n_t, np.nan)

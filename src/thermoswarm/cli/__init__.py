@@ -33,6 +33,7 @@ _COMMANDS: dict[str, str] = {
     "study": "thermoswarm.cli.study:study",
     "convert": "thermoswarm.cli.convert:convert",
     "formats": "thermoswarm.cli.convert:formats",
+    "cache": "thermoswarm.cli.cache:cache",
 }
 
 

@@ -1,11 +1,12 @@
 """``thermoswarm analyze``: the paper's statistics of any trajectories.
 
-Thin: parses the options, calls :func:`thermoswarm.analysis.study.analyze_file`, prints a
+Thin: parses the options, calls :func:`thermoswarm.report.analysis_run.analyze_file`, prints a
 summary.  Every option is documented in ``docs/analysis.md``.
 """
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -15,14 +16,22 @@ from thermoswarm.errors import ConfigError
 
 #: Data-quality counters worth a line on the terminal when they are not zero.
 _NOTABLE = (
-    ("n_missing_timestamps", "rows without a timestamp dropped"),
+    ("n_missing_timestamps", "samples without a timestamp dropped"),
     ("n_decreasing_timestamps", "backward time steps (rows sorted)"),
-    ("n_repeated_timestamps", "rows with a repeated timestamp merged"),
-    ("n_irregular_steps", "irregular time steps"),
-    ("n_time_gaps", "time gaps (steps not used)"),
+    ("n_duplicate_rows", "exact duplicate rows dropped"),
+    ("n_conflicting_duplicates", "conflicting rows at one time resolved by --duplicates"),
+    ("n_individuals_one_sample", "individuals with a single sample (no step)"),
+    ("n_irregular_steps", "steps off the individual's median step by more than 10 %"),
+    ("n_steps_time_gap", "time gaps (steps not used)"),
     ("n_gaps", "gaps in tracks"),
     ("n_interpolated_positions", "positions interpolated"),
-    ("n_steps_over_max_speed", "steps over --max-speed dropped"),
+    ("n_steps_over_max_speed", "steps over --max-speed left out"),
+    ("n_steps_implausible", "implausible steps left out"),
+    ("n_implausible_kept", "implausible steps kept (--keep-implausible)"),
+    ("n_individuals_all_implausible", "individuals whose every moving step is implausible"),
+    ("n_static_tracks", "static tracks (within --min-track-extent) left out"),
+    ("n_steps_resting", "resting steps left out"),
+    ("n_resting_kept", "resting steps kept (--keep-resting)"),
     ("n_zero_speed", "steps at zero speed (heading undefined)"),
     ("n_steering_near_wrap", "turns near half a circle (ambiguous)"),
     ("n_stationary_periods", "long stationary periods"),
@@ -45,14 +54,22 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
     return "-" if v is None else format(v, spec)
 
 
+def _p(p: float | None, n_boot: int | None) -> str:
+    """``= 0.03``, ``< 0.005`` (the bootstrap's floor) or ``n/a``."""
+    from thermoswarm.analysis.explain import format_p_value
+
+    text = format_p_value(p, n_boot, digits=3)
+    return text if text.startswith("<") else f"= {text}"
+
+
 @click.command("analyze")
-@click.argument("input", type=click.Path(path_type=Path))
+@click.argument("inputs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option(
     "--out",
     "-o",
     required=True,
     type=click.Path(path_type=Path),
-    help="Output directory (its parent must exist).",
+    help="Output directory (created with its parents).",
 )
 @click.option("--format", "fmt", default=None, help="Input format name (default: detected).")
 @click.option("--fps", type=float, default=None, help="Frame rate, for frame-numbered input.")
@@ -152,9 +169,9 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
 @click.option(
     "--gap-factor",
     type=float,
-    default=2.0,
+    default=1.5,
     show_default=True,
-    help="Steps longer than this many median steps are gaps.",
+    help="Steps longer than this many of the individual's median steps are gaps.",
 )
 @click.option("--keypoint", default=None, help="Keypoint to follow (default: the centroid).")
 @click.option(
@@ -166,10 +183,73 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
 @click.option(
     "--drop-stationary", is_flag=True, help="Leave long stationary periods out of the energies."
 )
+@click.option(
+    "--duplicates",
+    type=click.Choice(["error", "first", "mean"]),
+    default="error",
+    show_default=True,
+    help="Two different samples of one individual at one time (exact duplicates are dropped).",
+)
+@click.option(
+    "--regular-tolerance",
+    type=float,
+    default=0.1,
+    show_default=True,
+    help="A step is regular within this fraction of the individual's median step.",
+)
+@click.option(
+    "--resting-speed",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Steps at or below this speed (mm/s) are resting: left out of the fits, counted.",
+)
+@click.option("--keep-resting", is_flag=True, help="Fit resting steps too (announced).")
+@click.option(
+    "--held-positions",
+    type=click.Choice(["resting", "missing"]),
+    default="resting",
+    show_default=True,
+    help="A repeated position: the animal rested, or the tracker held it (missing).",
+)
+@click.option(
+    "--implausible-factor",
+    type=float,
+    default=5.0,
+    show_default=True,
+    help="Implausible: speed above this times the individual's robust speed scale.",
+)
+@click.option(
+    "--body-length",
+    type=float,
+    default=None,
+    help="Body length (mm): implausible above --max-bl-per-s body lengths per second.",
+)
+@click.option(
+    "--max-bl-per-s",
+    "max_body_lengths_per_s",
+    type=float,
+    default=50.0,
+    show_default=True,
+    help="Body lengths per second above which a step is implausible (with --body-length).",
+)
+@click.option("--keep-implausible", is_flag=True, help="Fit implausible steps too (announced).")
+@click.option(
+    "--min-track-extent",
+    type=float,
+    default=None,
+    help="Tracks whose positions stay within this many mm are static objects (left out).",
+)
+@click.option(
+    "--max-plausible-speed",
+    type=float,
+    default=None,
+    help="The animal's top speed (mm/s) for the plausibility of fitted temperatures.",
+)
 @click.option("--no-report", is_flag=True, help="Skip report.html.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress on stderr.")
 def analyze(
-    input: Path,
+    inputs: tuple[Path, ...],
     out: Path,
     fmt: str | None,
     fps: float | None,
@@ -194,53 +274,84 @@ def analyze(
     keypoint: str | None,
     min_confidence: float | None,
     drop_stationary: bool,
+    duplicates: str,
+    regular_tolerance: float,
+    resting_speed: float,
+    keep_resting: bool,
+    held_positions: str,
+    implausible_factor: float,
+    body_length: float | None,
+    max_body_lengths_per_s: float,
+    keep_implausible: bool,
+    min_track_extent: float | None,
+    max_plausible_speed: float | None,
     no_report: bool,
     quiet: bool,
 ) -> None:
-    """Fit the maximum-entropy laws to the trajectories in INPUT.
+    """Fit the maximum-entropy laws to the trajectories in INPUTS.
 
-    Writes OUT/fits.json, OUT/report.html and OUT/kinematics.nc.
+    Several files (one per video) are analysed together, each individual on its own
+    clock.  Writes OUT/fits.json, OUT/report.html and OUT/kinematics.nc.
     """
-    from thermoswarm.analysis.study import analyze_file
-    from thermoswarm.io import parse_read_options
+    from thermoswarm.fsutil import require_input
 
-    read_options = parse_read_options(read_option)
     if fps is not None and not fps > 0:
         raise ConfigError(f"--fps must be a positive number, got {fps!r}")
+    require_input(*inputs)  # before the heavy imports
+    from thermoswarm.analysis.explain import explain_phases, trend_statement
+    from thermoswarm.io import parse_read_options
+    from thermoswarm.report.analysis_run import analyze_file
+
+    read_options = parse_read_options(read_option)
 
     def progress(msg: str) -> None:
         if not quiet:
             click.echo(f"analyze: {msg}", err=True)
 
-    result = analyze_file(
-        input,
-        out,
-        format=fmt,
-        fps=fps,
-        px_per_mm=px_per_mm,
-        read_options=read_options,
-        allow_pickle=allow_pickle,
-        regions=regions,
-        group_by=group_by,
-        mass=mass,
-        smooth=smooth,
-        n_bootstrap=n_bootstrap,
-        seed=seed,
-        energy_bins=energy_bins,
-        steering_by=steering_by,
-        test_size=test_size,
-        thin=_thin(thin),
-        alpha=alpha,
-        min_speed=min_speed,
-        max_speed=max_speed,
-        max_gap=max_gap,
-        gap_factor=gap_factor,
-        keypoint=keypoint,
-        min_confidence=min_confidence,
-        drop_stationary=drop_stationary,
-        report=not no_report,
-        progress=progress,
-    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = analyze_file(
+            list(inputs),
+            out,
+            format=fmt,
+            fps=fps,
+            px_per_mm=px_per_mm,
+            read_options=read_options,
+            allow_pickle=allow_pickle,
+            regions=regions,
+            group_by=group_by,
+            mass=mass,
+            smooth=smooth,
+            n_bootstrap=n_bootstrap,
+            seed=seed,
+            energy_bins=energy_bins,
+            steering_by=steering_by,
+            test_size=test_size,
+            thin=_thin(thin),
+            alpha=alpha,
+            min_speed=min_speed,
+            max_speed=max_speed,
+            max_gap=max_gap,
+            gap_factor=gap_factor,
+            keypoint=keypoint,
+            min_confidence=min_confidence,
+            drop_stationary=drop_stationary,
+            duplicates=duplicates,
+            regular_tolerance=regular_tolerance,
+            resting_speed=resting_speed,
+            keep_resting=keep_resting,
+            held_positions=held_positions,
+            implausible_factor=implausible_factor,
+            body_length=body_length,
+            max_body_lengths_per_s=max_body_lengths_per_s,
+            keep_implausible=keep_implausible,
+            min_track_extent=min_track_extent,
+            max_plausible_speed=max_plausible_speed,
+            report=not no_report,
+            progress=progress,
+        )
+    for w in caught:  # one line each, never a stack location
+        click.echo(f"warning: {str(w.message).splitlines()[0]}", err=True)
     fits = result.fits
     unit = fits["units"]["energy"]
     click.echo(f"{fits['n_tracks']} tracks, {fits['n_samples']} energy samples ({unit})")
@@ -248,28 +359,31 @@ def analyze(
     notes = [f"{dq[k]} {text}" for k, text in _NOTABLE if dq.get(k)]
     if notes:
         click.echo("data quality: " + "; ".join(notes))
+    click.echo(f"left out of the fits: {fits['excluded']['statement']}")
     e = fits["energy"]
     if "one_phase" in e:
         two = e["two_phase"]
         click.echo(
-            f"energy: {e['preferred']} preferred ({e['preferred_by']}; LR p = "
-            f"{_fmt(e['lr_p_value'], '.3g')}, n = {e['lr_n']}); one phase kT = "
+            f"energy: {e['preferred']} preferred ({e['preferred_by']}; LR p "
+            f"{_p(e['lr_p_value'], e.get('n_bootstrap'))}, n = {e['lr_n']}); one phase kT = "
             f"{_fmt(e['one_phase']['kT'])}; two phases phi = {_fmt(two['phi'], '.3f')}, "
             f"kT1 = {_fmt(two['kT1'])}, kT2 = {_fmt(two['kT2'])}"
         )
+        why = explain_phases(e)
+        if why:
+            click.echo(f"  why: {why}")
     else:
         click.echo(f"energy: not fitted ({e.get('skipped')})")
+    warning = fits.get("plausibility", {}).get("warning")
+    if warning:
+        click.echo(f"warning: {warning}")
     tr = fits["steering"].get("trend", {})
     if tr.get("slope") is not None:
-        click.echo(
-            f"steering: kT_theta {tr['direction'] or 'no significant trend'} with energy "
-            f"(slope {tr['slope']:.3g}, "
-            f"p = {_fmt(tr['p_value'], '.3g')}, {tr['k']} bins)"
-        )
+        click.echo(f"steering: {trend_statement(tr)}")
     for d in fits.get("regions", {}).get("differences", []):
         click.echo(
             f"regions: hot fraction {d['a']} - {d['b']} = {d['difference']:+.3f} "
-            f"(p = {_fmt(d['p_value'], '.3g')})"
+            f"(p {_p(d['p_value'], None)})"
         )
     files = ["fits.json", "kinematics.nc"] + ([] if no_report else ["report.html"])
     click.echo("wrote " + ", ".join(str(out / f) for f in files))

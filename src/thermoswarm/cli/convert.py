@@ -48,6 +48,9 @@ def convert(
     write_option: tuple[str, ...],
 ) -> None:
     """Convert trajectories SOURCE (any readable format) to DEST (.nc, .csv, .txt)."""
+    from thermoswarm.fsutil import require_input
+
+    require_input(source)  # before the heavy imports
     from thermoswarm.io import convert_tracks, parse_read_options
 
     ds = convert_tracks(

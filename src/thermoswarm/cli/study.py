@@ -1,8 +1,4 @@
-"""``thermoswarm study mechanism|scaling|regime``: the transport-free studies of the report.
-
-Also reachable as ``python -m thermoswarm.studies.mechanism`` and ``... .scaling``
-(the same commands).
-"""
+"""``thermoswarm study mechanism|scaling|regime``: the transport-free studies of the report."""
 
 from __future__ import annotations
 
@@ -33,6 +29,15 @@ def _common(f: Callable) -> Callable:
     return f
 
 
+def _precheck(out: Path, overrides: tuple[str, ...]) -> None:
+    """Keys and types of --set, and the output path, before the heavy imports."""
+    from thermoswarm.fsutil import check_output_dir
+    from thermoswarm.scenarios.schema import precheck
+
+    precheck("transport-free", overrides=overrides)
+    check_output_dir(out)
+
+
 @click.group()
 def study() -> None:
     """The transport-free studies: the mechanism grid, the scaling with swarm size and the
@@ -44,6 +49,7 @@ def study() -> None:
 def mechanism(out, setting, seeds, variant, workers, overrides):
     """Which light-to-phase mapping, heading law and sensing move the object (the
     mechanism table); writes OUT/mechanism.json and OUT/mechanism.md."""
+    _precheck(out, overrides)
     from thermoswarm.studies._common import dotted_overrides
     from thermoswarm.studies.mechanism import run_mechanism
 
@@ -104,6 +110,7 @@ def mechanism(out, setting, seeds, variant, workers, overrides):
 def scaling(out, setting, seeds, ns, variant, workers, overrides, target_distance, horizon):
     """Maximum displacement and time to target versus the number of robots; writes
     OUT/scaling.json, OUT/scaling.md and OUT/scaling.png."""
+    _precheck(out, overrides)
     from thermoswarm.studies._common import dotted_overrides
     from thermoswarm.studies.scaling import run_scaling
 
@@ -151,6 +158,7 @@ def scaling(out, setting, seeds, ns, variant, workers, overrides, target_distanc
 def regime(out, setting, maps, seeds, workers, overrides):
     """Maps of the object's drift speed over the parameters the paper leaves open;
     writes OUT/regime.json, OUT/regime.md and OUT/regime.png."""
+    _precheck(out, overrides)
     from thermoswarm.studies._common import dotted_overrides
     from thermoswarm.studies.regime import run_regime
 

@@ -57,16 +57,60 @@ def _parse_seeds(text: str) -> list[int]:
     help="A parameter shared by all runs (repeatable).",
 )
 @click.option(
-    "--workers", type=click.IntRange(min=1), default=None, help="Processes (default: all cores)."
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Local worker processes (default: all cores).",
+)
+@click.option(
+    "--scheduler",
+    metavar="ADDRESS",
+    default=None,
+    help="Run on the Dask scheduler at ADDRESS (e.g. tcp://host:8786).",
+)
+@click.option(
+    "--cluster",
+    metavar="local:N",
+    default=None,
+    help="Run on a Dask LocalCluster of N worker processes started for this sweep.",
+)
+@click.option(
+    "--retries",
+    type=click.IntRange(min=0),
+    default=2,
+    show_default=True,
+    help="Further attempts of a run whose worker died or that crashed.",
 )
 @click.option("--progress/--no-progress", default=None)
-def sweep(scenario, out, grid, seeds, overrides, workers, progress):
+def sweep(scenario, out, grid, seeds, overrides, workers, scheduler, cluster, retries, progress):
     """Run SCENARIO for every combination of --grid values and --seeds; finished runs
-    are skipped when started again.  Writes OUT/<run_id>/ and OUT/sweep.json."""
+    are skipped when started again.  Writes OUT/<run_id>/, OUT/results.parquet (one row
+    per run) and OUT/sweep.json.  Runs execute in local processes, or through Dask
+    (--scheduler, --cluster; docs/cluster.md)."""
+    from thermoswarm.scenarios.schema import precheck
+
+    grid_values, seed_list = _parse_grid(grid), _parse_seeds(seeds)
+    precheck(scenario, overrides=overrides, grid=grid_values)  # before the heavy imports
     from thermoswarm.sweep import SweepSpec, run_sweep
 
-    spec = SweepSpec(scenario, out, {}, _parse_grid(grid), _parse_seeds(seeds))
-    records = run_sweep(spec, max_workers=workers, progress=progress, overrides=overrides)
+    if scheduler is not None and cluster is not None:
+        raise ConfigError("give --scheduler or --cluster, not both")
+    if workers is not None and (scheduler is not None or cluster is not None):
+        raise ConfigError("--workers is for local processes; Dask brings its own workers")
+    n_local = None
+    if cluster is not None:
+        from thermoswarm.sweep.cluster import parse_cluster
+
+        n_local = parse_cluster(cluster)
+    spec = SweepSpec(scenario, out, {}, grid_values, seed_list)
+    kw = {"progress": progress, "overrides": overrides, "retries": retries}
+    if scheduler is None and cluster is None:
+        records = run_sweep(spec, max_workers=workers, **kw)
+    else:
+        from thermoswarm.sweep.cluster import dask_client
+
+        with dask_client(scheduler, local_workers=n_local) as client:
+            records = run_sweep(spec, client.get_executor(), **kw)
     failed = [r for r in records if r.status == "failed"]
     click.echo(
         json.dumps(

@@ -38,12 +38,36 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     "out_dir",
     required=True,
     type=click.Path(path_type=Path),
-    help="Output folder (created; its parent must exist).",
+    help="Output folder (created with its parents).",
 )
 @click.option(
     "--detections",
     type=click.Path(path_type=Path),
-    help="Track a MOTChallenge detection file instead of a video.",
+    help="Track another detector's boxes instead of a video: a MOTChallenge file, a "
+    "folder of YOLO per-frame .txt files or a COCO JSON file.",
+)
+@click.option(
+    "--det-format",
+    type=click.Choice(["mot", "yolo", "coco"]),
+    help="Format of --detections (default: a folder is yolo, .json is coco, else mot).",
+)
+@click.option(
+    "--image-size",
+    metavar="WxH|FILE",
+    help="Image size for --detections, as 1920x1080 or a frame/video to read it from "
+    "(needed by YOLO's normalised boxes).",
+)
+@click.option(
+    "--first-frame",
+    type=click.IntRange(0, 1),
+    help="Number of the first frame of --detections (default: 0 if the file has a "
+    "frame 0, else 1); the tracks keep this numbering.",
+)
+@click.option(
+    "--object-size-px",
+    type=float,
+    help="Length of the tracked objects in px, the tracker's unit (default: measured "
+    "from the detections' boxes).",
 )
 @click.option(
     "--model",
@@ -51,7 +75,12 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     help="Trained detector weights (selects the 'unet' detector).",
 )
 @click.option("--detector", help="Detector name (default: classical, or unet with --model).")
-@click.option("--px-per-mm", "px_per_mm", help="Image scale in px per mm, or 'paper' (3.04).")
+@click.option(
+    "--px-per-mm",
+    "px_per_mm",
+    help="Image scale in px per mm, or 'paper' (3.04); needed for videos and for "
+    "tracks.nc, optional with --detections (MOT output only).",
+)
 @click.option("--fps", type=float, help="Frame rate (default: the video's own).")
 @click.option(
     "--config",
@@ -84,6 +113,10 @@ def track(
     video: Path | None,
     out_dir: Path,
     detections: Path | None,
+    det_format: str | None,
+    image_size: str | None,
+    first_frame: int | None,
+    object_size_px: float | None,
     model: Path | None,
     detector: str | None,
     px_per_mm: str | None,
@@ -99,9 +132,15 @@ def track(
 
     Writes OUT/tracks.nc (trajectory format: mm, s, keypoints head/body/tail),
     OUT/tracks_mot.txt (MOTChallenge), OUT/detections.txt, OUT/overlay.mp4 and
-    OUT/summary.json.  With --detections DETS.txt, tracks MOTChallenge detections
-    without a video.
+    OUT/summary.json.  With --detections, tracks another detector's boxes without a
+    video (MOTChallenge, YOLO or COCO): the boxes written are the detections' own,
+    frames keep their numbering, and --px-per-mm is needed only for tracks.nc.
     """
+    from thermoswarm.fsutil import require_input
+
+    if (video is None) == (detections is None):
+        raise InputError("give either VIDEO or --detections DETS.txt (exactly one)")
+    require_input(video, detections)  # before the heavy imports
     from thermoswarm.config import from_mapping
     from thermoswarm.io import resolve_px_per_mm
     from thermoswarm.tracking.pipeline import track_detection_file, track_video
@@ -115,26 +154,47 @@ def track(
                 "tracking videos needs OpenCV: pip install 'thermoswarm[track]'"
             ) from None
     if (video is None) == (detections is None):
-        raise InputError("give either VIDEO or --detections DETS.txt (exactly one)")
-    if px_per_mm is None:
+        raise InputError("give either VIDEO or --detections DETS (exactly one)")
+    if video is not None:
+        for name, value in (
+            ("--det-format", det_format),
+            ("--image-size", image_size),
+            ("--first-frame", first_frame),
+            ("--object-size-px", object_size_px),
+        ):
+            if value is not None:
+                raise InputError(f"{name} applies to --detections, not to videos")
+    if px_per_mm is None and detections is None:
         raise InputError(
             "pass --px-per-mm (positions are written in mm; the paper's scale "
             "is --px-per-mm paper = 3.04)"
         )
-    scale = resolve_px_per_mm(px_per_mm)
+    scale = resolve_px_per_mm(px_per_mm) if px_per_mm is not None else None
     settings = _load_settings(config, overrides)
     tcfg = from_mapping(
         TrackerConfig, settings.get("tracker", {}), source=config or "--set tracker"
     )
     if detections is not None:
+        from thermoswarm.tracking.detfiles import parse_image_size
+
         if model is not None or detector is not None:
             raise InputError("--model and --detector apply to videos, not to --detections")
         if settings.get("detector"):
             raise InputError("[detector] options apply to videos, not to --detections")
         if fps is None:
             raise InputError(f"{detections}: detections have frame numbers only; pass --fps")
+        if object_size_px is not None and not (0 < object_size_px < float("inf")):
+            raise InputError(f"--object-size-px must be positive, got {object_size_px!r}")
         summary = track_detection_file(
-            detections, out_dir, px_per_mm=scale, fps=fps, tracker_config=tcfg
+            detections,
+            out_dir,
+            px_per_mm=scale,
+            fps=fps,
+            tracker_config=tcfg,
+            fmt=det_format,
+            image_size=parse_image_size(image_size) if image_size else None,
+            first_frame=first_frame,
+            length_px=object_size_px,
         )
     else:
         summary = track_video(
@@ -151,10 +211,11 @@ def track(
             max_frames=max_frames,
             progress=not quiet,
         )
+    main = "tracks.nc" if "tracks.nc" in summary["outputs"] else "tracks_mot.txt"
     click.echo(
         f"{summary['n_frames']} frames, {summary['n_tracks']} tracks, "
         f"{summary['detections_per_frame']:.1f} detections/frame, "
-        f"{summary['frames_per_second']:.1f} frames/s -> {out_dir}/tracks.nc"
+        f"{summary['frames_per_second']:.1f} frames/s -> {out_dir}/{main}"
     )
 
 
@@ -168,8 +229,13 @@ def evaluate(gt: Path, pred: Path, iou: float) -> None:
     """Compare tracks PRED with ground truth GT (MOTChallenge files); print JSON.
 
     Keys: mota, motp, idf1, idp, idr, idsw, idsw_rate, fp, fn, tp, n_gt, n_pred,
-    n_gt_ids, n_pred_ids, n_frames, precision, recall, mt, pt, ml, frag, iou_threshold.
+    n_gt_ids, n_pred_ids, n_frames, precision, recall, mt, pt, ml, frag, iou_threshold,
+    and hota, deta, assa, loca (means over IoU thresholds 0.05..0.95, as TrackEval).
+    Frames may count from 0 or 1.
     """
+    from thermoswarm.fsutil import require_input
+
+    require_input(gt, pred)  # before the heavy imports
     from thermoswarm.fsutil import dumps_json
     from thermoswarm.tracking.evaluate import evaluate_files
 

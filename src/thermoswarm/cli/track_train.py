@@ -42,12 +42,21 @@ from thermoswarm.errors import InputError
 )
 @click.option(
     "--nodes",
-    help="Skeleton nodes used as head,body,tail (default: by name, e.g. head,thorax,gaster).",
+    help="Skeleton nodes used as head,body,tail (default: by name, e.g. head,thorax,gaster); "
+    "'+' averages nodes, e.g. Head,UpperThorax+LowerThorax,Abdomen.",
 )
 @click.option(
     "--image-root",
     type=click.Path(file_okay=False, path_type=Path),
-    help="Folder of the COCO images (default: the JSON file's folder).",
+    help="Folder of the COCO images (default: the JSON file's folder), or where the videos "
+    "of a SLEAP file are looked for by name when missing at their stored path (also "
+    "beside the .slp).",
+)
+@click.option(
+    "--predicted",
+    is_flag=True,
+    help="Also train on SLEAP frames that hold predicted instances only (default: user "
+    "labels only).",
 )
 @click.option(
     "--init",
@@ -77,6 +86,7 @@ def track_train(
     px_per_mm: str | None,
     nodes: str | None,
     image_root: Path | None,
+    predicted: bool,
     init: Path | None,
     seed: int | None,
     threads: int | None,
@@ -90,12 +100,12 @@ def track_train(
     and ID-switch targets), --labels FILE (SLEAP .slp or COCO .json, repeatable), or
     both.  Use the model with: thermoswarm track VIDEO --model OUT --px-per-mm S.
     """
+    if not synthetic and not labels:
+        raise InputError("give training data: --synthetic and/or --labels FILE")
     from thermoswarm.config import apply_overrides, from_mapping, load_toml, parse_overrides
     from thermoswarm.io import resolve_px_per_mm
     from thermoswarm.tracking.train import TrainConfig, train_from_sources
 
-    if not synthetic and not labels:
-        raise InputError("give training data: --synthetic and/or --labels FILE")
     data = load_toml(config) if config else {}
     data = apply_overrides(data, parse_overrides(overrides))
     if seed is not None:
@@ -113,7 +123,9 @@ def track_train(
     if nodes is not None:
         node_names = [n.strip() for n in nodes.split(",")]
         if len(node_names) != 3 or not all(node_names):
-            raise InputError(f"--nodes must be three names HEAD,BODY,TAIL, got {nodes!r}")
+            raise InputError(
+                f"--nodes must be three names HEAD,BODY,TAIL (a name may be A+B), got {nodes!r}"
+            )
 
     def log(line: str) -> None:
         if not quiet:
@@ -126,6 +138,7 @@ def track_train(
         px_per_mm=scale,
         nodes=node_names,
         image_root=image_root,
+        include_predicted=predicted,
         init=init,
         config=cfg,
         progress=not quiet,

@@ -33,7 +33,7 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm.errors import InputError, OutputError, ThermoswarmError
-from thermoswarm.tracks import validate_tracks
+from thermoswarm.tracks import per_individual, validate_tracks
 
 #: Named scale presets for ``px_per_mm``.
 SCALE_PRESETS: dict[str, float] = {"paper": 3.04}
@@ -294,8 +294,17 @@ def write_tracks(
             f"it accepts: {', '.join(accepted) or 'none'}"
         )
     validate_tracks(ds)
+    if per_individual(ds) and format not in _OWN_CLOCK_WRITERS:
+        raise InputError(
+            f"{path}: the individuals are on their own clocks and {format!r} needs one "
+            f"shared frame axis; write one of: {', '.join(_OWN_CLOCK_WRITERS)}"
+        )
     writer(ds, path, **options)
     return path
+
+
+#: Writers that keep per-individual clocks (the others need a shared frame axis).
+_OWN_CLOCK_WRITERS = ("netcdf", "tidy_csv")
 
 
 def convert_tracks(

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from thermoswarm.errors import InputError
+from thermoswarm.tracks import resolve_duplicates
 
 #: Millimetres per unit, for files that state their own length unit.
 MM_PER_UNIT: dict[str, float] = {
@@ -40,6 +41,12 @@ PIXEL_UNITS = ("px", "pixel", "pixels")
 
 #: Seconds per unit of a time column.
 SECONDS_PER_UNIT: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0, "h": 3600.0}
+
+#: Help of the ``duplicates`` reader option (long tables).
+DUPLICATES_HELP = (
+    'two different rows of one individual at one time: "error" (default), "first" or '
+    '"mean"; exact duplicate rows are dropped and counted either way'
+)
 
 PX_HINT = "pass --px-per-mm (the paper's scale is --px-per-mm paper = 3.04 px/mm)"
 FPS_HINT = "pass --fps"
@@ -251,20 +258,40 @@ def assemble_long(
     individual_order: Sequence[str] | None = None,
     keypoint_order: Sequence[str] | None = None,
     frame_rate: float | None = None,
+    duplicates: str = "error",
+    clock: str = "auto",
+    individual_sources: Sequence[Any] | None = None,
 ) -> dict[str, Any]:
-    """Scatter a long table (one row per sample) onto ``(time, 2, keypoints, individuals)``.
+    """Scatter a long table (one row per sample) onto the trajectory layout.
 
-    ``time`` holds seconds, or frame numbers when ``frame_rate`` is given.  Seconds:
-    the time axis is the sorted union of all rows' times.  Frames: the axis is every
-    frame from the first to the last (frames nobody was seen in are NaN, so the
-    sampling stays regular), converted to seconds as ``frame / frame_rate``.  A
-    time/individual/keypoint appearing twice is an error (there is no cell for two
-    positions).  Returns a dict with ``position``, ``confidence`` (or None), ``time``
-    (s), ``individuals``, ``keypoints``.
+    ``time`` holds seconds, or frame numbers when ``frame_rate`` is given.  Rows are
+    sorted by time within each individual (and keypoint); rows of one individual and
+    keypoint at the same time are resolved by ``duplicates`` (see
+    :func:`thermoswarm.tracks.resolve_duplicates`: exact duplicates dropped, conflicts
+    an error, or the first, or the mean), and counted.
+
+    The clock.  Frame numbers are a shared clock (the frames of one video): the axis
+    is every frame from the first to the last (frames nobody was seen in are NaN, so
+    the sampling stays regular), in seconds ``frame / frame_rate``.  Seconds share one
+    axis when ``clock="shared"`` (times that come from one video's frames), when every
+    individual has the same set of times, or when the times are those of one regular
+    clock with some samples missing (:func:`one_regular_clock`); otherwise each
+    individual keeps its own times (per-individual clocks, :mod:`thermoswarm.tracks`):
+    row ``k`` of an individual is its ``k``-th sample, and no filler rows are
+    invented.
+
+    Returns a dict with ``position``, ``confidence`` (or None), ``time`` (``(time,)``
+    or ``(time, individuals)`` seconds), ``individuals``, ``keypoints`` and ``attrs``
+    (the duplicate counts and ``n_decreasing_timestamps``, the backward steps in the
+    input order of each individual and keypoint).  ``individual_sources`` (one file
+    per individual, in ``individual_order``) names the file in error messages instead
+    of ``path``.
     """
     n = len(time)
     if n == 0:
         raise InputError(f"{path}: no data rows")
+    if clock not in ("auto", "shared"):
+        raise ValueError(f"clock must be 'auto' or 'shared', got {clock!r}")
     time = np.asarray(time, dtype=np.float64)
     if not np.all(np.isfinite(time)):
         bad = int(np.flatnonzero(~np.isfinite(time))[0])
@@ -274,44 +301,148 @@ def assemble_long(
         kp_names, kp_idx = ["centroid"], np.zeros(n, dtype=np.int64)
     else:
         kp_names, kp_idx = _codes(path, keypoint, keypoint_order)
-    if frame_rate is None:
-        times, t_idx = np.unique(time_key(time), return_inverse=True)
-    else:
+    n_k, n_i = len(kp_names), len(ind_names)
+    if frame_rate is not None:
         frames = np.rint(time)
         if np.any(frames != time):
             bad = int(np.flatnonzero(frames != time)[0])
             raise InputError(f"{path}: frame number {time[bad]!r} is not an integer")
-        f0 = int(frames.min())
-        t_idx = frames.astype(np.int64) - f0
-        times = np.arange(f0, int(frames.max()) + 1, dtype=np.float64) / frame_rate
-    n_t, n_k, n_i = times.size, len(kp_names), len(ind_names)
-    check_dense_size(path, n_t, n_k, n_i)
-    flat = (t_idx * n_k + kp_idx) * n_i + ind_idx
-    counts = np.bincount(flat, minlength=n_t * n_k * n_i)
-    if counts.max(initial=0) > 1:
-        cell = int(np.argmax(counts > 1))
-        ti, rest = divmod(cell, n_k * n_i)
-        ki, ii = divmod(rest, n_i)
+        f0, f1 = float(frames.min()), float(frames.max())
+        check_dense_size(path, int(f1 - f0) + 1, n_k, n_i)
+        key = time
+    else:
+        key = time_key(time)
+    values = np.column_stack(
+        [np.asarray(x, np.float64), np.asarray(y, np.float64)]
+        + ([] if confidence is None else [np.asarray(confidence, np.float64)])
+    )
+
+    def describe(group: int, when: float) -> str:
+        ii, ki = divmod(group, n_k)
         what = f"individual {ind_names[ii]!r}"
         if keypoint is not None:
             what += f", keypoint {kp_names[ki]!r}"
-        when = f"time {times[ti]:g} s" if frame_rate is None else f"frame {int(f0 + ti)}"
-        raise InputError(f"{path}: two rows for {what} at {when}")
-    del counts
+        at = f"frame {when:.10g}" if frame_rate is not None else f"time {when:.10g} s"
+        where = path if individual_sources is None else individual_sources[ii]
+        return f"{where}: {what} at {at}"
+
+    group = ind_idx * n_k + kp_idx
+    if n == 1 or bool(np.all(key[1:] >= key[:-1])):
+        n_back = 0  # time-major tables (every frame's rows together) are sorted already
+    else:
+        by_group = np.argsort(group, kind="stable")  # each group's rows in input order
+        same_group = group[by_group][1:] == group[by_group][:-1]
+        n_back = int((same_group & (np.diff(key[by_group]) < 0)).sum())
+    if frame_rate is not None and _one_row_per_cell(key, group, n_k * n_i):
+        # the usual frame table: no two rows in one cell, nothing to sort or resolve
+        rows, vals, n_exact, n_conflict = np.arange(n), values, 0, 0
+    else:
+        rows, vals, n_exact, n_conflict = resolve_duplicates(
+            key, values, duplicates, group=group, describe=describe
+        )
+    key, ind_idx, kp_idx = key[rows], ind_idx[rows], kp_idx[rows]
+    attrs = {
+        "n_duplicate_rows": n_exact,
+        "n_conflicting_duplicates": n_conflict,
+        "n_decreasing_timestamps": n_back,
+    }
+    if n_exact or n_conflict:
+        attrs["duplicates_rule"] = duplicates
+    if frame_rate is not None:
+        f0 = int(key.min())
+        t_idx = key.astype(np.int64) - f0
+        times: np.ndarray = np.arange(f0, int(key.max()) + 1, dtype=np.float64) / frame_rate
+        n_t = times.size
+    else:
+        # unique (individual, time) pairs: each individual's own sample times
+        pair = np.lexsort((key, ind_idx))
+        ks, iis = key[pair], ind_idx[pair]
+        first = np.ones(ks.size, dtype=bool)
+        first[1:] = (ks[1:] != ks[:-1]) | (iis[1:] != iis[:-1])
+        u_t, u_i = ks[first], iis[first]
+        shared_t = np.unique(u_t)
+        per_ind = np.bincount(u_i, minlength=n_i)
+        same = bool(np.all(per_ind == shared_t.size))
+        if clock == "shared" or same or one_regular_clock(shared_t, u_t, u_i, n_i):
+            times = shared_t
+            n_t = times.size
+            t_idx = np.searchsorted(times, key)
+        else:
+            start = np.concatenate([[0], np.cumsum(per_ind)[:-1]])
+            rank = np.arange(u_t.size) - start[u_i]
+            n_t = int(per_ind.max())
+            check_dense_size(path, n_t, n_k, n_i)
+            times = np.full((n_t, n_i), np.nan)
+            times[rank, u_i] = u_t
+            # each row's rank: its pair's rank (rows of other keypoints share the pair)
+            pair_id = np.cumsum(first) - 1
+            row_rank = np.empty(key.size, dtype=np.int64)
+            row_rank[pair] = rank[pair_id]
+            t_idx = row_rank
+    check_dense_size(path, n_t, n_k, n_i)
     pos = np.full((n_t, 2, n_k, n_i), np.nan)
-    pos[t_idx, 0, kp_idx, ind_idx] = x
-    pos[t_idx, 1, kp_idx, ind_idx] = y
+    pos[t_idx, 0, kp_idx, ind_idx] = vals[:, 0]
+    pos[t_idx, 1, kp_idx, ind_idx] = vals[:, 1]
     conf = None
     if confidence is not None:
         conf = np.full((n_t, n_k, n_i), np.nan, dtype=np.float32)
-        conf[t_idx, kp_idx, ind_idx] = confidence
+        conf[t_idx, kp_idx, ind_idx] = vals[:, 2]
     return {
         "position": pos,
         "confidence": conf,
         "time": times,
         "individuals": ind_names,
         "keypoints": kp_names,
+        "attrs": attrs,
     }
+
+
+def _one_row_per_cell(frames: np.ndarray, group: np.ndarray, n_groups: int) -> bool:
+    """Whether no (frame, group) cell holds two rows (a bincount, no sort).
+
+    False (let the sort decide) when the table is too sparse for a count per cell.
+    """
+    f = frames.astype(np.int64)
+    f0 = int(f.min())
+    n_cells = (int(f.max()) - f0 + 1) * n_groups
+    if n_cells > 8 * f.size + 1024:
+        return False
+    cell = (f - f0) * n_groups + group
+    return int(np.bincount(cell, minlength=n_cells).max(initial=0)) <= 1
+
+
+def one_regular_clock(
+    union: np.ndarray, t: np.ndarray, ind: np.ndarray, n_i: int, tol: float = 0.1
+) -> bool:
+    """Whether samples ``t`` of individuals ``ind`` are ticks of one regular clock.
+
+    ``union`` is the sorted union of all times, ``t``/``ind`` each individual's own
+    sorted times.  True when every step of the union is (within ``tol``) a whole
+    number of its median step ``D`` and every individual's own median step is ``D``
+    (within ``tol``): the individuals were sampled at the same instants, some samples
+    missing, and the rows one lacks are honest gaps.  Offset, jittered or differently
+    paced clocks fail (their union has steps that are fractions of ``D``, or an
+    individual steps by a multiple of it).
+    """
+    if union.size < 3:
+        return False
+    du = np.diff(union)
+    d = float(np.median(du))
+    if not d > 0:
+        return False
+    ratio = du / d
+    if np.any(ratio < 1 - tol) or np.any(np.abs(ratio - np.rint(ratio)) > tol):
+        return False
+    own = np.diff(t)
+    same = ind[1:] == ind[:-1]
+    own, who = own[same], ind[1:][same]
+    if own.size == 0:
+        return False
+    for i in np.unique(who):
+        m = float(np.median(own[who == i]))
+        if abs(m - d) > tol * d:
+            return False
+    return True
 
 
 #: Largest dense position array a reader will allocate (float64 values; 8 GB).
@@ -402,3 +533,10 @@ def unique_names(path: Path, names: Sequence[str], what: str) -> list[str]:
             raise InputError(f"{path}: {what} name {n!r} appears twice")
         seen.add(n)
     return names
+
+
+def option_duplicates(path: Path, options: Mapping[str, Any]) -> str:
+    """The ``duplicates`` option (default ``"error"``)."""
+    from thermoswarm.tracks import DUPLICATE_RULES
+
+    return option_str(path, "duplicates", options.get("duplicates", "error"), DUPLICATE_RULES)

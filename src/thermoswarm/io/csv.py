@@ -9,8 +9,17 @@ Tidy CSV
 Wide CSV
     Columns ``time`` or ``frame`` and one ``x``/``y`` pair per individual:
     ``x0, y0, x1, y1`` or ``x_ant3, y_ant3`` or ``ant3_x, ant3_y`` (idtracker.ai's
-    ``trajectories.csv`` -- ``time, x1, y1, x2, y2`` -- is one).  Rows are kept in
-    file order, so repeated or decreasing times survive for the kinematics to handle.
+    ``trajectories.csv`` -- ``time, x1, y1, x2, y2`` -- is one).  When no column has
+    a time or frame name, a first column of integers followed only by x/y pairs is
+    taken as the frame number whatever its name (a colony tracker writes
+    ``position, x0, y0, ...``); ``attrs["time_from"]`` says so.
+
+Both layouts sort each individual's rows by time; rows of one individual at one time
+are exact duplicates (dropped, counted) or conflicts, resolved by the ``duplicates``
+option (``"error"`` by default, ``"first"`` or ``"mean"``) and counted
+(``attrs["n_duplicate_rows"]``, ``attrs["n_conflicting_duplicates"]``).
+
+Lines starting with ``#`` among the rows are comments and skipped.
 
 Units.  Lengths are in pixels when ``px_per_mm`` is given; otherwise the unit must
 be stated: by the ``units`` option, by unit-suffixed columns (``x_mm``, ``y_px``), or
@@ -23,6 +32,7 @@ there).  Leading lines starting with ``#`` are ``key: value`` metadata (``fps``,
 from __future__ import annotations
 
 import io as _io
+import mmap
 import re
 import warnings
 from pathlib import Path
@@ -36,18 +46,20 @@ import xarray as xr
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_text
 from thermoswarm.io._common import (
+    DUPLICATES_HELP,
     SECONDS_PER_UNIT,
     as_float_column,
     assemble_long,
     check_fps,
     check_options,
     length_scale,
+    option_duplicates,
     option_str,
     require_fps,
     resolve_fps,
     unique_names,
 )
-from thermoswarm.tracks import make_tracks
+from thermoswarm.tracks import make_tracks, per_individual
 
 ALIASES: dict[str, tuple[str, ...]] = {
     "individual": (
@@ -77,6 +89,7 @@ _COMMON_OPTIONS = {
     "delimiter": "field separator (default: guessed from the header: , tab ; or spaces)",
     "time_col": "name of the time column (seconds unless time_unit says otherwise)",
     "frame_col": "name of the frame-number column (needs --fps when there is no time)",
+    "duplicates": DUPLICATES_HELP,
 }
 
 TIDY_OPTIONS = {
@@ -158,7 +171,46 @@ def _find(columns: list[str], role: str, given: Any, path: Path) -> str | None:
     return None
 
 
+def _comment_lines(path: Path, n_meta: int) -> list[int]:
+    """Line numbers (0-based) of lines starting with ``#`` after the header.
+
+    Some trackers write comments among the rows (YetAnotherTracker puts the video name
+    and its command line after the header); ``comment="#"`` would also cut names like
+    TRex's ``X#wcentroid``, so only whole lines are skipped.
+    """
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return []
+    if b"\n#" not in data:
+        return []
+    arr = np.frombuffer(data, dtype=np.uint8)
+    starts = np.flatnonzero(arr[:-1] == 10) + 1  # the character after each newline
+    lines = np.flatnonzero(arr[starts] == ord("#")) + 1
+    return [int(v) for v in lines if v > n_meta]
+
+
+def _has_comment_lines(path: Path) -> bool:
+    """Whether some line after the first starts with ``#`` (a C-speed scan of the file)."""
+    try:
+        with open(path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+            return mm.find(b"\n#") >= 0
+    except (OSError, ValueError):  # empty files cannot be mapped
+        return False
+
+
 def _read_table(path: Path, n_meta: int, sep: str, text_cols: list[str]) -> pd.DataFrame:
+    skip: int | list[int] = n_meta
+    if _has_comment_lines(path):  # rare: comment lines among the rows
+        comments = _comment_lines(path, n_meta)
+        if comments:
+            skip = [*range(n_meta), *comments]
+    return _parse_table(path, skip, sep, text_cols)
+
+
+def _parse_table(
+    path: Path, skip: int | list[int], sep: str, text_cols: list[str]
+) -> pd.DataFrame:
     try:
         with warnings.catch_warnings():
             # pandas only warns when a row has more fields than the header, and drops them
@@ -166,7 +218,7 @@ def _read_table(path: Path, n_meta: int, sep: str, text_cols: list[str]) -> pd.D
             df = pd.read_csv(
                 path,
                 sep=sep,
-                skiprows=n_meta,
+                skiprows=skip,
                 index_col=False,
                 dtype={c: object for c in text_cols},
                 skipinitialspace=True,
@@ -295,8 +347,9 @@ def read_tidy(
         keypoint=keypoint,
         confidence=conf,
         frame_rate=rate,
+        duplicates=option_duplicates(path, options),
     )
-    attrs = {**t_attrs, **u_attrs}
+    attrs = {**t_attrs, **u_attrs, **parts["attrs"]}
     return make_tracks(
         parts["position"],
         time=parts["time"],
@@ -320,7 +373,8 @@ def write(
     """Write ``ds`` as a tidy CSV, atomically.
 
     Columns: ``individual, keypoint, time, frame, x, y, confidence`` -- ``time`` in
-    seconds (absent when the dataset has frame numbers only), ``frame`` when the frame
+    seconds (each individual's own with per-individual clocks; absent when the
+    dataset has frame numbers only), ``frame`` when the frame
     rate is known (``round(time * fps)``), ``x``/``y`` in mm, ``confidence`` when the
     dataset has one.  Rows where both x and y are missing are left out unless
     ``dropna=False``.  With ``metadata`` (default) the file starts with ``# key: value``
@@ -337,6 +391,10 @@ def write(
     x = pos[:, 0].ravel()
     y = pos[:, 1].ravel()
     keep = ~(np.isnan(x) & np.isnan(y)) if dropna else np.ones(x.size, dtype=bool)
+    own = per_individual(ds)
+    if own:  # rows past an individual's last sample are padding, not samples
+        clock = ds["individual_time"].transpose("time", "individuals").values
+        keep &= np.isfinite(clock[t_idx, i_idx])
     t_idx, k_idx, i_idx, x, y = t_idx[keep], k_idx[keep], i_idx[keep], x[keep], y[keep]
     ind_names = np.asarray([str(v) for v in ds["individuals"].values], dtype=object)
     kp_names = np.asarray([str(v) for v in ds["keypoints"].values], dtype=object)
@@ -344,7 +402,12 @@ def write(
     fps = ds.attrs.get("fps")
     seconds = ds.attrs.get("time_unit", "seconds") == "seconds"
     cols: dict[str, Any] = {"individual": ind_names[i_idx], "keypoint": kp_names[k_idx]}
-    if seconds:
+    if own:
+        cols["time"] = clock[t_idx, i_idx]
+        seconds = True
+        if fps is not None:
+            cols["frame"] = np.rint(cols["time"] * float(fps)).astype(np.int64)
+    elif seconds:
         cols["time"] = tvals[t_idx]
         if fps is not None:
             cols["frame"] = np.rint(tvals[t_idx] * float(fps)).astype(np.int64)
@@ -401,17 +464,46 @@ def _wide_name(name: str) -> str:
     return f"id_{name}" if name.isdigit() else name
 
 
+def _frame_like_first(path: Path, cols: list[str], sep: str, n_meta: int) -> str | None:
+    """The first column, when it is not an x/y column, every other column is one of
+    x/y pairs, and its first values are integers: a frame number by another name."""
+    if len(cols) < 3 or len(cols) % 2 == 0:
+        return None
+    pairs = _wide_pairs(cols, {cols[0]})
+    if 2 * len(pairs) != len(cols) - 1 or any(cols[0] in (xc, yc) for _, xc, yc in pairs):
+        return None
+    try:
+        head = pd.read_csv(
+            path,
+            sep=sep,
+            skiprows=n_meta,
+            nrows=20,
+            usecols=[0],
+            encoding="utf-8-sig",
+            engine="c" if sep != r"\s+" else "python",
+        )
+    except Exception:  # a sniffer never raises; the reader reports the real problem
+        return None
+    v = pd.to_numeric(head.iloc[:, 0], errors="coerce").to_numpy(dtype=np.float64)
+    if v.size == 0 or not np.all(np.isfinite(v)) or np.any(v != np.rint(v)):
+        return None
+    return cols[0]
+
+
 def sniff_wide(path: Path) -> bool:
     try:
-        _, _, header = _read_head(path)
+        _, n_meta, header = _read_head(path)
     except InputError:
         return False
-    cols = _split_header(header, _guess_sep(path, header, None))
+    sep = _guess_sep(path, header, None)
+    cols = _split_header(header, sep)
     lower = {c.lower() for c in cols}
     if lower & set(ALIASES["individual"]):
         return False
     has_t = bool(lower & (set(ALIASES["time"]) | set(ALIASES["frame"])))
-    return has_t and bool(_wide_pairs(cols, set()))
+    if has_t:
+        return bool(_wide_pairs(cols, set()))
+    return _frame_like_first(path, cols, sep, n_meta) is not None
 
 
 def read_wide(
@@ -419,12 +511,18 @@ def read_wide(
 ) -> xr.Dataset:
     """Read a wide CSV (see the module docstring) into the trajectory format."""
     check_options(path, "wide_csv", options, WIDE_OPTIONS)
+    duplicates = option_duplicates(path, options)
     meta, n_meta, header = _read_head(path)
     sep = _guess_sep(path, header, options.get("delimiter"))
     df = _read_table(path, n_meta, sep, [])
     cols = list(df.columns)
     time_col = _find(cols, "time", options.get("time_col"), path)
     frame_col = _find(cols, "frame", options.get("frame_col"), path)
+    t_attrs: dict[str, Any] = {}
+    if time_col is None and frame_col is None:
+        frame_col = _frame_like_first(path, cols, sep, n_meta)
+        if frame_col is not None:
+            t_attrs["time_from"] = f"first column {frame_col!r} read as frame numbers"
     pairs = _wide_pairs(cols, {c for c in (time_col, frame_col) if c})
     if not pairs:
         raise InputError(
@@ -432,26 +530,41 @@ def read_wide(
             f"columns are: {', '.join(cols)}"
         )
     fps = resolve_fps(path, fps, check_fps(path, meta.get("fps")), "the file's header")
-    key, rate, t_attrs = _times(path, df, time_col, frame_col, options, fps)
-    t = key if rate is None else key / rate
-    if not np.all(np.isfinite(t)):
-        row = int(np.flatnonzero(~np.isfinite(t))[0])
+    key, rate, more = _times(path, df, time_col, frame_col, options, fps)
+    t_attrs = {**more, **t_attrs}
+    if not np.all(np.isfinite(key)):
+        row = int(np.flatnonzero(~np.isfinite(key))[0])
         raise InputError(f"{path}: missing or non-finite time/frame in data row {row + 1}")
     units, from_file = _units_from(path, options, meta, None)
     scale, u_attrs = length_scale(path, units, px_per_mm, "this CSV", from_file=from_file)
-    pos = np.empty((len(df), 2, 1, len(pairs)))
+    n_rows, n_ind = len(df), len(pairs)
+    x = np.empty((n_rows, n_ind))
+    y = np.empty((n_rows, n_ind))
     for i, (_, xc, yc) in enumerate(pairs):
-        pos[:, 0, 0, i] = as_float_column(path, df[xc].to_numpy(), xc) * scale
-        pos[:, 1, 0, i] = as_float_column(path, df[yc].to_numpy(), yc) * scale
+        x[:, i] = as_float_column(path, df[xc].to_numpy(), xc) * scale
+        y[:, i] = as_float_column(path, df[yc].to_numpy(), yc) * scale
     names = unique_names(path, [_wide_name(n) for n, _, _ in pairs], "individual")
+    # one long table (row-major: every individual of a row together); the frames or
+    # times of a row are one instant for every individual: a shared clock
+    parts = assemble_long(
+        path,
+        individual=np.tile(np.asarray(names, dtype=object), n_rows),
+        time=np.repeat(key, n_ind),
+        x=x.ravel(),
+        y=y.ravel(),
+        individual_order=names,
+        frame_rate=rate,
+        duplicates=duplicates,
+        clock="shared",
+    )
     return make_tracks(
-        pos,
-        time=t,
+        parts["position"],
+        time=parts["time"],
         fps=fps,
         individuals=names,
         source_software=meta.get("source_software", "CSV (wide)"),
         source_file=str(path),
-        attrs={**t_attrs, **u_attrs},
+        attrs={**t_attrs, **u_attrs, **parts["attrs"]},
     )
 
 

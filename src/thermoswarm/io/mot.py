@@ -44,11 +44,20 @@ def sniff(path: Path) -> bool:
     return True
 
 
-def read_mot_table(path: str | Path, *, allow_empty: bool = False) -> np.ndarray:
+#: The longest frame range a MOT file may span (10 million frames: 3.9 days at 30 fps);
+#: a larger one is refused before anything is allocated for it.
+MAX_FRAMES = 10_000_000
+
+
+def read_mot_table(
+    path: str | Path, *, allow_empty: bool = False, min_frame: int = 1
+) -> np.ndarray:
     """Rows of a MOT file as a float array ``(n, 10)``; missing trailing columns are -1.
 
-    Raises :class:`InputError` naming the file and line for a malformed row, and for an
-    empty file unless ``allow_empty``.
+    Frame numbers must be integers ``>= min_frame`` (MOTChallenge counts from 1; pass
+    0 to accept 0-based files) spanning at most :data:`MAX_FRAMES` frames; box widths
+    and heights must not be negative.  Raises :class:`InputError` naming the file and
+    line for a malformed row, and for an empty file unless ``allow_empty``.
     """
     path = Path(path)
     try:
@@ -58,6 +67,7 @@ def read_mot_table(path: str | Path, *, allow_empty: bool = False) -> np.ndarray
     except (UnicodeDecodeError, IsADirectoryError):
         raise InputError(f"{path}: not a MOTChallenge text file") from None
     rows = []
+    lines = []
     for lineno, line in enumerate(text.splitlines(), 1):
         line = line.strip()
         if not line or line.startswith("#"):
@@ -76,17 +86,41 @@ def read_mot_table(path: str | Path, *, allow_empty: bool = False) -> np.ndarray
         if len(parts) == 6:
             vals[6] = 1.0
         rows.append(vals)
+        lines.append(lineno)
     if not rows:
         if allow_empty:
             return np.zeros((0, 10))
         raise InputError(f"{path}: empty MOTChallenge file (no rows)")
     table = np.asarray(rows, dtype=np.float64)
-    if not np.all(np.isfinite(table[:, :6])):
-        raise InputError(f"{path}: non-finite frame, id or box value")
-    if np.any(table[:, 0] < 1) or np.any(table[:, 0] != np.round(table[:, 0])):
-        raise InputError(f"{path}: frame numbers must be integers >= 1 (MOT frames are 1-based)")
-    if np.any(table[:, 4] < 0) or np.any(table[:, 5] < 0):
-        raise InputError(f"{path}: negative box width or height")
+    at = np.asarray(lines)
+
+    def first(bad: np.ndarray) -> int:
+        return int(at[int(np.argmax(bad))])
+
+    bad = ~np.all(np.isfinite(table[:, :6]), axis=1)
+    if bad.any():
+        raise InputError(f"{path}:{first(bad)}: non-finite frame, id or box value")
+    f = table[:, 0]
+    bad = (f < min_frame) | (f != np.round(f))
+    if bad.any():
+        base = "1-based" if min_frame == 1 else f"counted from {min_frame}"
+        raise InputError(
+            f"{path}:{first(bad)}: frame number {f[np.argmax(bad)]:g} is not an integer "
+            f">= {min_frame} (MOT frames are {base})"
+        )
+    span = f.max() - f.min() + 1
+    if span > MAX_FRAMES:
+        raise InputError(
+            f"{path}: frames {f.min():.0f} to {f.max():.0f} span {span:,.0f} frames, "
+            f"more than the {MAX_FRAMES:,} accepted"
+        )
+    bad = (table[:, 4] < 0) | (table[:, 5] < 0)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(
+            f"{path}:{first(bad)}: negative box width or height "
+            f"({table[i, 4]:g} x {table[i, 5]:g})"
+        )
     return table
 
 

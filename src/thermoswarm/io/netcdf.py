@@ -11,6 +11,8 @@ get one keypoint, ``centroid``.
 
 from __future__ import annotations
 
+import gc
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -35,15 +37,42 @@ def sniff(path: Path) -> bool:
     return head.startswith(b"\x89HDF") or head.startswith(b"CDF")
 
 
+def _open(path: Path) -> xr.Dataset:
+    """Load a netCDF-4 file; any failure is one InputError naming the file.
+
+    The file is opened with h5py first: when h5netcdf's ``File`` fails inside its own
+    constructor (a truncated or corrupted file), its destructor later raises
+    ``AttributeError: 'File' object has no attribute '_writable'``, which Python prints
+    as "Exception ignored in ..." with a traceback.  A file h5py cannot open never
+    reaches h5netcdf; whatever a destructor still raises while the failed objects are
+    collected here is dropped (it concerns a file already reported as unreadable).
+    """
+    import h5py
+
+    try:
+        with h5py.File(path, "r"):
+            pass
+    except Exception as exc:  # OSError subclasses with long messages
+        raise InputError(f"{path}: not a readable netCDF file ({type(exc).__name__})") from None
+    hook = sys.unraisablehook
+    sys.unraisablehook = lambda unraisable: None
+    failed = None
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            return ds.load()
+    except Exception as exc:  # h5py/xarray raise many types for a bad file
+        failed = type(exc).__name__  # not the exception: its frames hold the broken File
+    finally:
+        gc.collect()  # finalise what failed while the quiet hook is in place
+        sys.unraisablehook = hook
+    raise InputError(f"{path}: not a readable netCDF file ({failed})")
+
+
 def read(
     path: Path, *, fps: float | None = None, px_per_mm: float | None = None, **options: Any
 ) -> xr.Dataset:
     check_options(path, "netcdf", options, OPTIONS)
-    try:
-        with xr.open_dataset(path, engine="h5netcdf") as ds:
-            ds = ds.load()
-    except Exception as exc:  # h5py/xarray raise many types for a bad file
-        raise InputError(f"{path}: not a readable netCDF file ({type(exc).__name__})") from None
+    ds = _open(path)
     if "position" not in ds:
         raise InputError(f"{path}: no 'position' variable; not a trajectory file")
     dims = set(ds["position"].dims)

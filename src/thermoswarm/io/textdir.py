@@ -8,9 +8,12 @@ header line names the columns (``t x y``, ``time x y``, ``frame x y``, ...); wit
 one the columns are ``t x y`` (change with the ``columns`` option, e.g.
 ``["frame", "x", "y"]``).
 
-A single file keeps its rows in order (repeated or decreasing times are kept for
-the kinematics to handle).  A folder is aligned on the sorted union of all files'
-times; a time that appears twice in one file is then an error.
+Each file's rows are sorted by time; an exact duplicate row is dropped and counted,
+two different rows at one time are resolved by the ``duplicates`` option (an error by
+default, or ``"first"`` / ``"mean"``) and counted.  Files whose times are all the same
+share one time axis; otherwise every individual keeps its own clock (no union of all
+files' times: see :mod:`thermoswarm.tracks`).  Frame numbers with ``--fps`` are one
+shared clock.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import xarray as xr
 
 from thermoswarm.errors import InputError
 from thermoswarm.io._common import (
+    DUPLICATES_HELP,
     SECONDS_PER_UNIT,
     as_float_column,
     assemble_long,
@@ -32,6 +36,7 @@ from thermoswarm.io._common import (
     check_options,
     length_scale,
     natural_key,
+    option_duplicates,
     option_str,
     option_str_list,
     require_fps,
@@ -46,6 +51,7 @@ OPTIONS = {
     "pattern": 'file name pattern(s) in a folder (default ["*.txt", "*.dat", "*.xy"])',
     "units": 'length unit when no --px-per-mm: "mm", "cm", "m", "um" or "px"',
     "time_unit": 'unit of the t column: "s" (default), "ms", "us", "min", "h"',
+    "duplicates": DUPLICATES_HELP,
 }
 NEEDS = "--px-per-mm or units=...; --fps when the files have frame numbers"
 
@@ -229,14 +235,11 @@ def read(
     scale, u_attrs = length_scale(path, units, px_per_mm, "these text files", from_file=from_file)
     attrs.update(u_attrs)
     names = [f.stem for f in files]
-    common = dict(fps=fps, source_software="text (t x y)", source_file=str(path), attrs=attrs)
-    if len(files) == 1:
-        cols, t = tables[0], times[0]
+    common = dict(fps=fps, source_software="text (t x y)", source_file=str(path))
+    for f, t in zip(files, times, strict=True):
         if not np.all(np.isfinite(t)):
             row = int(np.flatnonzero(~np.isfinite(t))[0])
-            raise InputError(f"{files[0]}: missing or non-finite time in data row {row + 1}")
-        pos = np.stack([cols["x"], cols["y"]], axis=1)[:, :, None, None] * scale
-        return make_tracks(pos, time=t, individuals=names, **common)
+            raise InputError(f"{f}: missing or non-finite time in data row {row + 1}")
     individual = np.concatenate(
         [np.full(t.size, n, dtype=object) for n, t in zip(names, times, strict=True)]
     )
@@ -249,7 +252,13 @@ def read(
         x=np.concatenate([c["x"] for c in tables]) * scale,
         y=np.concatenate([c["y"] for c in tables]) * scale,
         individual_order=names,
+        duplicates=option_duplicates(path, options),
+        individual_sources=files,
     )
     return make_tracks(
-        parts["position"], time=parts["time"], individuals=parts["individuals"], **common
+        parts["position"],
+        time=parts["time"],
+        individuals=parts["individuals"],
+        attrs={**attrs, **parts["attrs"]},
+        **common,
     )

@@ -250,7 +250,9 @@ def read(
         keypoint=None,
         individual_order=names,
         frame_rate=frame_rate,
+        clock="shared",  # TRex's times are those of one video's frames
     )
+    attrs.update(parts["attrs"])
     return make_tracks(
         parts["position"],
         time=parts["time"],

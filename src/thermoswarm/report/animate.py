@@ -101,16 +101,20 @@ def snapshot_strip(
     panels: int = 5,
     size: float = 2.6,
 ) -> Any:
-    """A row of snapshots at ``times`` (default evenly spaced), as the paper's figures."""
+    """A row of snapshots at ``times`` (default evenly spaced), as the paper's figures,
+    with axes in mm."""
     import matplotlib.pyplot as plt
 
     if times is None:
         times = list(_frame_times(tracks, panels))
-    fig, axes = plt.subplots(1, len(times), figsize=(size * len(times), size + 0.3))
-    for ax, t in zip(np.atleast_1d(axes), times, strict=True):
+    fig, axes = plt.subplots(1, len(times), figsize=(size * len(times), size + 0.6))
+    for i, (ax, t) in enumerate(zip(np.atleast_1d(axes), times, strict=True)):
         plot_frame(ax, tracks, float(t), info)
         ax.set_title(f"{t:.0f} s", fontsize=9)
-        ax.set_xticks([])
-        ax.set_yticks([])
+        # axes in mm, as the paper's snapshots: a few ticks, small labels
+        ax.locator_params(nbins=4)
+        ax.tick_params(labelsize=7, length=2, pad=1)
+        ax.set_xlabel("x (mm)", fontsize=7, labelpad=1)
+        ax.set_ylabel("y (mm)" if i == 0 else "", fontsize=7, labelpad=1)
     fig.tight_layout()
     return fig

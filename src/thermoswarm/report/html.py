@@ -13,7 +13,7 @@ Example
 ...     rep.table({"kT1": 12.5, "kT2": 48.0})
 >>> html = rep.render()
 
-Hand-written (about 200 lines) rather than a templating engine: the pages are simple
+Hand-written (about 300 lines) rather than a templating engine: the pages are simple
 and the core install stays free of Jinja and friends.
 """
 
@@ -23,7 +23,6 @@ import base64
 import contextlib
 import html
 import io
-import json
 import math
 import os
 from collections.abc import Iterator, Mapping, Sequence
@@ -47,6 +46,10 @@ figure{margin:1em 0} figcaption{font-size:.9em;color:#444}
 img,video{max-width:100%}
 pre{background:#f6f6f6;padding:.6em;overflow-x:auto;font-size:.85em}
 .note{color:#555;font-size:.9em} nav ul{columns:2}
+table.paper td,table.paper th{text-align:left;max-width:26em}
+table.paper td.v{font-weight:600;white-space:nowrap}
+.reproduced{color:#11702a} .partly{color:#8a6100} .differs{color:#a11} .notmeasured{color:#666}
+.empty{border:1px dashed #bbb;padding:.8em;color:#444;background:#fafafa}
 """
 
 
@@ -73,8 +76,10 @@ def format_value(value: Any, floatfmt: str = ".4g") -> str:
             value = value.tolist()
     except ImportError:  # pragma: no cover
         pass
-    if isinstance(value, Mapping | list | tuple):
-        return json.dumps(value, default=str)
+    if isinstance(value, Mapping):  # "a: 1, b: 2", never raw JSON
+        return ", ".join(f"{k}: {format_value(v, floatfmt)}" for k, v in value.items())
+    if isinstance(value, list | tuple):
+        return ", ".join(format_value(v, floatfmt) for v in value)
     return str(value)
 
 
@@ -91,6 +96,7 @@ class HtmlReport:
         self.toc = toc
         self._body: list[str] = []
         self._sections: list[tuple[str, str]] = []
+        self._tops: list[int] = []
         self._n_fig = 0
 
     # -- text ------------------------------------------------------------------------
@@ -124,10 +130,76 @@ class HtmlReport:
         anchor = f"s{len(self._sections) + 1}"
         self._sections.append((anchor, title))
         self._body.append(f'<section id="{anchor}"><h2>{html.escape(title)}</h2>')
+        self._tops.append(len(self._body))
+        self._body.append("")  # filled by section_top()
         try:
             yield self
         finally:
             self._body.append("</section>")
+
+    @property
+    def n_sections(self) -> int:
+        """Sections opened so far (the index the next one will have)."""
+        return len(self._sections)
+
+    def section_top(self, index: int, fragment: str) -> HtmlReport:
+        """Put an HTML fragment right under the heading of section ``index`` (0-based),
+        e.g. a summary written once the section's numbers are known."""
+        slot = self._tops[index]
+        self._body[slot] += fragment
+        return self
+
+    def link(self, text: str, href: str, *, before: str = "", after: str = "") -> HtmlReport:
+        """A paragraph with one link."""
+        self._body.append(
+            f'<p>{html.escape(before)}<a href="{html.escape(href, quote=True)}">'
+            f"{html.escape(text)}</a>{html.escape(after)}</p>"
+        )
+        return self
+
+    def empty(self, text: str) -> HtmlReport:
+        """A sentence in the place of a plot that would have no data."""
+        self._body.append(f'<p class="empty">{html.escape(text)}</p>')
+        return self
+
+    @staticmethod
+    def comparison_html(rows: Sequence[Mapping[str, str]], *, caption: str | None = None,
+                        first: str = "what") -> str:  # fmt: skip
+        """The paper beside our result: rows of ``claim``, ``paper``, ``ours``,
+        ``verdict`` and ``why`` (:mod:`thermoswarm.report.paper`) as an HTML table."""
+        cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
+        head = "".join(f"<th>{h}</th>" for h in (first, "the paper", "ours", "verdict", "why"))
+        body = []
+        for r in rows:
+            v = str(r.get("verdict", ""))
+            cls = v.replace(" ", "")
+            body.append(
+                "<tr>" + "".join(f"<td>{html.escape(str(r.get(k, '')))}</td>"
+                                 for k in ("claim", "paper", "ours"))
+                + f'<td class="v {cls}">{html.escape(v)}</td>'
+                + f"<td>{html.escape(str(r.get('why', '')))}</td></tr>"
+            )  # fmt: skip
+        return (f'<table class="paper">{cap}<thead><tr>{head}</tr></thead>'
+                f"<tbody>{''.join(body)}</tbody></table>")  # fmt: skip
+
+    @staticmethod
+    def verdicts_html(rows: Sequence[Mapping[str, str]]) -> str:
+        """A compact table of ``experiment``, ``claim`` and ``verdict`` rows."""
+        body = "".join(
+            f"<tr><td>{html.escape(r.get('experiment', ''))}</td>"
+            f"<td>{html.escape(r.get('claim', ''))}</td>"
+            f'<td class="v {r.get("verdict", "").replace(" ", "")}">'
+            f"{html.escape(r.get('verdict', ''))}</td></tr>"
+            for r in rows
+        )
+        head = "<th>experiment</th><th>what the paper shows</th><th>verdict</th>"
+        return f'<table class="paper"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+    def comparison(self, rows: Sequence[Mapping[str, str]], *, caption: str | None = None
+                   ) -> HtmlReport:  # fmt: skip
+        """:meth:`comparison_html` appended to the page."""
+        self._body.append(self.comparison_html(rows, caption=caption))
+        return self
 
     # -- tables ----------------------------------------------------------------------
     def table(

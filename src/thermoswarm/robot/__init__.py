@@ -1,10 +1,8 @@
-"""The robot: the paper's algorithms as a controller a microcontroller can run.
+"""The robot's own code: what a MicroPython board runs, and nothing else.
 
-- :mod:`thermoswarm.robot.controller`: the controller itself, plain Python that runs on
-  MicroPython (it imports only ``math``); copy it to the board with its ``main.py``.
-- :mod:`thermoswarm.robot.sim`: runs the same controller inside the simulator
-  (:class:`~thermoswarm.robot.sim.ControllerPolicy`) and against a simulated robot with
-  photoresistors (:class:`~thermoswarm.robot.sim.SimulatedHAL`).
+:mod:`thermoswarm.robot.controller` is the paper's algorithms for one robot in plain
+Python that imports only ``math``; copy it to the board.  The simulator runs the same
+controller through :mod:`thermoswarm.sim.robot`.
 """
 
 from thermoswarm.robot.controller import ALGORITHMS, DEFAULTS, Config, Controller, Rng

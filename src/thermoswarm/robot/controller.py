@@ -1,37 +1,11 @@
 """The robot's controller: the paper's Algorithms 1-5 for one robot.
 
-This file is deliberately plain: it runs unchanged on MicroPython (copy it to the
-board; ``mpy-cross controller.py`` compiles it) and on CPython, where the simulator
-runs it (``thermoswarm.robot.sim``).  It imports only ``math``; no NumPy, no
-dataclasses, no type annotations; the random numbers come from a small portable
-generator (:class:`Rng`) so that a seed gives the same draws on the board and in the
-simulator.
-
-Every algorithm is one loop (PAPER_NOTES section 4)::
-
-    TurnToAngle(0)          # Algorithm 1: turn in steps until l1 == l2 and l3 == 0
-    sample (theta, v)       # the maximum-entropy laws of the algorithm
-    turn to theta; move at v for one control period
-
-Laws (PAPER_NOTES 6.1, 6.2, 6.4): the energy ``E ~ Exponential(kT)`` and the speed
-``v = sqrt(2 E)`` (Rayleigh); headings relative to the light:
-
-==========================  ================================================
-``compression`` (Alg. 3)    ``theta ~ U(-180, 180)``
-``transport-connected`` (4) ``theta ~ U(-90, 90)``
-``transport-free`` (5)      ``kT`` switched by light; heading uniform, or kept
-                            and turned by the exponential steering law
-``narrow-road`` (2)         ``theta ~ N(goal, sigma)``, goal 0 or 180 deg
-==========================  ================================================
-
-Algorithm 5's defaults are the combination that the mechanism study found to move
-the object toward the light (``docs/scenarios_transport.md``): lit robots cold (the
-paper's equation) and persistent headings; the paper's captions (lit robots hot) with
-fresh uniform headings push the object away from the light.
-
-Hardware: the robot talks to its motors and photoresistors through a small "HAL"
-object that the board's ``main.py`` provides (see :class:`HAL`).  Units: mm, s, rad;
-the HAL converts to PWM and milliseconds.
+Runs unchanged on MicroPython and on CPython (the simulator runs it through
+``thermoswarm.sim.robot``): it imports only ``math`` and has no annotations or
+dataclasses.  Random numbers come from :class:`Rng`, 32-bit integer arithmetic, so a
+seed gives the same draws on the board and in the simulator.  The board supplies a
+:class:`HAL`.  Units: mm, s, rad; energies in mm^2/s^2 per unit mass.  The laws of each
+algorithm, and what changes on boards with single-precision floats: ``docs/robot.md``.
 """
 
 import math

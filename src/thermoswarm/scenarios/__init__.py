@@ -11,6 +11,8 @@ import importlib
 
 from thermoswarm.errors import ConfigError
 from thermoswarm.scenarios.base import Scenario
+from thermoswarm.scenarios.registry import REGISTRY as _REGISTRY
+from thermoswarm.scenarios.registry import register
 
 # name -> module that defines and registers it
 _MODULES: dict[str, str] = {
@@ -20,13 +22,6 @@ _MODULES: dict[str, str] = {
     "transport-connected": "thermoswarm.scenarios.transport_connected",
     "transport-free": "thermoswarm.scenarios.transport_free",
 }
-_REGISTRY: dict[str, type[Scenario]] = {}
-
-
-def register(cls: type[Scenario]) -> type[Scenario]:
-    """Class decorator: make a scenario available by its ``name``."""
-    _REGISTRY[cls.name] = cls
-    return cls
 
 
 def names() -> list[str]:
@@ -39,7 +34,13 @@ def get(name: str) -> type[Scenario]:
     if name not in _REGISTRY and name in _MODULES:
         importlib.import_module(_MODULES[name])
     if name not in _REGISTRY:
-        raise ConfigError(f"unknown scenario {name!r}; expected one of: {', '.join(names())}")
+        import difflib
+
+        close = difflib.get_close_matches(str(name), names(), n=1, cutoff=0.6)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ConfigError(
+            f"unknown scenario {name!r}{hint}; expected one of: {', '.join(names())}"
+        )
     return _REGISTRY[name]
 
 

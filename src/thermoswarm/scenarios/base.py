@@ -11,35 +11,65 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Literal
-
-import numpy as np
-import xarray as xr
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from thermoswarm.config import check
-from thermoswarm.policy import Policy
-from thermoswarm.sim.engine import EngineParams, Sensing, Simulator, SwarmState
-from thermoswarm.sim.world import World
+from thermoswarm.errors import ConfigError
 
-__all__ = ["Numerics", "Recording", "Setup", "Scenario", "wrap"]
+# Only the config loader at import time: the parameter classes are read (and `--set`
+# checked) before NumPy, the engine, xarray and SciPy are imported.
+if TYPE_CHECKING:
+    import numpy as np
+    import xarray as xr
+
+    from thermoswarm.policy import Policy
+    from thermoswarm.sim.engine import EngineParams, Sensing, Simulator, SwarmState
+    from thermoswarm.sim.world import World
+
+__all__ = ["Numerics", "Recording", "Setup", "Scenario", "wrap", "build_simulator"]
 
 
 @dataclass(frozen=True)
 class Numerics:
-    """The ``[engine]`` section: numerical settings (see :class:`EngineParams`)."""
+    """The ``[engine]`` section: numerical settings (see :class:`EngineParams`).
+
+    Attributes
+    ----------
+    dt : float
+        Time step (s).
+    iterations : int
+        Fewest contact-projection sweeps per step.
+    max_iterations : int
+        Most contact-projection sweeps per step.
+    overlap_tol : float
+        Sweeping stops once the largest overlap is below this fraction of the diameter.
+    relax : float
+        Fraction of a robot-robot overlap removed per sweep (1: all of it).
+    skin : float
+        Neighbour-list margin as a fraction of the diameter.
+    cell_size : float or None
+        Neighbour-grid cell size (mm); default from the diameter and the density.
+    desync : bool
+        Stagger the robots' control periods (real robots are not synchronised).
+    backend : str
+        ``"cpu"`` (Numba) or ``"gpu"`` (NVIDIA Warp: :mod:`thermoswarm.sim.gpu`).
+    """
 
     dt: float = 0.1
     iterations: int = 2
-    max_iterations: int = 50
+    max_iterations: int = 500
     overlap_tol: float = 0.005
     relax: float = 1.0
-    skin: float = 0.1
+    skin: float = 0.5
     cell_size: float | None = None
     desync: bool = True
+    backend: Literal["cpu", "gpu"] = "cpu"
 
     def engine(
         self, *, tau: float, radius: float, mode: str = "overdamped", drag: float = 1.0
     ) -> EngineParams:
+        from thermoswarm.sim.engine import EngineParams
+
         return EngineParams(
             dt=self.dt,
             tau=tau,
@@ -102,12 +132,28 @@ class Setup:
     info: dict[str, Any] = field(default_factory=dict)
 
     def simulator(self) -> Simulator:
+        from thermoswarm.sim.engine import Simulator
+
         return Simulator(self.world, self.engine, self.policy, self.sensing)
+
+
+def build_simulator(setup: Setup, backend: str = "cpu") -> Simulator:
+    """``setup.simulator()`` on the CPU; the ``[engine] backend`` engine otherwise."""
+    if backend == "cpu":
+        return setup.simulator()
+    if type(setup).simulator is not Setup.simulator:
+        raise ConfigError(
+            f"engine.backend = {backend!r} is not available here: this scenario moves its "
+            "robots with a simulator of its own, which runs on the CPU"
+        )
+    from thermoswarm.sim.backend import make_simulator
+
+    return make_simulator(setup.world, setup.engine, setup.policy, setup.sensing, backend=backend)
 
 
 def wrap(a: np.ndarray) -> np.ndarray:
     """Angles into [-pi, pi)."""
-    return (a + np.pi) % (2 * np.pi) - np.pi
+    return (a + math.pi) % (2 * math.pi) - math.pi  # math.pi == np.pi
 
 
 class Scenario:
@@ -152,6 +198,8 @@ class Scenario:
         self, sim: Simulator, state: SwarmState, acc: dict[str, np.ndarray]
     ) -> dict[str, np.ndarray]:
         """Per-frame extras in id order."""
+        import numpy as np
+
         if sim.params.mode == "inertial":
             v = state.by_id(state.vel)
             return {"heading": np.arctan2(v[:, 1], v[:, 0]), "speed": np.hypot(v[:, 0], v[:, 1])}

@@ -28,8 +28,8 @@ from scipy import stats
 from thermoswarm.config import check
 from thermoswarm.maxent import SpeedLaw, kT_for_mean_speed
 from thermoswarm.policy import BoltzmannUniform
-from thermoswarm.scenarios import register
 from thermoswarm.scenarios.base import Numerics, Recording, Scenario, Setup
+from thermoswarm.scenarios.registry import register
 from thermoswarm.sim.engine import Simulator, SwarmState, place_lattice
 from thermoswarm.sim.world import box_world
 

@@ -1,76 +1,35 @@
 """``compression``: Algorithm 3 between two walls pushed by a constant force.
 
-The paper's second robot experiment (PAPER_NOTES sections 4, 5 and 6.5): ``n`` robots
-run Algorithm 3 (Boltzmann speed at constant ``kT``, uniform heading, re-drawn every
-``tau``) between static side walls and an upper and a lower wall, each pushed toward
-the robots by a constant force ``F`` and free to slide vertically (``walls = "force"``),
-or held in place (``walls = "held"``: a fixed area, for pressure versus temperature).
-The claim to reproduce: the swarm's pressure-volume relation is that of an ideal gas,
-and at fixed density the pressure grows in proportion to the temperature.
+``n`` robots (Boltzmann speed at constant ``kT``, uniform heading re-drawn every ``tau``)
+between static side walls and a top and a bottom wall, each pushed toward the robots by
+a constant force and sliding vertically (``walls = "force"``) or held in place
+(``walls = "held"``).  The claim: the swarm's pressure-area relation is an ideal gas's at
+``kT_eff = drag <v^2> tau / 4``, and at fixed density the pressure grows with ``kT``.
 
-Physics and units
------------------
-Forces are in units of the robot drag (drag 1: force = mm/s); pressure is force per
-unit length of wall.  A robot that re-draws a uniform heading every ``tau`` diffuses
-with ``D = <v^2> tau / 4`` (mm^2/s), and a dilute swarm of drag-1 robots presses on a
-wall like an ideal gas at ``kT_eff = drag D``: ``P A_free = n kT_eff`` with the free area
-``A_free = (Lx - d) (Ly - d)`` that the disc centres can reach (PAPER_NOTES 6.5).  So the
-walls settle at ``Ly - d = n kT_eff / F``, where the walls start (no long settling).
-
-Two corrections to the ideal gas, both measured (``docs/scenarios_road_compression.md``):
-a robot that reaches a wall stays pressed against it for the rest of its run (persistence
-length ``l = <v> tau``), so robots pile up at the walls and ``Z = P A_free / (n kT_eff)``
-falls below 1 by about ``0.73 l / h`` (``h = Ly - d``; measured for h / l = 5-20 at packing
-fraction 0.01); and the discs' own area raises ``Z`` at higher packing fractions, as in
-any hard-disc gas.  Choose ``h`` well above ``l`` (or a short ``tau``) for the ideal gas.
-
-Measurement
------------
-Every step the scenario accumulates the walls' contact forces (the force robots exert,
-from the engine's bookkeeping), the wall separation and the mean ``v^2`` of the speeds
-the robots are holding (the draws of Algorithm 3), in sub-batches of equal length.
-After ``settle`` seconds, sub-batches are merged into batches ``batch_relaxations``
-times longer than the relaxation time ``t_relax = h^2 / (pi^2 D)`` of the density
-profile (at least ``min_batches`` batches; when the run is too short for batches that
-long, ``se_reliable`` is false: short batches underestimate the error several-fold).
-Means are over the window; standard errors are batch-means errors.
-
-Metrics (``metrics.json``): ``n``, ``walls``, ``force``, ``kT``, ``tau``, ``width``,
-``pressure`` (mean of the two walls, force per mm), ``pressure_se``, ``pressure_top``,
-``pressure_bottom``, ``pressure_applied`` (``F / (Lx - d)``; null with held walls),
-``height`` (wall separation ``Ly``, mm) and ``height_se``, ``area`` (``Lx Ly``, mm^2),
-``free_area`` (``(Lx - d)(Ly - d)``), ``packing_fraction`` (``n pi r^2 / area``),
-``density`` (robots per mm^2 of area), ``kT_eff`` (``drag <v^2> tau / 4``, mm^2/s),
-``kT_eff_theory`` (from the speed law), ``D`` (mm^2/s), ``Z`` and ``Z_se``,
-``ideal_height`` (``n kT_eff / F + d``; force mode), ``t_relax``, ``batch_s``,
-``n_batches``, ``se_reliable``, ``settle_s``, ``window_s``, ``at_limit_fraction``
-(fraction of steps a wall sat at its travel limit: the measurement is then not at
-force balance), ``series`` (time, pressure and height, averaged over sub-batches),
-``geometry`` (what :func:`plot_frame` needs), overlap diagnostics.
-
-Sweeps (:func:`isotherm`, :func:`temperature_series`, :func:`temperature_for_density`)
-run many configurations through :func:`thermoswarm.sweep.run_sweep` (any executor: a
-local process pool by default) and return tidy tables; :func:`study_figure` draws them.
+Units: mm, s; forces in units of the robot drag (drag 1: force = mm/s); pressure is
+force per mm of wall.  Pressure and height are batch means after ``settle`` seconds
+(batches a few relaxation times ``h^2 / (pi^2 D)`` long).  The sweeps of this experiment
+(isotherm, pressure against temperature, temperature at fixed density) are in
+:mod:`thermoswarm.sweep.compression`; :func:`study_figure` draws their tables.  Physics,
+metrics keys and measurements: ``docs/scenarios_road_compression.md``.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 import xarray as xr
 
 from thermoswarm.config import check, check_positive
-from thermoswarm.errors import ConfigError, ThermoswarmError
+from thermoswarm.errors import ConfigError
 from thermoswarm.maxent import kT_for_mean_speed, speed_law
 from thermoswarm.policy import BoltzmannUniform
-from thermoswarm.scenarios import register
 from thermoswarm.scenarios.base import Numerics, Recording, Scenario, Setup
+from thermoswarm.scenarios.registry import register
 from thermoswarm.sim import kernels as K
 from thermoswarm.sim.engine import Simulator, SwarmState, place_lattice
 from thermoswarm.sim.world import Piston, box_world
@@ -83,10 +42,6 @@ __all__ = [
     "batch_means",
     "measure",
     "linear_fit",
-    "isotherm",
-    "temperature_series",
-    "temperature_for_density",
-    "sweep_table",
     "plot_frame",
     "plot_isotherm",
     "plot_pressure_temperature",
@@ -476,7 +431,7 @@ def measure(
     expected_D: float,
 ) -> dict[str, Any]:
     """Pressure, area, ``kT_eff`` and ``Z`` with batch-means errors from the sub-batch sums
-    of :meth:`Compression.observe` (see the module docstring)."""
+    of :meth:`Compression.observe` (batching: ``docs/scenarios_road_compression.md``)."""
     steps = acc["steps"].astype(float)
     used = steps > 0
     t_end = (np.arange(steps.size) + 1) * sub_steps * dt
@@ -563,163 +518,6 @@ def measure(
         "window_s": window,
         "series": series,
     }
-
-
-# --------------------------------------------------------------------------------------
-# Sweeps
-
-
-def _run_sweep(
-    base: dict[str, Any],
-    grid: dict[str, list[Any]],
-    seeds: Iterable[int],
-    out: str | Path,
-    executor: Any = None,
-) -> list[dict[str, Any]]:
-    """:func:`thermoswarm.sweep.run_sweep` of ``compression`` over ``grid`` x ``seeds``;
-    the records as dicts (``run_id``, ``params``, ``seed``, ``out``, ``status``,
-    ``metrics``, ``error``)."""
-    from thermoswarm.sweep import SweepSpec, run_sweep
-
-    spec = SweepSpec(
-        scenario="compression", out=Path(out), base=base, grid=grid, seeds=[int(s) for s in seeds]
-    )
-    return [dataclasses.asdict(r) for r in run_sweep(spec, executor)]
-
-
-#: Columns of the tidy tables the sweeps return.
-TABLE_COLUMNS = (
-    "walls", "force", "kT", "n", "width", "tau", "pressure", "pressure_se",
-    "pressure_applied", "height", "area", "free_area", "packing_fraction", "density",
-    "kT_eff", "kT_eff_se", "Z", "Z_se", "se_reliable", "at_limit_fraction",
-)  # fmt: skip
-
-
-def sweep_table(records: Iterable[dict[str, Any]]) -> Any:
-    """A :class:`pandas.DataFrame` with one row per run: ``run_id``, ``seed``, ``status``,
-    ``error`` and the metrics in :data:`TABLE_COLUMNS` (failed runs are kept, with NaN)."""
-    import pandas as pd
-
-    rows = []
-    for r in records:
-        m = r.get("metrics") or {}
-        row = {"run_id": r.get("run_id"), "seed": r.get("seed"), "status": r.get("status"),
-               "error": r.get("error")}  # fmt: skip
-        row.update({c: m.get(c) for c in TABLE_COLUMNS})
-        rows.append(row)
-    return pd.DataFrame(rows, columns=["run_id", "seed", "status", "error", *TABLE_COLUMNS])
-
-
-def _base(base: dict[str, Any] | None) -> dict[str, Any]:
-    b = dict(base or {})
-    rec = dict(b.get("record", {}))
-    rec.setdefault("netcdf", False)  # sweeps need the metrics, not the trajectories
-    rec.setdefault("interval", 50.0)
-    b["record"] = rec
-    return b
-
-
-def isotherm(
-    forces: Sequence[float],
-    *,
-    out: str | Path,
-    kT: float | None = None,
-    base: dict[str, Any] | None = None,
-    seeds: Sequence[int] = (0,),
-    executor: Any = None,
-) -> Any:
-    """Pressure versus area at fixed temperature: one run per force and seed.
-
-    Returns the tidy table of :func:`sweep_table` (columns ``force``, ``pressure``,
-    ``free_area``, ``kT_eff``, ``Z``...).  ``base`` holds further parameters (nested
-    dicts as in a config file); ``kT`` overrides its temperature.
-    """
-    b = _base(base)
-    if kT is not None:
-        b["kT"] = float(kT)
-    b["walls"] = "force"
-    recs = _run_sweep(b, {"force": [float(f) for f in forces]}, seeds, out, executor)
-    return sweep_table(recs)
-
-
-def temperature_series(
-    kTs: Sequence[float],
-    *,
-    out: str | Path,
-    force: float | None = None,
-    walls: Literal["held", "force"] = "held",
-    base: dict[str, Any] | None = None,
-    seeds: Sequence[int] = (0,),
-    executor: Any = None,
-) -> Any:
-    """Pressure versus temperature: held walls (fixed density; the default) or walls
-    pushed by a fixed ``force`` (then the area grows with T).  With held walls the
-    height is that of ``base`` (or the ideal-gas height at ``force`` and the first
-    temperature, so that all runs share one area)."""
-    b = _base(base)
-    if force is not None:
-        b["force"] = float(force)
-    b["walls"] = walls
-    if walls == "held" and b.get("height") is None:
-        first = {k: v for k, v in b.items() if k not in ("engine", "record", "walls")}
-        first["kT"] = float(kTs[0])
-        b["height"] = CompressionParams(**first).initial_height
-    recs = _run_sweep(b, {"kT": [float(t) for t in kTs]}, seeds, out, executor)
-    return sweep_table(recs)
-
-
-def temperature_for_density(
-    forces: Sequence[float],
-    *,
-    packing_fraction: float,
-    out: str | Path,
-    base: dict[str, Any] | None = None,
-    seeds: Sequence[int] = (0,),
-    iterations: int = 2,
-    executor: Any = None,
-) -> Any:
-    """The temperature that holds the density fixed as the force varies (panel w).
-
-    For each force the first guess is the ideal-gas temperature for the target area;
-    each further iteration rescales ``kT`` by the ratio of the target free height to the
-    measured one (exact for an ideal gas).  Returns the table of the last iteration
-    with a column ``iteration``; the density reached is in ``packing_fraction``.
-    """
-    import pandas as pd
-
-    b = _base(base)
-    b["walls"] = "force"
-    p0 = CompressionParams(**{k: v for k, v in b.items() if k not in ("engine", "record")})
-    check(0 < packing_fraction < 0.8, "packing_fraction", "in (0, 0.8)", packing_fraction)
-    check(iterations >= 1, "iterations", "a positive integer", iterations)
-    area = p0.n * math.pi * p0.radius**2 / packing_fraction
-    h_target = area / p0.width
-    hf_target = h_target - p0.diameter
-    ms_per_kT = speed_law(p0.speed_law, 1.0).mean_square()  # <v^2> per unit kT
-    out = Path(out)
-    out.mkdir(exist_ok=True)
-    kTs = {float(F): F * hf_target / p0.n / (ms_per_kT * p0.tau / 4) for F in forces}
-    table = None
-    for it in range(iterations):
-        frames = []
-        for F, kT in kTs.items():
-            b_it = dict(b, force=F, kT=kT, height=h_target)
-            recs = _run_sweep(b_it, {"force": [F]}, seeds, out / f"iter{it}", executor)
-            frames.append(sweep_table(recs))
-        table = pd.concat(frames, ignore_index=True)
-        table["iteration"] = it
-        failed = table[table["status"] == "failed"]
-        if len(failed):
-            row = failed.iloc[0]
-            raise ThermoswarmError(
-                f"temperature_for_density: run {row['run_id']} (force {row['force']}) "
-                f"failed: {row['error']}"
-            )
-        means = table.groupby("force")[["height", "kT"]].mean()
-        for F in kTs:
-            hf = float(means.loc[F, "height"]) - p0.diameter
-            kTs[F] = float(kTs[F] * hf_target / hf)
-    return table
 
 
 # --------------------------------------------------------------------------------------

@@ -44,7 +44,6 @@ from thermoswarm.config import check
 from thermoswarm.errors import ConfigError
 from thermoswarm.maxent import kT_for_mean_speed, speed_law
 from thermoswarm.policy import ConnectedTransport, TurnTimeCharged
-from thermoswarm.scenarios import register
 from thermoswarm.scenarios._transport import (
     TransportSensing,
     TransportSensor,
@@ -55,6 +54,7 @@ from thermoswarm.scenarios._transport import (
     nearest_frame,
 )
 from thermoswarm.scenarios.base import Numerics, Recording, Scenario, Setup
+from thermoswarm.scenarios.registry import register
 from thermoswarm.sim import kernels as K
 from thermoswarm.sim.engine import Simulator, SwarmState
 from thermoswarm.sim.geometry import Shapes

@@ -53,7 +53,6 @@ from thermoswarm.config import check
 from thermoswarm.errors import ConfigError
 from thermoswarm.maxent import kT_for_mean_speed
 from thermoswarm.policy import PHASE_HOT, LightSwitchedTransport, TurnTimeCharged
-from thermoswarm.scenarios import register
 from thermoswarm.scenarios._transport import (
     TransportSensing,
     TransportSensor,
@@ -66,6 +65,7 @@ from thermoswarm.scenarios._transport import (
     shadow_polygon,
 )
 from thermoswarm.scenarios.base import Numerics, Recording, Scenario, Setup, wrap
+from thermoswarm.scenarios.registry import register
 from thermoswarm.sim import kernels as K
 from thermoswarm.sim.engine import Simulator, SwarmState, place_lattice
 from thermoswarm.sim.geometry import Shapes

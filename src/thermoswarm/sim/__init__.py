@@ -9,6 +9,7 @@ from thermoswarm.sim.engine import (
     Simulator,
     SwarmState,
     place_lattice,
+    set_threads,
     simulator,
 )
 from thermoswarm.sim.world import Body, Piston, World, box_world, polygon_segments
@@ -19,6 +20,7 @@ __all__ = [
     "Simulator",
     "SwarmState",
     "place_lattice",
+    "set_threads",
     "simulator",
     "Body",
     "Piston",

@@ -11,9 +11,9 @@ Each robot moves at the velocity its policy commands -- speed and heading held f
 one control period ``tau`` -- and contacts correct the motion.  Contact method:
 **mass-weighted position projection** (the overdamped limit of rigid contact, as in
 Maury & Venel's crowd model and in position-based dynamics).  Each step every robot
-first moves by ``v dt``; then ``iterations`` Jacobi sweeps remove overlaps.  In a sweep,
-each overlapping robot pair moves apart by half the overlap each (``relax`` scales it),
-a robot touching a static wall moves out by the whole overlap, and a robot touching a
+first moves by ``v dt``; then Jacobi sweeps remove overlaps.  In a sweep, each
+overlapping robot pair moves apart by half the overlap each (``relax`` scales it), a
+robot touching a static wall moves out by the whole overlap, and a robot touching a
 movable body or a force-driven wall shares the overlap with it in proportion to the
 mobilities (``1/drag``) -- which is exactly how an overdamped body of drag ``g_b`` pushed
 by ``k`` robots of drag ``g_r`` moves: at ``k g_r v / (k g_r + g_b)``.  The contact force
@@ -21,15 +21,35 @@ that robots exert on a body or wall is ``g_r x (the correction the robots receiv
 summed over the step; for a force-driven wall in steady state it balances the applied
 force, which is how pressure is measured.
 
+Sweeping stops once the largest overlap is below ``overlap_tol`` (0.5 % of the diameter
+by default).  The overlap each sweep measures is exact, and the step's result is the
+configuration the last sweep measured, so the overlap the engine reports
+(``state.counters[1]``) is the largest overlap actually left by any step.
+
+Neighbour search: **Verlet lists with a skin** (see :mod:`thermoswarm.sim.kernels`).
+Each robot's list holds the robots within ``2 r + skin`` of it when the list was built;
+the lists are rebuilt as soon as any robot is more than ``skin / 2`` from where it was
+then -- checked after the commanded motion *and after every sweep*, since the sweeps
+move robots too.  Why this method: it cannot miss a pair (a pair farther apart than
+``2 r + skin`` cannot close that gap while neither moves ``skin / 2``), at any density
+and speed, and the lists survive several steps, so the cost of finding neighbours is
+paid every few steps instead of every step.  (Lists rebuilt once per step without this
+check missed pairs that came into contact during the sweeps: up to 8 % of the diameter
+of overlap at packing fraction 0.7, unseen by the overlap counter.)
+
 Time step: ``dt = 0.1 s`` by default.  At the paper's speeds (mean 10-20 mm/s; robots top
-out near 33 mm/s) a robot moves at most a few mm per step (about 10 % of its 33 mm
-diameter even at the 1e-4 quantile of the Rayleigh law), so a few Jacobi sweeps keep
-overlaps below 2 % of the diameter at packing fraction 0.5 (measured: ``make bench``,
-and ``tests/sim``).  A smaller ``dt`` is needed only for much faster robots; the
-control period ``tau`` must be a multiple of ``dt``.
+out near 33 mm/s) a robot moves a few mm per step.  Overlaps stay below 2 % of the
+diameter at packing fractions up to 0.8 and mean speeds up to 33 mm/s at this ``dt``
+(tested with an independent KD-tree check after every step, ``tests/sim``).  The control
+period ``tau`` must be a multiple of ``dt``.
 
 Why not soft springs: keeping overlaps below 2 % with springs needs a stiffness, and
 hence a time step, an order of magnitude smaller; projection has no stiffness.
+
+Threads: the kernels run on Numba's threads.  An explicit count -- :func:`set_threads`,
+``numba.set_num_threads`` before the first step, ``thermoswarm bench --threads`` -- is
+always respected; only when none was given does the engine choose (one thread below
+:data:`SERIAL_BELOW` robots, where waking a second thread costs more than it saves).
 
 Inertial mode (particles)
 -------------------------
@@ -67,6 +87,9 @@ __all__ = [
     "simulator",
     "place_lattice",
     "LIGHT_DIRECTION",
+    "SERIAL_BELOW",
+    "set_threads",
+    "threads_for",
 ]
 
 #: World-frame direction of heading 0 (towards the light) when no light model is set.
@@ -89,9 +112,10 @@ class EngineParams:
     mode : {"overdamped", "inertial"}
         Robots (commanded velocity + contacts) or elastic particles.
     iterations : int
-        Minimum Jacobi projection sweeps per step (overdamped).
+        Minimum Jacobi projection sweeps per step (overdamped).  Each sweep measures the
+        overlaps of the current configuration; all but the last also correct them.
     max_iterations : int
-        Most sweeps per step; sweeping stops earlier once the largest overlap found is
+        Most sweeps per step; sweeping stops earlier once the largest overlap measured is
         below ``overlap_tol``.
     overlap_tol : float
         Target largest overlap, as a fraction of the diameter.
@@ -100,10 +124,13 @@ class EngineParams:
     drag : float
         Robot drag coefficient (force per mm/s); sets the force unit.
     skin : float
-        Neighbour-list margin as a fraction of the diameter: pairs closer than
-        ``2 r (1 + skin)`` at the start of a step are checked in every sweep of it.
+        Verlet-list margin as a fraction of the diameter: the lists hold the pairs closer
+        than ``2 r (1 + skin)``, and are rebuilt once any robot has moved ``r skin`` (half
+        the margin) since they were built.  Any value is exact; it trades list length
+        against how often lists are rebuilt.
     cell_size : float or None
-        Grid cell size (mm); default ``max(2 r (1 + skin), sqrt(area / n))``.
+        Grid cell size (mm); at least ``2 r (1 + skin)``; default
+        ``max(2 r (1 + skin), sqrt(area / n))``.
     desync : bool
         Stagger the robots' control periods (real robots are not synchronised).
     """
@@ -113,11 +140,11 @@ class EngineParams:
     radius: float = 16.5
     mode: Literal["overdamped", "inertial"] = "overdamped"
     iterations: int = 2
-    max_iterations: int = 50
+    max_iterations: int = 500
     overlap_tol: float = 0.005
     relax: float = 1.0
     drag: float = 1.0
-    skin: float = 0.2
+    skin: float = 0.5
     cell_size: float | None = None
     desync: bool = True
 
@@ -151,10 +178,11 @@ class EngineParams:
         check(self.drag > 0 and math.isfinite(self.drag), "drag", "a positive number", self.drag)
         check(0 <= self.skin <= 1, "skin", "in [0, 1]", self.skin)
         if self.cell_size is not None:
+            reach = 2 * self.radius * (1 + self.skin)
             check(
-                self.cell_size >= 2 * self.radius,
+                self.cell_size >= reach,
                 "cell_size",
-                f"at least the diameter {2 * self.radius} mm",
+                f"at least the list reach 2 r (1 + skin) = {reach:g} mm",
                 self.cell_size,
             )
 
@@ -173,12 +201,15 @@ class SwarmState:
     Attributes
     ----------
     pos : (n, 2) mm
-    fcols : (2, n) rows heading (rad), speed (mm/s)
+    fcols : (2, n) float64 rows heading (rad), speed (mm/s) (row indices
+        :data:`kernels.HEADING`, :data:`kernels.SPEED`; views ``heading``, ``speed``)
     icols : (3, n) int32 rows id, group, steps left in the control period
+        (:data:`kernels.ID`, :data:`kernels.GROUP`, :data:`kernels.TIMER`; views ``ids``,
+        ``group``, ``timer``)
     udir : (2, n) float32 cos and sin of each heading, computed once per decision (the
         kernels move robots along it: no trigonometry per step)
     vel : (n, 2) mm/s (inertial mode; empty otherwise)
-    bodies : (B, 11) packed movable discs (see :data:`kernels.B_COLS`); use the views
+    bodies : (B, 11) packed movable discs (columns ``kernels.BODY_*``); use the views
         ``body_pos``, ``body_force`` (mean contact force robots exerted during the last
         step) and ``body_ext_force`` (an external force a scenario may set)
     pistons : (P, 12) packed force-driven walls; views ``piston_pos`` and
@@ -186,8 +217,12 @@ class SwarmState:
         component along the world's +axis: it points away from the robots, so it is
         positive for a piston with ``side = -1`` and negative for ``side = +1``)
     step : int; time : float (s); rng : the run's only random generator
-    counters : int64 (2,) overdamped: total sweeps, largest overlap left (in 1e-6 mm);
-        inertial: pair collisions, wall collisions
+    counters : int64 (2,) overdamped: total sweeps, largest overlap left by any step
+        (in 1e-6 mm, exact: measured on the final positions of each step); inertial: pair
+        collisions, wall collisions
+    ref : (n, 2) mm, where each robot was when the neighbour lists were last built (the
+        lists are a function of it, so it travels with the state: a resumed run rebuilds
+        exactly the lists it had).  Default: a copy of ``pos``.
     """
 
     pos: np.ndarray
@@ -201,6 +236,11 @@ class SwarmState:
     time: float
     rng: np.random.Generator
     counters: np.ndarray = field(default_factory=lambda: np.zeros(2, np.int64))
+    ref: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.ref is None or self.ref.shape != self.pos.shape:
+            self.ref = np.array(self.pos, dtype=np.float64, order="C", copy=True)
 
     @property
     def n(self) -> int:
@@ -208,43 +248,43 @@ class SwarmState:
 
     @property
     def heading(self) -> np.ndarray:
-        return self.fcols[0]
+        return self.fcols[K.HEADING]
 
     @property
     def speed(self) -> np.ndarray:
-        return self.fcols[1]
+        return self.fcols[K.SPEED]
 
     @property
     def ids(self) -> np.ndarray:
-        return self.icols[0]
+        return self.icols[K.ID]
 
     @property
     def group(self) -> np.ndarray:
-        return self.icols[1]
+        return self.icols[K.GROUP]
 
     @property
     def timer(self) -> np.ndarray:
-        return self.icols[2]
+        return self.icols[K.TIMER]
 
     @property
     def body_pos(self) -> np.ndarray:
-        return self.bodies[:, K.BX : K.BY + 1]
+        return self.bodies[:, K.BODY_X : K.BODY_Y + 1]
 
     @property
     def body_force(self) -> np.ndarray:
-        return self.bodies[:, K.BCX : K.BCY + 1]
+        return self.bodies[:, K.BODY_CONTACT_X : K.BODY_CONTACT_Y + 1]
 
     @property
     def body_ext_force(self) -> np.ndarray:
-        return self.bodies[:, K.BFX : K.BFY + 1]
+        return self.bodies[:, K.BODY_FORCE_X : K.BODY_FORCE_Y + 1]
 
     @property
     def piston_pos(self) -> np.ndarray:
-        return self.pistons[:, K.PP]
+        return self.pistons[:, K.PISTON_POSITION]
 
     @property
     def piston_force(self) -> np.ndarray:
-        return self.pistons[:, K.PC]
+        return self.pistons[:, K.PISTON_CONTACT]
 
     def by_id(self, a: np.ndarray) -> np.ndarray:
         """Re-order a per-robot array (first axis) from storage order to id order."""
@@ -258,7 +298,7 @@ class SwarmState:
             "pos": self.pos, "fcols": self.fcols, "icols": self.icols, "udir": self.udir,
             "vel": self.vel,
             "bodies": self.bodies, "pistons": self.pistons, "counters": self.counters,
-            "step": np.array(self.step), "time": np.array(self.time),
+            "step": np.array(self.step), "time": np.array(self.time), "ref": self.ref,
         }  # fmt: skip
 
     @classmethod
@@ -270,24 +310,28 @@ class SwarmState:
             pistons=c(arrays["pistons"]),
             counters=np.array(arrays["counters"]), step=int(arrays["step"]),
             time=float(arrays["time"]), rng=rng,
+            ref=c(arrays["ref"]) if "ref" in arrays else None,
         )  # fmt: skip
 
 
 def _pack_bodies(world: World) -> np.ndarray:
-    out = np.zeros((len(world.bodies), K.B_COLS))
+    out = np.zeros((len(world.bodies), K.BODY_COLUMNS))
     for k, b in enumerate(world.bodies):
-        out[k, [K.BX, K.BY, K.BR, K.BDRAG, K.BSH]] = b.x, b.y, b.radius, b.drag, 1.0
-        out[k, [K.BFX, K.BFY]] = b.force
+        out[k, K.BODY_X], out[k, K.BODY_Y] = b.x, b.y
+        out[k, K.BODY_RADIUS], out[k, K.BODY_DRAG] = b.radius, b.drag
+        out[k, K.BODY_FORCE_X], out[k, K.BODY_FORCE_Y] = b.force
+        out[k, K.BODY_SHARE] = 1.0
     return out
 
 
 def _pack_pistons(world: World) -> np.ndarray:
-    out = np.zeros((len(world.pistons), K.P_COLS))
+    out = np.zeros((len(world.pistons), K.PISTON_COLUMNS))
     for k, p in enumerate(world.pistons):
-        out[k, [K.PA, K.PP, K.PS, K.PLO, K.PHI, K.PDRAG, K.PF, K.PLL, K.PLH, K.PSH]] = (
-            p.axis, p.position, p.side, p.lo, p.hi, p.drag, p.force, p.limits[0],
-            p.limits[1], 1.0,
-        )  # fmt: skip
+        out[k, K.PISTON_AXIS], out[k, K.PISTON_POSITION] = p.axis, p.position
+        out[k, K.PISTON_SIDE], out[k, K.PISTON_LO], out[k, K.PISTON_HI] = p.side, p.lo, p.hi
+        out[k, K.PISTON_DRAG], out[k, K.PISTON_FORCE] = p.drag, p.force
+        out[k, K.PISTON_MIN], out[k, K.PISTON_MAX] = p.limits
+        out[k, K.PISTON_SHARE] = 1.0
     return out
 
 
@@ -333,27 +377,69 @@ def _default_sensing(state: SwarmState, index: np.ndarray) -> tuple[np.ndarray, 
     return views
 
 
-#: Swarms smaller than this are stepped on one thread: below it, waking a second
-#: thread for each of a step's parallel loops costs more than it saves.
+#: When no thread count was given, swarms smaller than this are stepped on one thread:
+#: below it, waking a second thread for each of a step's parallel loops costs more than
+#: it saves (measured with ``benchmarks/bench_engine.py``).
 SERIAL_BELOW = 8000
 
+_EXPLICIT_THREADS: int | None = None
 
-def _set_threads(n: int) -> None:
-    """One thread for small swarms, all threads otherwise.
 
-    Set before every step (so that a small simulation does not leave the process
-    single-threaded for a large one), but only when it changes: asking Numba for the
-    current count costs more than a small swarm's whole decision step.
+def set_threads(n: int | None) -> None:
+    """Numba threads for the engine: ``n`` (1 to ``numba.config.NUMBA_NUM_THREADS``), or
+    ``None`` for the automatic choice.
+
+    An explicit count is never changed by the engine.  The automatic choice applies only
+    when no count was given here and Numba's count is still the process default (a count
+    set with ``numba.set_num_threads`` is respected too): then swarms below
+    :data:`SERIAL_BELOW` robots run on one thread, larger ones on all.
     """
-    global _LAST_THREADS
-    want = 1 if n < SERIAL_BELOW else _MAX_THREADS
-    if want != _LAST_THREADS:
-        numba.set_num_threads(want)
-        _LAST_THREADS = want
+    global _EXPLICIT_THREADS
+    if n is None:
+        _EXPLICIT_THREADS = None
+        return
+    top = numba.config.NUMBA_NUM_THREADS
+    if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n <= top:
+        raise ConfigError(
+            f"threads must be an integer in [1, {top}] (NUMBA_NUM_THREADS), got {n!r}"
+        )
+    numba.set_num_threads(int(n))
+    _EXPLICIT_THREADS = int(n)
 
 
-_MAX_THREADS = numba.config.NUMBA_NUM_THREADS
-_LAST_THREADS = -1
+def threads_for(n: int) -> int:
+    """The number of Numba threads a step of ``n`` robots runs on now."""
+    if _EXPLICIT_THREADS is not None:
+        return _EXPLICIT_THREADS
+    current = numba.get_num_threads()
+    if current == numba.config.NUMBA_NUM_THREADS and n < SERIAL_BELOW:
+        return 1
+    return current
+
+
+def _auto_threads(n: int) -> int | None:
+    """Lower Numba to one thread for a small swarm when no count was given; returns the
+    count to restore after the step (None: nothing changed).  Costs ~1 us."""
+    if _EXPLICIT_THREADS is not None or n >= SERIAL_BELOW:
+        return None
+    current = numba.get_num_threads()
+    if current == 1 or current != numba.config.NUMBA_NUM_THREADS:
+        return None  # one thread already, or a count the caller chose
+    numba.set_num_threads(1)
+    return current
+
+
+def neighbour_capacity(skin: float) -> int:
+    """Neighbour-list capacity from geometry, for discs of diameter d listed within
+    ``(1 + skin) d``: they fit in a circle of radius ``(1.5 + skin) d``, so there are at
+    most ``0.9069 ((1.5 + skin) / 0.5)^2 - 1`` of them; and while ``1 + skin < sqrt(3)``
+    they form one ring, at least ``2 asin(1 / (2 (1 + skin)))`` apart in angle.  Exceeded
+    only with large overlaps; a robot whose list overflows is handled by scanning the grid.
+    """
+    cap = int(0.9069 * ((1.5 + skin) / 0.5) ** 2)
+    if 1 + skin < math.sqrt(3):
+        cap = min(cap, int(math.pi / math.asin(0.5 / (1 + skin))) + 1)
+    return cap
 
 
 class _Workspace:
@@ -363,58 +449,48 @@ class _Workspace:
         r = params.radius
         x0, y0, x1, y1 = world.bounds
         area = (x1 - x0) * (y1 - y0)
-        self.cutoff = 2 * r * (1 + params.skin)
+        skin_mm = 2 * r * params.skin
+        self.cutoff = 2 * r + skin_mm
         cs = params.cell_size or max(self.cutoff, math.sqrt(area / max(n, 1)))
         # one extra cell of margin on every side: robots pressed into a wall stay in range
-        self.x0 = x0 - cs
-        self.y0 = y0 - cs
-        self.cs = cs
-        self.nx = int(math.ceil((x1 - x0) / cs)) + 2
-        self.ny = int(math.ceil((y1 - y0) / cs)) + 2
-        ncell = self.nx * self.ny
-        if ncell > 50 * max(n, 1) + 10_000:
+        nx = int(math.ceil((x1 - x0) / cs)) + 2
+        ny = int(math.ceil((y1 - y0) / cs)) + 2
+        if nx * ny > 50 * max(n, 1) + 10_000:
             raise ConfigError(
-                f"grid of {ncell} cells is too large for {n} robots; increase cell_size"
+                f"grid of {nx * ny} cells is too large for {n} robots; increase cell_size"
             )
-        self.gf = np.array([self.x0, self.y0, cs])
-        self.gi = np.array([self.nx, self.ny, params.iterations, params.max_iterations])
-        self.pp = np.array([r, params.drag, params.dt, params.overlap_tol * 2 * r,
-                            params.relax, self.cutoff])  # fmt: skip
-        self.cell = np.empty(n, np.int32)
+        self.grid = K.Grid(x0 - cs, y0 - cs, float(cs), nx, ny)
+        self.numerics = K.Numerics(
+            radius=float(r), drag=float(params.drag), dt=float(params.dt),
+            tol=params.overlap_tol * 2 * r, relax=float(params.relax),
+            cutoff=float(self.cutoff), half_skin=0.5 * skin_mm,
+            min_sweeps=params.iterations, max_sweeps=params.max_iterations,
+        )  # fmt: skip
+        ncell = nx * ny
+        self.cell = np.empty(n, np.int32)  # each robot's cell when the lists were built
         self.cell_start = np.zeros(ncell + 1, np.int32)
-        self.perm = np.empty(n, np.int32)
-        # second buffers of the state's per-robot arrays (swapped with them every step)
-        self.pos2 = np.empty((n, 2))
-        self.fcols2 = np.empty((2, n))
-        self.icols2 = np.empty((3, n), np.int32)
-        self.udir2 = np.empty((2, n), np.float32)
-        # Neighbour-list capacity, from geometry (exceeded only if overlaps are large;
-        # an overflow falls back to scanning the grid): discs of diameter d whose centres
-        # lie within (1 + skin) d of a centre fit in a circle of radius (1.5 + skin) d,
-        # so at most 0.9069 ((1.5 + skin) / 0.5)^2 - 1 of them; and while 1 + skin <
-        # sqrt(3) they form one ring, at least 2 asin(1 / (2 (1 + skin))) apart in angle.
-        cap = int(0.9069 * ((1.5 + params.skin) / 0.5) ** 2)
-        if 1 + params.skin < math.sqrt(3):
-            cap = min(cap, int(math.pi / math.asin(0.5 / (1 + params.skin))) + 1)
-        self.nbr = np.empty((n, cap), np.int32)
-        self.nnb = np.zeros(n, np.int32)
-        self.moved = np.zeros((3, n), np.uint8)
-        self.cell_flag = np.zeros(ncell, np.uint8)
-        K.flag_cells_near(world.segments, world.static_discs, self.x0, self.y0, cs, self.nx,
-                          self.ny, r * (1 + params.skin), self.cell_flag)  # fmt: skip
-
-    def inertial_buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Scratch arrays of the elastic kernel (allocated on first use)."""
-        if not hasattr(self, "_inertial"):
-            n = self.cell.shape[0]
-            self._inertial = (np.empty((n, 2)), np.empty(n), np.empty(n, np.int32))
-        return self._inertial
+        self.perm = np.empty(n, np.int32)  # rows in cell order
+        # the sweeps' second position buffer (swapped with the state's), and the
+        # scratch space of the re-sorting
+        self.scratch = np.empty((n, 2))
+        self.neighbours = np.empty((n, neighbour_capacity(params.skin)), np.int32)
+        self.n_neighbours = np.zeros(n, np.int32)
+        self.overflows = np.zeros(1, np.int64)  # robots whose list overflowed
+        self.visits = np.empty((2, n), np.int32)  # the robots a sweep visits, and the next
+        self.result = np.zeros(n, np.uint8)  # each visited robot: moved, overlapping
+        self.mark = np.zeros(n, np.uint8)
+        self.near_moved = np.zeros(n, np.uint8)  # near a body or piston that moved
+        self.cell_near_static = np.zeros(ncell, np.uint8)
+        K.flag_cells_near(world.segments, world.static_discs, self.grid, r + skin_mm,
+                          self.cell_near_static)  # fmt: skip
+        #: the ``ref`` array of the state whose lists these are (None: no lists yet)
+        self.lists_of: np.ndarray | None = None
 
     @property
     def nbytes(self) -> int:
-        arrays = [a for a in vars(self).values() if isinstance(a, np.ndarray)]
-        arrays += list(getattr(self, "_inertial", ()))
-        return sum(a.nbytes for a in arrays)
+        return sum(a.nbytes for a in vars(self).values() if isinstance(a, np.ndarray)) - (
+            0 if self.lists_of is None else self.lists_of.nbytes
+        )
 
 
 def place_lattice(
@@ -511,6 +587,8 @@ class Simulator:
         self.policy = policy
         self.sensing = sensing or _default_sensing
         self._ws: _Workspace | None = None
+        #: neighbour-list builds so far (statistics: at step starts and within steps)
+        self.list_builds = 0
 
     # ------------------------------------------------------------------ init
     def init(
@@ -533,8 +611,8 @@ class Simulator:
         if not np.all(np.isfinite(pos)):
             raise ConfigError("initial positions must be finite")
         fcols = np.zeros((2, n))
-        fcols[0] = rng.uniform(-np.pi, np.pi, n) if headings is None else headings
-        udir = _unit_directions(fcols[0])
+        fcols[K.HEADING] = rng.uniform(-np.pi, np.pi, n) if headings is None else headings
+        udir = _unit_directions(fcols[K.HEADING])
         icols = np.zeros((3, n), np.int32)
         icols[0] = np.arange(n)
         if group is not None:
@@ -607,62 +685,72 @@ class Simulator:
         """Advance ``state`` by one time step ``dt``."""
         ws = self._ensure_ws(state)
         p = self.params
+        w = self.world
         if p.mode == "overdamped":
-            due = np.flatnonzero(state.timer <= 0)
+            due = np.flatnonzero(state.timer <= 0)  # arange(n) when everyone is due
             if due.size == state.n:
-                due = np.arange(state.n)
-            if due.size:
+                self._decide(state, due)
+                state.timer.fill(p.tau_steps)
+            elif due.size:
                 self._decide(state, due)
                 state.timer[due] = p.tau_steps
-            _set_threads(state.n)
-            sweeps, seen, _ = K.overdamped_step(
-                state.pos, state.fcols, state.icols, state.udir, ws.pos2, ws.fcols2,
-                ws.icols2, ws.udir2, ws.gf, ws.gi, ws.pp, ws.cell, ws.cell_start, ws.perm,
-                ws.nbr, ws.nnb, ws.moved, ws.cell_flag, self.world.segments,
-                self.world.static_discs, state.bodies, state.pistons,
-            )  # fmt: skip
-            # the new state is in the second buffers: swap (no copy)
-            state.pos, ws.pos2 = ws.pos2, state.pos
-            state.fcols, ws.fcols2 = ws.fcols2, state.fcols
-            state.icols, ws.icols2 = ws.icols2, state.icols
-            state.udir, ws.udir2 = ws.udir2, state.udir
+            restore = _auto_threads(state.n)
+            try:
+                sweeps, overlap, builds, in_scratch = K.overdamped_step(
+                    state.pos, ws.scratch, state.ref, state.fcols, state.icols, state.udir,
+                    ws.grid, ws.numerics, ws.lists_of is state.ref, ws.cell, ws.cell_start,
+                    ws.perm, ws.neighbours, ws.n_neighbours, ws.overflows, ws.visits,
+                    ws.result, ws.mark, ws.near_moved, ws.cell_near_static, w.segments,
+                    w.static_discs, state.bodies, state.pistons,
+                )  # fmt: skip
+            finally:
+                if restore is not None:
+                    numba.set_num_threads(restore)
+            ws.lists_of = state.ref
+            if in_scratch:  # the final positions are in the second buffer: swap, no copy
+                state.pos, ws.scratch = ws.scratch, state.pos
+            self.list_builds += builds
             state.counters[0] += sweeps
-            state.counters[1] = max(state.counters[1], int(seen * 1e6))
+            state.counters[1] = max(state.counters[1], int(overlap * 1e6))
         else:
-            tmp = ws.inertial_buffers()
-            K.inertial_step(
-                state.pos, state.vel, state.fcols, state.icols, ws.x0, ws.y0, ws.cs, ws.nx,
-                ws.ny, ws.cell, ws.cell_start, ws.perm, *tmp, p.radius, p.dt,
-                self.world.segments, state.counters,
-            )  # fmt: skip
+            restore = _auto_threads(state.n)
+            try:
+                K.inertial_step(
+                    state.pos, state.vel, state.fcols, state.icols, ws.grid, ws.cell,
+                    ws.cell_start, ws.perm, ws.scratch, p.radius, p.dt,
+                    w.segments, state.counters,
+                )  # fmt: skip
+            finally:
+                if restore is not None:
+                    numba.set_num_threads(restore)
         state.step += 1
         state.time = state.step * p.dt
         return state
 
     def max_overlap(self, state: SwarmState) -> float:
-        """Largest overlap (mm) of any robot with anything, on the current configuration."""
+        """Largest overlap (mm) of any robot with anything, on the current configuration.
+
+        An independent check: a fresh cell list of a sorted copy, every pair of
+        neighbouring cells scanned (the step's own measure goes through its lists).
+        """
         ws = self._ensure_ws(state)
-        # build a cell list of a sorted copy, so that this is valid at any time
         n = state.n
         pos = state.pos.copy()
-        K.sort_by_cell(pos, np.zeros((0, n)), np.zeros((0, n), np.int32), ws.x0, ws.y0,
-                       1.0 / ws.cs, ws.nx, ws.ny, ws.cell, ws.cell_start, ws.perm,
-                       np.empty((n, 2)), np.empty(n), np.empty(n, np.int32))  # fmt: skip
+        cell_start = np.zeros_like(ws.cell_start)
+        K.sort_by_cell(pos, np.zeros((0, n)), np.zeros((0, n), np.int32), ws.grid,
+                       np.empty(n, np.int32), cell_start, np.empty(n, np.int32),
+                       np.empty((n, 2)))  # fmt: skip
         return float(
             K.max_overlap(
                 pos,
-                ws.cell_start,
-                ws.x0,
-                ws.y0,
-                ws.cs,
-                ws.nx,
-                ws.ny,
+                cell_start,
+                ws.grid,
                 self.params.radius,
                 self.world.segments,
                 self.world.static_discs,
                 state.bodies,
                 state.pistons,
-            )
+            )  # fmt: skip
         )
 
 

@@ -1,35 +1,116 @@
-"""Numba kernels of the engine: cell grid, contact projection, elastic collisions.
+"""Numba kernels of the engine: cell grid, Verlet lists, contact projection, elastic gas.
 
 Why hand-written: no maintained library offers overdamped rigid-disc contact
-projection with force-driven walls and movable bodies on a sorted cell grid for
-millions of discs on a CPU (pymunk and Box2D are inertial, single-threaded and an
-order of magnitude slower here: see ``benchmarks/``; JAX-MD needs JAX and soft
-potentials).  The kernels follow JAX-MD's cell-list design and HOOMD's habit of
-keeping particles sorted by cell for memory locality.
+projection with force-driven walls and movable bodies for millions of discs on a CPU
+(pymunk and Box2D are inertial soft-contact solvers; JAX-MD offers soft potentials:
+both are measured side by side in ``benchmarks/bench_engine.py``).  The kernels
+follow JAX-MD's cell-list design, LAMMPS/HOOMD's Verlet lists with a skin and HOOMD's
+habit of keeping particles sorted by cell for memory locality.
 
 Layout
 ------
-Robots live in arrays that the kernels re-order every step so that robots of the
-same grid cell are contiguous (a stable counting sort).  ``ids`` carries each robot's
-permanent id through the re-ordering.  ``cell_start[c]:cell_start[c+1]`` are the
-robots of cell ``c``; cells are ``cs >= 2 r + skin`` wide, so every contact is between
-robots in the same or adjacent cells.
+Per-robot data live in the state's arrays (:class:`thermoswarm.sim.SwarmState`):
+``pos`` (n, 2) float64, ``fcols`` (2, n) float64 with rows :data:`HEADING` and
+:data:`SPEED`, ``icols`` (3, n) int32 with rows :data:`ID`, :data:`GROUP` and
+:data:`TIMER`, ``udir`` (2, n) float32 unit directions, and ``ref`` (n, 2): where each
+robot was when the neighbour lists were last built.  Movable bodies and force-driven
+walls (pistons) are packed one per row, columns ``BODY_*`` and ``PISTON_*`` below.
+The grid is a :class:`Grid`; the step's numerical parameters a :class:`Numerics`.
+
+Contacts: Verlet lists with a skin
+----------------------------------
+The lists hold, for every robot, each robot within ``cutoff = 2 r + skin`` of it when
+they were built (at the positions saved in ``ref``).  They stay valid -- they contain
+every pair in contact -- for as long as no robot has moved more than ``skin / 2`` from
+``ref``: a pair that was farther apart than ``2 r + skin`` cannot have closed the gap.
+That is checked after the commanded motion of every step *and after every projection
+sweep within a step* (a sweep's corrections move robots too), and the lists are rebuilt
+the moment it fails.  So no contact is ever missed, and the largest overlap each sweep
+measures is exact.  At the start of a step a rebuild also re-sorts the robots by grid
+cell (locality); a rebuild within a step does not re-order anything (it goes through a
+permutation), so the state changes only between steps.
 
 Determinism
 -----------
-Every parallel loop writes only its own elements; sums over robots (forces on
-bodies and walls) are done in serial loops in a fixed order.  Results are therefore
-bit-identical for a given input whatever the number of threads.
+Every parallel loop writes only its own elements; sums over robots (forces on bodies and
+walls) are done in serial loops in a fixed order, and maxima are order-independent.
+Whether lists are rebuilt is a function of the state (``ref`` travels with it), and a
+list is a function of ``ref`` and the row order.  Results are therefore bit-identical
+whatever the number of threads, and a run resumed from a checkpoint rebuilds exactly the
+lists it had.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
 INF = np.inf
+
+# ----------------------------------------------------------------------- layouts
+#: Rows of ``SwarmState.fcols`` (float64).
+HEADING, SPEED = 0, 1
+#: Rows of ``SwarmState.icols`` (int32): permanent id, scenario label, steps left in the
+#: current control period.
+ID, GROUP, TIMER = 0, 1, 2
+
+#: Columns of the packed movable bodies (``SwarmState.bodies``, one row per body).
+BODY_X, BODY_Y, BODY_RADIUS, BODY_DRAG = 0, 1, 2, 3
+BODY_FORCE_X, BODY_FORCE_Y = 4, 5  # external force, set by a scenario
+BODY_CONTACT_X, BODY_CONTACT_Y = 6, 7  # the robots' mean contact force in the last step
+BODY_STEP_X, BODY_STEP_Y = 8, 9  # the body's move in the current sweep (internal)
+BODY_SHARE = 10  # the share of an overlap a robot touching it takes (internal)
+BODY_COLUMNS = 11
+
+#: Columns of the packed force-driven walls (``SwarmState.pistons``, one row per wall).
+PISTON_AXIS, PISTON_POSITION, PISTON_SIDE, PISTON_LO, PISTON_HI = 0, 1, 2, 3, 4
+PISTON_DRAG, PISTON_FORCE, PISTON_MIN, PISTON_MAX = 5, 6, 7, 8
+PISTON_CONTACT = 9  # the robots' mean contact force in the last step (along the axis)
+PISTON_STEP, PISTON_SHARE = 10, 11  # internal, as for bodies
+PISTON_COLUMNS = 12
+
+# The short names of the same columns, kept for code written against them.
+BX, BY, BR, BDRAG, BFX, BFY, BCX, BCY, BDX, BDY, BSH = range(BODY_COLUMNS)
+B_COLS = BODY_COLUMNS
+PA, PP, PS, PLO, PHI, PDRAG, PF, PLL, PLH, PC, PD, PSH = range(PISTON_COLUMNS)
+P_COLS = PISTON_COLUMNS
+
+# Bits of the per-robot sweep flags.
+MOVED, OVERLAPPING = 1, 2
+
+#: Contacts closer than this to touching (mm) count as touching, not overlapping.  A
+#: corrected pair ends at contact up to round-off (1e-13 mm at 1 m from the origin); without
+#: this slop those round-off overlaps would be "corrected" forever, each correction too small
+#: to move a robot, keeping its neighbours in every sweep.
+SLOP = 1e-9
+
+
+class Grid(NamedTuple):
+    """The cell grid: cell ``(cx, cy)`` covers ``[x0 + cx cs, x0 + (cx + 1) cs)`` (and so
+    for y); index ``cy * nx + cx``.  Positions outside are clamped to the border cells."""
+
+    x0: float
+    y0: float
+    cell_size: float
+    nx: int
+    ny: int
+
+
+class Numerics(NamedTuple):
+    """What one overdamped step needs besides arrays (lengths in mm, times in s)."""
+
+    radius: float
+    drag: float
+    dt: float
+    tol: float  # stop sweeping once the largest overlap is below this (mm)
+    relax: float
+    cutoff: float  # neighbour-list reach: 2 radius + skin
+    half_skin: float  # rebuild once any robot is farther than this from where it was
+    min_sweeps: int
+    max_sweeps: int
 
 
 # --------------------------------------------------------------------------- grid
@@ -49,15 +130,17 @@ def _cell_xy(x, y, x0, y0, inv_cs, nx, ny):
 
 
 @njit(cache=True, parallel=True)
-def _compute_cells(pos, x0, y0, inv_cs, nx, ny, cell):
+def _compute_cells(pos, grid, cell):
+    inv_cs = 1.0 / grid.cell_size
     for i in prange(pos.shape[0]):
-        cx, cy = _cell_xy(pos[i, 0], pos[i, 1], x0, y0, inv_cs, nx, ny)
-        cell[i] = cy * nx + cx
+        cx, cy = _cell_xy(pos[i, 0], pos[i, 1], grid.x0, grid.y0, inv_cs, grid.nx, grid.ny)
+        cell[i] = cy * grid.nx + cx
 
 
 @njit(cache=True)
 def _counting_sort(cell, ncell, cell_start, perm):
-    """Stable counting sort: ``perm[k]`` is the old index of the robot now at ``k``."""
+    """Stable counting sort: ``perm[k]`` is the row of the k-th robot in cell order, and
+    ``perm[cell_start[c]:cell_start[c + 1]]`` are the rows in cell ``c``."""
     n = cell.shape[0]
     for c in range(ncell + 1):
         cell_start[c] = 0
@@ -76,7 +159,8 @@ def _counting_sort(cell, ncell, cell_start, perm):
 
 
 @njit(cache=True, parallel=True)
-def _gather_f2(a, perm, tmp):
+def _permute_pairs(a, perm, tmp):
+    """Rows of the (n, 2) array ``a`` in the order ``perm`` (through ``tmp``, same shape)."""
     n = a.shape[0]
     for k in prange(n):
         tmp[k, 0] = a[perm[k], 0]
@@ -87,16 +171,9 @@ def _gather_f2(a, perm, tmp):
 
 
 @njit(cache=True, parallel=True)
-def _gather_f1(a, perm, tmp):
-    n = a.shape[0]
-    for k in prange(n):
-        tmp[k] = a[perm[k]]
-    for k in prange(n):
-        a[k] = tmp[k]
-
-
-@njit(cache=True, parallel=True)
-def _gather_i1(a, perm, tmp):
+def _permute(a, perm, tmp):
+    """``a`` (n,) in the order ``perm``, through the float64 buffer ``tmp`` (exact for
+    float32 and int32 values)."""
     n = a.shape[0]
     for k in prange(n):
         tmp[k] = a[perm[k]]
@@ -105,21 +182,22 @@ def _gather_i1(a, perm, tmp):
 
 
 @njit(cache=True)
-def sort_by_cell(
-    pos, fcols, icols, x0, y0, inv_cs, nx, ny, cell, cell_start, perm, tmpf2, tmpf, tmpi
-):
-    """Re-order robots by grid cell; ``fcols``/``icols`` are per-robot columns re-ordered too.
+def sort_by_cell(pos, rows_f8, rows_i4, grid, cell, cell_start, perm, tmp2):
+    """Re-order robots by grid cell.  ``rows_f8`` (k, n) and ``rows_i4`` (m, n) are
+    per-robot rows re-ordered too; ``tmp2`` is an (n, 2) float64 scratch buffer.
 
-    ``fcols`` is a 2D float array (k, n) and ``icols`` a 2D int64 array (m, n).
-    """
-    ncell = nx * ny
-    _compute_cells(pos, x0, y0, inv_cs, nx, ny, cell)
-    _counting_sort(cell, ncell, cell_start, perm)
-    _gather_f2(pos, perm, tmpf2)
-    for j in range(fcols.shape[0]):
-        _gather_f1(fcols[j], perm, tmpf)
-    for j in range(icols.shape[0]):
-        _gather_i1(icols[j], perm, tmpi)
+    On return ``cell`` and ``cell_start`` describe the sorted order (``perm`` is the
+    permutation that was applied)."""
+    n = pos.shape[0]
+    _compute_cells(pos, grid, cell)
+    _counting_sort(cell, grid.nx * grid.ny, cell_start, perm)
+    _permute_pairs(pos, perm, tmp2)
+    tmp = tmp2.reshape(2 * n)[:n]
+    for j in range(rows_f8.shape[0]):
+        _permute(rows_f8[j], perm, tmp)
+    for j in range(rows_i4.shape[0]):
+        _permute(rows_i4[j], perm, tmp)
+    _permute(cell, perm, tmp)
 
 
 # ------------------------------------------------------------------ geometry bits
@@ -152,8 +230,9 @@ def _seg_push(px, py, x0, y0, x1, y1, r):
 
 
 @njit(cache=True)
-def flag_cells_near(seg, sdisc, x0, y0, cs, nx, ny, reach, flags):
+def flag_cells_near(seg, sdisc, grid, reach, flags):
     """Mark the cells within ``reach`` of any static segment or static disc."""
+    x0, y0, cs, nx, ny = grid.x0, grid.y0, grid.cell_size, grid.nx, grid.ny
     for c in range(nx * ny):
         flags[c] = 0
     for s in range(seg.shape[0]):
@@ -204,58 +283,107 @@ def check_action(heading, speed):
     return 0, big
 
 
-# ------------------------------------------------------- overdamped projection
-# Column layout of the packed body and piston arrays (see engine._pack_*).
-BX, BY, BR, BDRAG, BFX, BFY, BCX, BCY, BDX, BDY, BSH = range(11)
-B_COLS = 11
-PA, PP, PS, PLO, PHI, PDRAG, PF, PLL, PLH, PC, PD, PSH = range(12)
-P_COLS = 12
-
-
+# -------------------------------------------------- phase 1: the commanded motion
 @njit(cache=True, parallel=True)
-def _predict(pos, udir, speed, timer, dt, x0, y0, inv_cs, nx, ny, cell):
-    """Commanded motion for one step; count the control timers down; grid cells.
+def _move(pos, udir, speed, timer, ref, dt):
+    """Every robot moves at its commanded velocity for ``dt``; control timers count down.
 
     ``udir`` (2, n) float32 holds each robot's unit direction (cos, sin of its heading),
-    computed once per decision, so that no trigonometry is done per step.
+    computed once per decision, so that no trigonometry is done per step.  Returns the
+    largest squared distance of any robot from ``ref`` (for the list-validity check).
     """
+    far = 0.0
     for i in prange(pos.shape[0]):
         x = pos[i, 0] + speed[i] * udir[0, i] * dt
         y = pos[i, 1] + speed[i] * udir[1, i] * dt
         pos[i, 0] = x
         pos[i, 1] = y
         timer[i] -= 1
-        cx, cy = _cell_xy(x, y, x0, y0, inv_cs, nx, ny)
-        cell[i] = cy * nx + cx
+        dx = x - ref[i, 0]
+        dy = y - ref[i, 1]
+        far = max(far, dx * dx + dy * dy)
+    return far
+
+
+@njit(cache=True)
+def _move_bodies(bodies, pistons, seg, sdisc, dt):
+    """Bodies and pistons move under their external force (``F dt / drag``); the contact
+    forces of the new step start at zero."""
+    for b in range(bodies.shape[0]):
+        bodies[b, BODY_CONTACT_X] = 0.0
+        bodies[b, BODY_CONTACT_Y] = 0.0
+        if not math.isinf(bodies[b, BODY_DRAG]):
+            bodies[b, BODY_X] += bodies[b, BODY_FORCE_X] * dt / bodies[b, BODY_DRAG]
+            bodies[b, BODY_Y] += bodies[b, BODY_FORCE_Y] * dt / bodies[b, BODY_DRAG]
+    _bodies_vs_static(bodies, seg, sdisc)
+    for p in range(pistons.shape[0]):
+        pistons[p, PISTON_CONTACT] = 0.0
+        if not math.isinf(pistons[p, PISTON_DRAG]):
+            x = pistons[p, PISTON_POSITION] + (
+                pistons[p, PISTON_SIDE] * pistons[p, PISTON_FORCE] * dt / pistons[p, PISTON_DRAG]
+            )
+            pistons[p, PISTON_POSITION] = min(
+                max(x, pistons[p, PISTON_MIN]), pistons[p, PISTON_MAX]
+            )
+
+
+@njit(cache=True)
+def _bodies_vs_static(bodies, seg, sdisc):
+    """Keep movable bodies out of static walls and obstacles (walls do not yield)."""
+    for b in range(bodies.shape[0]):
+        R = bodies[b, BODY_RADIUS]
+        for s in range(seg.shape[0]):
+            ov, nxs, nys = _seg_push(
+                bodies[b, BODY_X], bodies[b, BODY_Y], seg[s, 0], seg[s, 1], seg[s, 2],
+                seg[s, 3], R,
+            )  # fmt: skip
+            if ov > 0.0:
+                bodies[b, BODY_X] += ov * nxs
+                bodies[b, BODY_Y] += ov * nys
+        for s in range(sdisc.shape[0]):
+            dx = bodies[b, BODY_X] - sdisc[s, 0]
+            dy = bodies[b, BODY_Y] - sdisc[s, 1]
+            RR = R + sdisc[s, 2]
+            d2 = dx * dx + dy * dy
+            if d2 < RR * RR:
+                d = math.sqrt(d2)
+                if d > 1e-12:
+                    bodies[b, BODY_X] += (RR - d) * dx / d
+                    bodies[b, BODY_Y] += (RR - d) * dy / d
+
+
+# ------------------------------------------------------ phase 2: neighbour lists
+@njit(cache=True)
+def sort_rows(pos, fcols, icols, udir, scratch, grid, cell, cell_start, perm):
+    """Re-order every per-robot array of the state by grid cell (in place, through the
+    (n, 2) float64 ``scratch``), so that neighbours are near in memory."""
+    n = pos.shape[0]
+    _compute_cells(pos, grid, cell)
+    _counting_sort(cell, grid.nx * grid.ny, cell_start, perm)
+    _permute_pairs(pos, perm, scratch)
+    tmp = scratch.reshape(2 * n)[:n]
+    for j in range(fcols.shape[0]):
+        _permute(fcols[j], perm, tmp)
+    for j in range(icols.shape[0]):
+        _permute(icols[j], perm, tmp)
+    for j in range(udir.shape[0]):
+        _permute(udir[j], perm, tmp)
 
 
 @njit(cache=True, parallel=True)
-def _gather_all(pos, fcols, icols, udir, pos2, fcols2, icols2, udir2, perm):
-    """Write every per-robot column in sorted order into the second buffers (one pass)."""
-    nf = fcols.shape[0]
-    ni = icols.shape[0]
-    for k in prange(pos.shape[0]):
-        j = perm[k]
-        pos2[k, 0] = pos[j, 0]
-        pos2[k, 1] = pos[j, 1]
-        udir2[0, k] = udir[0, j]
-        udir2[1, k] = udir[1, j]
-        for c in range(nf):
-            fcols2[c, k] = fcols[c, j]
-        for c in range(ni):
-            icols2[c, k] = icols[c, j]
+def _fill_lists(at, grid, cell_start, perm, cutoff, nbr, nnb):
+    """Every robot within ``cutoff`` of each robot, at positions ``at`` (both directions).
 
-
-@njit(cache=True, parallel=True)
-def _build_neighbours(pos, cell_start, nx, ny, cutoff, nbr, nnb, flag):
-    """Fixed-capacity neighbour lists: every j within ``cutoff`` of i (both directions).
-
-    Robots are sorted by cell, so the three cells of a grid row next to robot i hold
-    one contiguous range of robots: three ranges per robot instead of nine cells.
-    ``flag[i] = 1`` when robot i has more neighbours than the capacity (overflow).
+    Robots in cell order (``perm``) make the three cells of a grid row next to a robot one
+    contiguous range: three ranges per robot instead of nine cells.  A robot with more
+    neighbours than the capacity gets ``nnb = capacity + 1`` (the sweeps then scan the
+    grid for it).
     """
     cap = nbr.shape[1]
     c2 = cutoff * cutoff
+    nx = grid.nx
+    ny = grid.ny
+    overflows = 0
     for cy in prange(ny):
         ya = max(cy - 1, 0)
         yb = min(cy + 1, ny - 1)
@@ -267,37 +395,63 @@ def _build_neighbours(pos, cell_start, nx, ny, cutoff, nbr, nnb, flag):
                 continue
             xa = max(cx - 1, 0)
             xb = min(cx + 1, nx - 1)
-            for i in range(a, b):
-                px = pos[i, 0]
-                py = pos[i, 1]
+            for ki in range(a, b):
+                i = perm[ki]
+                px = at[i, 0]
+                py = at[i, 1]
                 k = 0
-                over = 0
                 for ccy in range(ya, yb + 1):
-                    j0 = cell_start[ccy * nx + xa]
-                    j1 = cell_start[ccy * nx + xb + 1]
-                    for j in range(j0, j1):
-                        dx = px - pos[j, 0]
-                        dy = py - pos[j, 1]
-                        if dx * dx + dy * dy < c2 and j != i:
-                            if k < cap:
-                                nbr[i, k] = j
-                                k += 1
-                            else:
-                                over = 1
-                nnb[i] = k
-                flag[i] = over
+                    k0 = cell_start[ccy * nx + xa]
+                    k1 = cell_start[ccy * nx + xb + 1]
+                    for kj in range(k0, k1):
+                        j = perm[kj]
+                        dx = px - at[j, 0]
+                        dy = py - at[j, 1]
+                        # branch-free: write every candidate at the end of the list and
+                        # keep it only if it is in reach (a third are: a branch on it
+                        # mispredicts), 3.6x faster
+                        if k < cap:
+                            nbr[i, k] = j
+                        k += (dx * dx + dy * dy < c2) & (j != i)
+                nnb[i] = k if k <= cap else cap + 1
+                overflows += 1 if k > cap else 0
+    return overflows
 
 
-@njit(cache=True, inline="always")
-def _walls_and_bodies(i, px, py, r, cell_flag_i, seg, sdisc, bodies, pistons):
-    """Correction (mx, my) and largest overlap of robot i against walls, bodies, pistons."""
+@njit(cache=True, parallel=True)
+def _copy_pairs(src, dst):
+    for i in prange(src.shape[0]):
+        dst[i, 0] = src[i, 0]
+        dst[i, 1] = src[i, 1]
+
+
+@njit(cache=True)
+def build_lists(at, ref, grid, cutoff, cell, cell_start, perm, nbr, nnb):
+    """Neighbour lists at positions ``at``; ``ref`` (may be ``at`` itself) records them.
+
+    ``cell[i]`` is robot i's cell at ``at`` and ``perm``/``cell_start`` the cell order: the
+    lists are a function of ``at`` and the row order only.  Returns the number of robots
+    whose list overflowed.
+    """
+    _compute_cells(at, grid, cell)
+    _counting_sort(cell, grid.nx * grid.ny, cell_start, perm)
+    _copy_pairs(at, ref)
+    return _fill_lists(at, grid, cell_start, perm, cutoff, nbr, nnb)
+
+
+# --------------------------------------------------------- phase 3: projection
+# Not inlined by Numba (``inline="always"`` breaks the max reductions of the parallel
+# loops that call it, "unexpected cycle in lookup()"); LLVM inlines it anyway.
+@njit(cache=True)
+def _walls_and_bodies(px, py, r, near_static, seg, sdisc, bodies, pistons):
+    """Correction (mx, my) and largest overlap of a robot against walls, bodies, pistons."""
     mx = 0.0
     my = 0.0
     w = 0.0
-    if cell_flag_i:
+    if near_static:
         for s in range(seg.shape[0]):
             ov, nxs, nys = _seg_push(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
-            if ov > 0.0:
+            if ov > SLOP:
                 mx += ov * nxs
                 my += ov * nys
                 if ov > w:
@@ -307,7 +461,7 @@ def _walls_and_bodies(i, px, py, r, cell_flag_i, seg, sdisc, bodies, pistons):
             dy = py - sdisc[s, 1]
             R = sdisc[s, 2] + r
             d2 = dx * dx + dy * dy
-            if d2 < R * R:
+            if d2 < (R - SLOP) * (R - SLOP):
                 d = math.sqrt(d2)
                 if R - d > w:
                     w = R - d
@@ -315,29 +469,29 @@ def _walls_and_bodies(i, px, py, r, cell_flag_i, seg, sdisc, bodies, pistons):
                     mx += (R - d) * dx / d
                     my += (R - d) * dy / d
     for b in range(bodies.shape[0]):
-        dx = px - bodies[b, BX]
-        dy = py - bodies[b, BY]
-        R = bodies[b, BR] + r
+        dx = px - bodies[b, BODY_X]
+        dy = py - bodies[b, BODY_Y]
+        R = bodies[b, BODY_RADIUS] + r
         d2 = dx * dx + dy * dy
-        if d2 < R * R:
+        if d2 < (R - SLOP) * (R - SLOP):
             d = math.sqrt(d2)
             if R - d > w:
                 w = R - d
             if d > 1e-12:
-                f = bodies[b, BSH] * (R - d) / d
+                f = bodies[b, BODY_SHARE] * (R - d) / d
                 mx += f * dx
                 my += f * dy
     for p in range(pistons.shape[0]):
-        a = int(pistons[p, PA])
+        a = int(pistons[p, PISTON_AXIS])
         q = py if a == 0 else px
-        if q < pistons[p, PLO] or q > pistons[p, PHI]:
+        if q < pistons[p, PISTON_LO] or q > pistons[p, PISTON_HI]:
             continue
         v = px if a == 0 else py
-        gap = pistons[p, PS] * (v - pistons[p, PP])
-        if gap < r:
+        gap = pistons[p, PISTON_SIDE] * (v - pistons[p, PISTON_POSITION])
+        if gap < r - SLOP:
             if r - gap > w:
                 w = r - gap
-            corr = pistons[p, PSH] * (r - gap) * pistons[p, PS]
+            corr = pistons[p, PISTON_SHARE] * (r - gap) * pistons[p, PISTON_SIDE]
             if a == 0:
                 mx += corr
             else:
@@ -346,130 +500,140 @@ def _walls_and_bodies(i, px, py, r, cell_flag_i, seg, sdisc, bodies, pistons):
 
 
 @njit(cache=True, parallel=True)
-def _sweep_list(
-    src,
-    dst,
-    nbr,
-    nnb,
-    cell_flag,
-    x0,
-    y0,
-    inv_cs,
-    nx,
-    ny,
-    r,
-    relax,
-    seg,
-    sdisc,
-    bodies,
-    pistons,
-    moved_prev,
-    moved_cur,
-    near_moved_body,
-    first,
-    worst,
-):
-    """One Jacobi sweep over the neighbour lists.
+def _sweep(
+    src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg, sdisc,
+    bodies, pistons, active, count, everyone, result,
+):  # fmt: skip
+    """One Jacobi sweep: measure every overlap of ``src`` and write the corrected
+    positions to ``dst``.
 
-    After the first sweep a robot is recomputed only if it, a neighbour, or a body or
-    piston it may touch moved in the previous sweep; otherwise its position is already
-    right in both buffers and its overlaps are zero.
+    Each overlapping pair moves apart by half its overlap each (times ``relax``); walls,
+    bodies and pistons as in :func:`_walls_and_bodies`.  The sweep visits every robot
+    (``everyone``) or the ``count`` robots ``active[:count]`` -- the others have no
+    overlap and ``dst`` already holds their position (see :func:`_next_active`).
+    ``result[k]`` gets the :data:`MOVED` and :data:`OVERLAPPING` bits of the k-th robot
+    visited.
+
+    Returns the largest overlap of ``src`` (exact: the lists are valid) and the largest
+    squared distance from ``ref`` of any robot that moved.
     """
-    n = src.shape[0]
+    cap = nbr.shape[1]
+    r = num.radius
     d_rr = 2.0 * r
-    for i in prange(n):
-        active = True
-        if not first:
-            active = moved_prev[i] != 0 or near_moved_body[i] != 0
-            if not active:
-                for k in range(nnb[i]):
-                    if moved_prev[nbr[i, k]] != 0:
-                        active = True
-                        break
+    c2 = (d_rr - SLOP) * (d_rr - SLOP)
+    half = 0.5 * num.relax
+    nx = grid.nx
+    ny = grid.ny
+    movables = bodies.shape[0] + pistons.shape[0] > 0
+    worst = 0.0
+    far = 0.0
+    for k in prange(count):
+        i = np.int64(k) if everyone else np.int64(active[k])
+        fl = 0
+        fi = 0.0  # squared distance from ref, if it moves
+        px = src[i, 0]
+        py = src[i, 1]
+        c = cell[i]
+        mx = 0.0
+        my = 0.0
         w = 0.0
-        if active:
-            px = src[i, 0]
-            py = src[i, 1]
-            cx, cy = _cell_xy(px, py, x0, y0, inv_cs, nx, ny)
+        if cell_flag[c] != 0 or movables:  # most robots are far from any wall
             mx, my, w = _walls_and_bodies(
-                i, px, py, r, cell_flag[cy * nx + cx], seg, sdisc, bodies, pistons
+                px, py, r, cell_flag[c] != 0, seg, sdisc, bodies, pistons
             )
-            for k in range(nnb[i]):
-                j = nbr[i, k]
+        m = nnb[i]
+        if m <= cap:
+            for kk in range(m):
+                j = nbr[i, kk]
                 dx = px - src[j, 0]
                 dy = py - src[j, 1]
                 d2 = dx * dx + dy * dy
-                if d2 < d_rr * d_rr:
+                if d2 < c2:
                     d = math.sqrt(d2)
                     if d_rr - d > w:
                         w = d_rr - d
                     if d > 1e-12:
-                        f = 0.5 * relax * (d_rr - d) / d
+                        f = half * (d_rr - d) / d
                         mx += f * dx
                         my += f * dy
-                    else:  # coincident centres: separate along x by index order
-                        mx += 0.5 * relax * d_rr * (1.0 if i < j else -1.0)
-            dst[i, 0] = px + mx
-            dst[i, 1] = py + my
-            moved_cur[i] = 1 if (mx != 0.0 or my != 0.0) else 0
-        else:
-            moved_cur[i] = 0
-        worst[i] = w
+                    else:  # coincident centres: separate along x by row order
+                        mx += half * d_rr * (1.0 if i < j else -1.0)
+        else:  # overflowing list: the 3 x 3 cells around the cell it was listed in
+            cy = c // nx
+            cx = c - cy * nx
+            for ccy in range(max(cy - 1, 0), min(cy + 2, ny)):
+                for ccx in range(max(cx - 1, 0), min(cx + 2, nx)):
+                    cc = ccy * nx + ccx
+                    for kj in range(cell_start[cc], cell_start[cc + 1]):
+                        j = perm[kj]
+                        if j == i:
+                            continue
+                        dx = px - src[j, 0]
+                        dy = py - src[j, 1]
+                        d2 = dx * dx + dy * dy
+                        if d2 < c2:
+                            d = math.sqrt(d2)
+                            if d_rr - d > w:
+                                w = d_rr - d
+                            if d > 1e-12:
+                                f = half * (d_rr - d) / d
+                                mx += f * dx
+                                my += f * dy
+                            else:
+                                mx += half * d_rr * (1.0 if i < j else -1.0)
+        x = px + mx
+        y = py + my
+        dst[i, 0] = x
+        dst[i, 1] = y
+        if x != px or y != py:
+            fl = MOVED
+            ex = x - ref[i, 0]
+            ey = y - ref[i, 1]
+            fi = ex * ex + ey * ey
+        if w > 0.0:
+            fl |= OVERLAPPING
+        result[k] = fl
+        worst = max(worst, w)
+        far = max(far, fi)
+    return worst, far
 
 
-@njit(cache=True, parallel=True)
-def _sweep_cells(
-    src,
-    dst,
-    cell_start,
-    cell_flag,
-    x0,
-    y0,
-    inv_cs,
-    nx,
-    ny,
-    r,
-    relax,
-    seg,
-    sdisc,
-    bodies,
-    pistons,
-    moved_cur,
-    worst,
-):
-    """One Jacobi sweep scanning the cell grid (the fallback when a list overflows)."""
-    n = src.shape[0]
-    d_rr = 2.0 * r
-    for i in prange(n):
-        px = src[i, 0]
-        py = src[i, 1]
-        cx, cy = _cell_xy(px, py, x0, y0, inv_cs, nx, ny)
-        mx, my, w = _walls_and_bodies(
-            i, px, py, r, cell_flag[cy * nx + cx], seg, sdisc, bodies, pistons
-        )
-        for ccy in range(max(cy - 1, 0), min(cy + 2, ny)):
-            for ccx in range(max(cx - 1, 0), min(cx + 2, nx)):
-                c = ccy * nx + ccx
-                for j in range(cell_start[c], cell_start[c + 1]):
-                    if j == i:
-                        continue
-                    dx = px - src[j, 0]
-                    dy = py - src[j, 1]
-                    d2 = dx * dx + dy * dy
-                    if d2 < d_rr * d_rr:
-                        d = math.sqrt(d2)
-                        if d_rr - d > w:
-                            w = d_rr - d
-                        if d > 1e-12:
-                            f = 0.5 * relax * (d_rr - d) / d
-                            mx += f * dx
-                            my += f * dy
-                        else:
-                            mx += 0.5 * relax * d_rr * (1.0 if i < j else -1.0)
-        dst[i, 0] = px + mx
-        dst[i, 1] = py + my
-        moved_cur[i] = 1 if (mx != 0.0 or my != 0.0) else 0
-        worst[i] = w
+@njit(cache=True)
+def _next_active(active, count, everyone, result, nbr, nnb, near, use_near, mark, out):
+    """The robots the next sweep must visit, into ``out``; returns how many.
+
+    Those that moved in the last sweep and every robot on their lists (anything they
+    may now touch), those that still overlap something, and (``use_near``) those near a
+    body or piston that moved.  Any other robot has no overlap: neither it nor anything
+    within reach moved since a sweep found it free.  Serial, over the robots visited last
+    (a few per cent of the swarm after the first sweep); ``mark`` (all zero) is scratch.
+    """
+    k = 0
+    for q in range(count):
+        fl = result[q]
+        if fl == 0:
+            continue
+        i = np.int64(q) if everyone else np.int64(active[q])
+        if mark[i] == 0:
+            mark[i] = 1
+            out[k] = i
+            k += 1
+        if fl & MOVED:
+            for kk in range(nnb[i]):  # lists never overflow here (see the caller)
+                j = nbr[i, kk]
+                if mark[j] == 0:
+                    mark[j] = 1
+                    out[k] = j
+                    k += 1
+    if use_near:
+        for i in range(near.shape[0]):
+            if near[i] and mark[i] == 0:
+                mark[i] = 1
+                out[k] = i
+                k += 1
+    for q in range(k):
+        mark[out[q]] = 0
+    return k
 
 
 @njit(cache=True)
@@ -480,32 +644,39 @@ def _cell_range(lo, hi, origin, cs, ncell):
 
 
 @njit(cache=True)
-def _bodies_pass(pos, cell_start, x0, y0, cs, nx, ny, r, gamma_r, dt, bodies, pistons):
-    """Serial pass: displacement of each movable body and piston from its current contacts.
+def _bodies_pass(pos, cell_start, perm, grid, r, gamma_r, dt, bodies, pistons, contact):
+    """Serial pass: each movable body's and piston's step from its current contacts.
 
     A body with drag ``g_b`` touched by ``k`` robots of drag ``g_r`` moves by
     ``sum(g_r * overlap * n) / (k g_r + g_b)`` -- the exact rigid solution when the
     robots push together -- and each robot takes the share ``g_b / (k g_r + g_b)`` of its
-    overlap.  The force that robots exert (``g_r`` x the robots' correction / ``dt``) is
-    added to the body's contact-force columns.  The scan covers one extra cell so that
-    robots that moved during earlier sweeps are still found.
+    overlap.  The force robots exert in this sweep (``g_r`` x their correction / ``dt``)
+    goes to ``contact`` (row b for body b, row B + p for piston p); it is added to the
+    contact-force columns only if the sweep's corrections are applied.  The scan reaches
+    one cell beyond the body: robots are within ``skin / 2`` of the cells they were
+    listed in.
     """
-    for b in range(bodies.shape[0]):
-        R = bodies[b, BR] + r
+    x0, y0, cs, nx, ny = grid.x0, grid.y0, grid.cell_size, grid.nx, grid.ny
+    nb = bodies.shape[0]
+    for b in range(nb):
+        R = bodies[b, BODY_RADIUS] + r
         reach = R + cs
-        cxa, cxb = _cell_range(bodies[b, BX] - reach, bodies[b, BX] + reach, x0, cs, nx)
-        cya, cyb = _cell_range(bodies[b, BY] - reach, bodies[b, BY] + reach, y0, cs, ny)
+        bx = bodies[b, BODY_X]
+        by = bodies[b, BODY_Y]
+        cxa, cxb = _cell_range(bx - reach, bx + reach, x0, cs, nx)
+        cya, cyb = _cell_range(by - reach, by + reach, y0, cs, ny)
         k = 0
         sx = 0.0
         sy = 0.0
         for cy in range(cya, cyb + 1):
             for cx in range(cxa, cxb + 1):
                 c = cy * nx + cx
-                for i in range(cell_start[c], cell_start[c + 1]):
-                    dx = pos[i, 0] - bodies[b, BX]
-                    dy = pos[i, 1] - bodies[b, BY]
+                for kk in range(cell_start[c], cell_start[c + 1]):
+                    i = perm[kk]
+                    dx = pos[i, 0] - bx
+                    dy = pos[i, 1] - by
                     d2 = dx * dx + dy * dy
-                    if d2 < R * R:
+                    if d2 < (R - SLOP) * (R - SLOP):
                         d = math.sqrt(d2)
                         if d < 1e-12:
                             continue
@@ -513,86 +684,93 @@ def _bodies_pass(pos, cell_start, x0, y0, cs, nx, ny, r, gamma_r, dt, bodies, pi
                         k += 1
                         sx -= ov * dx / d
                         sy -= ov * dy / d
-        drag = bodies[b, BDRAG]
+        drag = bodies[b, BODY_DRAG]
+        contact[b, 0] = 0.0
+        contact[b, 1] = 0.0
         if k == 0:
-            bodies[b, BDX] = 0.0
-            bodies[b, BDY] = 0.0
-            bodies[b, BSH] = 1.0
+            bodies[b, BODY_STEP_X] = 0.0
+            bodies[b, BODY_STEP_Y] = 0.0
+            bodies[b, BODY_SHARE] = 1.0
             continue
         if math.isinf(drag):
             share = 1.0
-            bodies[b, BDX] = 0.0
-            bodies[b, BDY] = 0.0
+            bodies[b, BODY_STEP_X] = 0.0
+            bodies[b, BODY_STEP_Y] = 0.0
         else:
             den = k * gamma_r + drag
             share = drag / den
-            bodies[b, BDX] = gamma_r * sx / den
-            bodies[b, BDY] = gamma_r * sy / den
-        bodies[b, BSH] = share
-        bodies[b, BCX] += gamma_r * share * sx / dt
-        bodies[b, BCY] += gamma_r * share * sy / dt
+            bodies[b, BODY_STEP_X] = gamma_r * sx / den
+            bodies[b, BODY_STEP_Y] = gamma_r * sy / den
+        bodies[b, BODY_SHARE] = share
+        contact[b, 0] = gamma_r * share * sx / dt
+        contact[b, 1] = gamma_r * share * sy / dt
     for p in range(pistons.shape[0]):
-        a = int(pistons[p, PA])
-        side = pistons[p, PS]
-        ppos = pistons[p, PP]
+        a = int(pistons[p, PISTON_AXIS])
+        side = pistons[p, PISTON_SIDE]
+        ppos = pistons[p, PISTON_POSITION]
+        lo = pistons[p, PISTON_LO]
+        hi = pistons[p, PISTON_HI]
         if a == 0:
             ca, cb = _cell_range(ppos - r - cs, ppos + r + cs, x0, cs, nx)
-            oa, ob = _cell_range(pistons[p, PLO] - r, pistons[p, PHI] + r, y0, cs, ny)
+            oa, ob = _cell_range(lo - r - cs, hi + r + cs, y0, cs, ny)
         else:
             ca, cb = _cell_range(ppos - r - cs, ppos + r + cs, y0, cs, ny)
-            oa, ob = _cell_range(pistons[p, PLO] - r, pistons[p, PHI] + r, x0, cs, nx)
+            oa, ob = _cell_range(lo - r - cs, hi + r + cs, x0, cs, nx)
         o = 1 - a
         k = 0
         s = 0.0
         for u in range(ca, cb + 1):
             for w in range(oa, ob + 1):
                 c = w * nx + u if a == 0 else u * nx + w
-                for i in range(cell_start[c], cell_start[c + 1]):
+                for kk in range(cell_start[c], cell_start[c + 1]):
+                    i = perm[kk]
                     q = pos[i, o]
-                    if q < pistons[p, PLO] or q > pistons[p, PHI]:
+                    if q < lo or q > hi:
                         continue
                     gap = side * (pos[i, a] - ppos)
-                    if gap < r:
+                    if gap < r - SLOP:
                         k += 1
                         s += r - gap
-        drag = pistons[p, PDRAG]
+        drag = pistons[p, PISTON_DRAG]
+        contact[nb + p, 0] = 0.0
         if k == 0:
-            pistons[p, PD] = 0.0
-            pistons[p, PSH] = 1.0
+            pistons[p, PISTON_STEP] = 0.0
+            pistons[p, PISTON_SHARE] = 1.0
             continue
         if math.isinf(drag):
             share = 1.0
-            pistons[p, PD] = 0.0
+            pistons[p, PISTON_STEP] = 0.0
         else:
             den = k * gamma_r + drag
             share = drag / den
-            pistons[p, PD] = -side * gamma_r * s / den  # pushed away from the robots
-        pistons[p, PSH] = share
-        pistons[p, PC] += -side * gamma_r * share * s / dt
+            pistons[p, PISTON_STEP] = -side * gamma_r * s / den  # away from the robots
+        pistons[p, PISTON_SHARE] = share
+        contact[nb + p, 0] = -side * gamma_r * share * s / dt
 
 
 @njit(cache=True)
-def _bodies_vs_static(bodies, seg, sdisc):
-    """Keep movable bodies out of static walls and obstacles (walls do not yield)."""
-    for b in range(bodies.shape[0]):
-        R = bodies[b, BR]
-        for s in range(seg.shape[0]):
-            ov, nxs, nys = _seg_push(
-                bodies[b, BX], bodies[b, BY], seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], R
-            )
-            if ov > 0.0:
-                bodies[b, BX] += ov * nxs
-                bodies[b, BY] += ov * nys
-        for s in range(sdisc.shape[0]):
-            dx = bodies[b, BX] - sdisc[s, 0]
-            dy = bodies[b, BY] - sdisc[s, 1]
-            RR = R + sdisc[s, 2]
-            d2 = dx * dx + dy * dy
-            if d2 < RR * RR:
-                d = math.sqrt(d2)
-                if d > 1e-12:
-                    bodies[b, BX] += (RR - d) * dx / d
-                    bodies[b, BY] += (RR - d) * dy / d
+def _apply_body_steps(bodies, pistons, contact, moved_b, moved_p, seg, sdisc):
+    """Bodies and pistons take the steps of the sweep just applied; their contact forces
+    get its share.  Returns whether any moved."""
+    nb = bodies.shape[0]
+    any_moved = False
+    for b in range(nb):
+        sx = bodies[b, BODY_STEP_X]
+        sy = bodies[b, BODY_STEP_Y]
+        moved_b[b] = 1 if (sx != 0.0 or sy != 0.0) else 0
+        bodies[b, BODY_X] += sx
+        bodies[b, BODY_Y] += sy
+        bodies[b, BODY_CONTACT_X] += contact[b, 0]
+        bodies[b, BODY_CONTACT_Y] += contact[b, 1]
+        any_moved = any_moved or moved_b[b] != 0
+    if nb:
+        _bodies_vs_static(bodies, seg, sdisc)
+    for p in range(pistons.shape[0]):
+        moved_p[p] = 1 if pistons[p, PISTON_STEP] != 0.0 else 0
+        pistons[p, PISTON_POSITION] += pistons[p, PISTON_STEP]
+        pistons[p, PISTON_CONTACT] += contact[nb + p, 0]
+        any_moved = any_moved or moved_p[p] != 0
+    return any_moved
 
 
 @njit(cache=True, parallel=True)
@@ -604,200 +782,125 @@ def _near_moved(pos, bodies, moved_b, pistons, moved_p, r, reach, out):
         f = 0
         for b in range(nb):
             if moved_b[b]:
-                dx = pos[i, 0] - bodies[b, BX]
-                dy = pos[i, 1] - bodies[b, BY]
-                R = bodies[b, BR] + r + reach
+                dx = pos[i, 0] - bodies[b, BODY_X]
+                dy = pos[i, 1] - bodies[b, BODY_Y]
+                R = bodies[b, BODY_RADIUS] + r + reach
                 if dx * dx + dy * dy < R * R:
                     f = 1
         for p in range(npis):
             if moved_p[p]:
-                a = int(pistons[p, PA])
-                if abs(pos[i, a] - pistons[p, PP]) < r + reach:
+                a = int(pistons[p, PISTON_AXIS])
+                if abs(pos[i, a] - pistons[p, PISTON_POSITION]) < r + reach:
                     f = 1
         out[i] = f
 
 
-@njit(cache=True, parallel=True)
-def _copy2(src, dst):
-    for i in prange(src.shape[0]):
-        dst[i, 0] = src[i, 0]
-        dst[i, 1] = src[i, 1]
-
-
+# ----------------------------------------------------------------- the whole step
 @njit(cache=True)
 def overdamped_step(
-    pos,
-    fcols,
-    icols,
-    udir,
-    pos2,
-    fcols2,
-    icols2,
-    udir2,
-    gf,
-    gi,
-    pp,
-    cell,
-    cell_start,
-    perm,
-    nbr,
-    nnb,
-    moved,
-    cell_flag,
-    seg,
-    sdisc,
-    bodies,
-    pistons,
-):
-    """Advance the overdamped swarm by one step ``dt``.
+    pos, scratch, ref, fcols, icols, udir, grid, num, lists_ready, cell, cell_start, perm,
+    nbr, nnb, overflows, visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons,
+):  # fmt: skip
+    """Advance the overdamped swarm by one step ``num.dt``.
 
-    Arguments: ``fcols`` rows (heading, speed); ``icols`` rows (id, group, timer);
-    ``udir`` (2, n) float32 unit directions of the headings; ``pos2``, ``fcols2``,
-    ``icols2``, ``udir2`` second buffers of the same shapes, which receive the
-    new state (the caller swaps the references); ``gf`` = (x0, y0, cs); ``gi`` = (nx, ny,
-    min_sweeps, max_sweeps); ``pp`` = (r, drag, dt, tol, relax, cutoff); ``bodies`` and
-    ``pistons`` packed as in the column constants above; the rest are work arrays.
+    1. **Motion**: every robot moves at its commanded velocity, bodies and pistons by
+       ``F_ext dt / drag``; control timers count down.
+    2. **Lists**: if any robot is now farther than ``skin / 2`` from ``ref``, the robots
+       are re-sorted by cell and the Verlet lists rebuilt; if the lists are not in the
+       workspace yet (``lists_ready`` false: a new or resumed state) they are rebuilt
+       from ``ref``, exactly as they were.
+    3. **Projection**: Jacobi sweeps (:func:`_sweep`), each measuring the exact largest
+       overlap of the current configuration, until it is below ``num.tol`` (after at
+       least ``num.min_sweeps`` sweeps) or ``num.max_sweeps`` sweeps were made.  The last
+       sweep only measures: the configuration it measured is the result, so the overlap
+       returned is that of the final positions.  After each applied sweep the list
+       validity is checked again and the lists rebuilt (without re-sorting) if needed.
+       The first sweep (and the first after a rebuild) visits every robot, later ones
+       only the robots whose surroundings changed (:func:`_next_active`).
 
-    1. every robot moves at its commanded velocity, bodies and pistons by
-       ``F_ext dt / drag``; timers count down;
-    2. robots are re-sorted by grid cell into the second buffers, and neighbour lists
-       within ``cutoff`` are built;
-    3. Jacobi sweeps project the configuration onto non-overlap with robots, static
-       walls, bodies and pistons (mass-weighted shares for bodies and pistons): at least
-       ``min_sweeps``, then until the largest overlap found is below ``tol`` (mm), at
-       most ``max_sweeps``.  The first buffers serve as scratch space.
-
-    Returns ``(sweeps, largest overlap seen by the last sweep, overflowed)``.
+    ``scratch`` is an (n, 2) buffer that takes every other sweep's positions; the
+    final positions are in ``scratch`` when the last value returned is true (the caller
+    swaps the two arrays).  ``overflows`` (1,) int64 holds the number of overflowing
+    lists (kept with the lists); ``visits`` (2, n) int32 and ``result``, ``mark``, ``near``
+    (n,) uint8 are work arrays.  Returns ``(sweeps, overlap (mm), list builds,
+    in_scratch)``.
     """
     n = pos.shape[0]
-    x0, y0, cs = gf[0], gf[1], gf[2]
-    inv_cs = 1.0 / cs
-    nx, ny, min_iter, max_iter = gi[0], gi[1], gi[2], gi[3]
-    r, gamma_r, dt, tol, relax, cutoff = pp[0], pp[1], pp[2], pp[3], pp[4], pp[5]
-    _predict(pos, udir, fcols[1], icols[2], dt, x0, y0, inv_cs, nx, ny, cell)
-    for b in range(bodies.shape[0]):
-        bodies[b, BCX] = 0.0
-        bodies[b, BCY] = 0.0
-        if not math.isinf(bodies[b, BDRAG]):
-            bodies[b, BX] += bodies[b, BFX] * dt / bodies[b, BDRAG]
-            bodies[b, BY] += bodies[b, BFY] * dt / bodies[b, BDRAG]
-    _bodies_vs_static(bodies, seg, sdisc)
-    for p in range(pistons.shape[0]):
-        pistons[p, PC] = 0.0
-        if not math.isinf(pistons[p, PDRAG]):
-            x = pistons[p, PP] + pistons[p, PS] * pistons[p, PF] * dt / pistons[p, PDRAG]
-            pistons[p, PP] = min(max(x, pistons[p, PLL]), pistons[p, PLH])
-    _counting_sort(cell, nx * ny, cell_start, perm)
-    _gather_all(pos, fcols, icols, udir, pos2, fcols2, icols2, udir2, perm)
-    moved_prev = moved[0]
-    moved_cur = moved[1]
-    near = moved[2]
-    _build_neighbours(pos2, cell_start, nx, ny, cutoff, nbr, nnb, near)
-    overflow = False
-    for i in range(n):
-        if near[i]:
-            overflow = True
-            near[:] = 0
-            break
+    r = num.radius
+    far = _move(pos, udir, fcols[SPEED], icols[TIMER], ref, num.dt)
+    _move_bodies(bodies, pistons, seg, sdisc, num.dt)
+
+    builds = 0
+    if not (far <= num.half_skin * num.half_skin):
+        sort_rows(pos, fcols, icols, udir, scratch, grid, cell, cell_start, perm)
+        overflows[0] = build_lists(pos, ref, grid, num.cutoff, cell, cell_start, perm, nbr, nnb)
+        builds += 1
+    elif not lists_ready:
+        overflows[0] = build_lists(ref, ref, grid, num.cutoff, cell, cell_start, perm, nbr, nnb)
+        builds += 1
+
     nb = bodies.shape[0]
     npis = pistons.shape[0]
     moved_b = np.zeros(nb, np.uint8)
     moved_p = np.zeros(npis, np.uint8)
-    src = pos2
-    dst = pos  # the old positions and headings are free scratch now
-    worst = fcols[0]
+    contact = np.zeros((nb + npis, 2))
+    visit = visits[0]
+    visit_next = visits[1]
+    src = pos
+    dst = scratch
+    everyone = True
+    count = n
     sweeps = 0
-    seen = 0.0
-    while sweeps < max_iter:
-        _bodies_pass(src, cell_start, x0, y0, cs, nx, ny, r, gamma_r, dt, bodies, pistons)
-        if overflow:
-            _sweep_cells(
-                src,
-                dst,
-                cell_start,
-                cell_flag,
-                x0,
-                y0,
-                inv_cs,
-                nx,
-                ny,
-                r,
-                relax,
-                seg,
-                sdisc,
-                bodies,
-                pistons,
-                moved_cur,
-                worst,
-            )
-        else:
-            _sweep_list(
-                src,
-                dst,
-                nbr,
-                nnb,
-                cell_flag,
-                x0,
-                y0,
-                inv_cs,
-                nx,
-                ny,
-                r,
-                relax,
-                seg,
-                sdisc,
-                bodies,
-                pistons,
-                moved_prev,
-                moved_cur,
-                near,
-                sweeps == 0,
-                worst,
-            )
-        seen = 0.0
-        for i in range(n):  # max is order-independent: deterministic
-            if worst[i] > seen:
-                seen = worst[i]
-        any_moved = False
-        for b in range(nb):
-            moved_b[b] = 1 if (bodies[b, BDX] != 0.0 or bodies[b, BDY] != 0.0) else 0
-            bodies[b, BX] += bodies[b, BDX]
-            bodies[b, BY] += bodies[b, BDY]
-            any_moved = any_moved or moved_b[b] != 0
-        _bodies_vs_static(bodies, seg, sdisc)
-        for p in range(npis):
-            moved_p[p] = 1 if pistons[p, PD] != 0.0 else 0
-            pistons[p, PP] += pistons[p, PD]
-            any_moved = any_moved or moved_p[p] != 0
-        src, dst = dst, src
-        moved_prev, moved_cur = moved_cur, moved_prev
+    overlap = 0.0
+    while True:
+        _bodies_pass(src, cell_start, perm, grid, r, num.drag, num.dt, bodies, pistons, contact)
+        overlap, far = _sweep(
+            src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg,
+            sdisc, bodies, pistons, visit, count, everyone, result,
+        )  # fmt: skip
         sweeps += 1
-        if sweeps >= min_iter and seen < tol:
-            break
-        if any_moved:
-            _near_moved(src, bodies, moved_b, pistons, moved_p, r, cs, near)
-        elif sweeps == 1 or nb + npis > 0:
-            near[:] = 0
-    if sweeps % 2 == 1:
-        _copy2(pos, pos2)  # the latest positions are in the scratch buffer
-    return sweeps, seen, overflow
+        if (sweeps >= num.min_sweeps and overlap < num.tol) or sweeps >= num.max_sweeps:
+            break  # src is the result; its overlaps were just measured
+        # apply the sweep: dst is the configuration now, bodies and pistons take their steps
+        any_moved = _apply_body_steps(bodies, pistons, contact, moved_b, moved_p, seg, sdisc)
+        src, dst = dst, src
+        if not (far <= num.half_skin * num.half_skin):
+            overflows[0] = build_lists(
+                src, ref, grid, num.cutoff, cell, cell_start, perm, nbr, nnb
+            )
+            builds += 1
+            everyone = True
+            count = n
+        elif overflows[0]:  # a list is incomplete: visit everyone (rare: large overlaps only)
+            everyone = True
+            count = n
+        else:
+            if any_moved:
+                _near_moved(src, bodies, moved_b, pistons, moved_p, r, grid.cell_size, near)
+            count = _next_active(
+                visit, count, everyone, result, nbr, nnb, near, any_moved, mark, visit_next
+            )
+            visit, visit_next = visit_next, visit
+            everyone = False
+    return sweeps, overlap, builds, sweeps % 2 == 0
 
 
 @njit(cache=True, parallel=True)
-def max_overlap(pos, cell_start, x0, y0, cs, nx, ny, r, seg, sdisc, bodies, pistons):
+def max_overlap(pos, cell_start, grid, r, seg, sdisc, bodies, pistons):
     """Largest overlap (mm) of any robot with a robot, wall, body or piston.
 
-    ``pos`` must be sorted by cell with ``cell_start`` built on it.
+    ``pos`` must be sorted by cell with ``cell_start`` built on it (cells at least 2 r).
     """
     n = pos.shape[0]
+    x0, y0, cs, nx, ny = grid.x0, grid.y0, grid.cell_size, grid.nx, grid.ny
     inv_cs = 1.0 / cs
     d_rr = 2.0 * r
-    worst = np.zeros(n)
+    out = 0.0
     for i in prange(n):
         px = pos[i, 0]
         py = pos[i, 1]
         cx, cy = _cell_xy(px, py, x0, y0, inv_cs, nx, ny)
-        _, _, m = _walls_and_bodies(i, px, py, r, True, seg, sdisc, bodies, pistons)
+        _, _, m = _walls_and_bodies(px, py, r, True, seg, sdisc, bodies, pistons)
         for ccy in range(max(cy - 1, 0), min(cy + 2, ny)):
             for ccx in range(max(cx - 1, 0), min(cx + 2, nx)):
                 c = ccy * nx + ccx
@@ -808,12 +911,10 @@ def max_overlap(pos, cell_start, x0, y0, cs, nx, ny, r, seg, sdisc, bodies, pist
                     dy = py - pos[j, 1]
                     d2 = dx * dx + dy * dy
                     if d2 < d_rr * d_rr:
-                        m = max(m, d_rr - math.sqrt(d2))
-        worst[i] = m
-    out = 0.0
-    for i in range(n):
-        if worst[i] > out:
-            out = worst[i]
+                        ov = d_rr - math.sqrt(d2)
+                        if ov > m:
+                            m = ov
+        out = max(out, m)
     return out
 
 
@@ -824,17 +925,11 @@ def inertial_step(
     vel,
     fcols,
     icols,
-    x0,
-    y0,
-    cs,
-    nx,
-    ny,
+    grid,
     cell,
     cell_start,
     perm,
-    tmpf2,
-    tmpf,
-    tmpi,
+    tmp2,
     r,
     dt,
     seg,
@@ -850,14 +945,13 @@ def inertial_step(
     ``counters[1]`` wall collisions.
     """
     n = pos.shape[0]
-    inv_cs = 1.0 / cs
+    x0, y0, nx, ny = grid.x0, grid.y0, grid.nx, grid.ny
+    inv_cs = 1.0 / grid.cell_size
     for i in range(n):
         pos[i, 0] += vel[i, 0] * dt
         pos[i, 1] += vel[i, 1] * dt
-    sort_by_cell(
-        pos, fcols, icols, x0, y0, inv_cs, nx, ny, cell, cell_start, perm, tmpf2, tmpf, tmpi
-    )
-    _gather_f2(vel, perm, tmpf2)
+    sort_by_cell(pos, fcols, icols, grid, cell, cell_start, perm, tmp2)
+    _permute_pairs(vel, perm, tmp2)
     d_rr = 2.0 * r
     for i in range(n):
         cx, cy = _cell_xy(pos[i, 0], pos[i, 1], x0, y0, inv_cs, nx, ny)

@@ -48,7 +48,8 @@ def _write_attrs(group: zarr.Group, attrs: Mapping[str, Any]) -> zarr.Group:
     ``group.attrs.update(d)`` is ``MutableMapping.update``: one metadata write per key,
     so a kill between keys could leave ``committed_frames`` pointing one block past
     ``checkpoint_file``.  ``update_attributes`` with the merged dict writes once, and
-    zarr's local store replaces ``zarr.json`` atomically (temp file + rename).
+    zarr's local store replaces ``zarr.json`` atomically (temp file + rename) from
+    zarr-python 3.1.3 on, hence ``zarr>=3.1.3`` in the requirements.
     """
     merged = {**group.attrs.asdict(), **attrs}
     return group.update_attributes(merged)

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import sys
+import time
 from collections.abc import Mapping, Sequence
 from concurrent.futures import Executor
 from pathlib import Path
@@ -54,17 +56,26 @@ def run_grid(
     (a local process pool, or ``executor``) into ``out/runs/``; one record per run.
 
     Dotted keys in ``base`` and ``grid`` address sections (``"sensor.mode"``).  Every
-    value is checked before ``out`` is created (its parent must exist).  A run that
+    value is checked before ``out`` (and its missing parents) is created.  A run that
     failed raises :class:`ConfigError` naming it.
     """
-    out = Path(out)
-    if not out.absolute().parent.is_dir():
-        raise ConfigError(f"study output directory's parent {str(out.parent)!r} does not exist")
+    from thermoswarm.fsutil import check_output_dir
+
+    out = check_output_dir(out)
     spec = SweepSpec(scenario=scenario, out=out / "runs", base=dict(base), grid=dict(grid),
                      seeds=list(seeds))  # fmt: skip
-    expand(spec)  # raises on a bad value before anything is written
-    out.mkdir(exist_ok=True)
+    n_runs = len(expand(spec))  # raises on a bad value before anything is written
+    out.mkdir(parents=True, exist_ok=True)
+    # off a terminal (a log) one line before and one after, instead of a progress bar
+    lines = progress is None and not sys.stderr.isatty()
+    t0 = time.perf_counter()
+    if lines:
+        print(f"{scenario} study: {n_runs} runs into {out / 'runs'} ...", file=sys.stderr,
+              flush=True)  # fmt: skip
     records = run_sweep(spec, executor, progress=progress, max_workers=max_workers)
+    if lines:
+        print(f"{scenario} study: {n_runs} runs done in {time.perf_counter() - t0:.0f} s",
+              file=sys.stderr, flush=True)  # fmt: skip
     bad = [r for r in records if r.metrics is None]
     if bad:
         raise ConfigError(

@@ -215,7 +215,7 @@ def run_mechanism(
     Parameters
     ----------
     out : path
-        Study directory (its parent must exist); runs go to ``out/runs/<run_id>/``,
+        Study directory (created with its parents); runs go to ``out/runs/<run_id>/``,
         results to ``out/mechanism.json`` and ``out/mechanism.md``.
     setting : {"quick", "full"}
     seeds : int or list of int, optional
@@ -257,16 +257,3 @@ def run_mechanism(
     atomic_write_json(out / "mechanism.json", result.to_dict())
     atomic_write_text(out / "mechanism.md", result.table())
     return result
-
-
-def main(argv: Sequence[str] | None = None) -> None:
-    """``python -m thermoswarm.studies.mechanism``: the same as ``thermoswarm study mechanism``."""
-    import sys
-
-    from thermoswarm.cli import main as cli_main
-
-    cli_main(["study", "mechanism", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":
-    main()

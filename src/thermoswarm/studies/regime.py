@@ -178,6 +178,24 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def default_cell(name: str) -> tuple[float | None, float | None]:
+    """The cell ``(x, y)`` of map ``name`` at the defaults of ``transport-free``, as the
+    study records it (speed axes as mean speeds in mm/s); ``None`` for an axis whose
+    values miss the default."""
+    centre = {**CENTRE, "object_drag": 2.0, "arena": 1800.0, "tau": 1.0,
+              "light_spread_deg": 0.0, "threshold": 0.5}  # fmt: skip
+    out: list[float | None] = []
+    for axis, (key, vals, _) in zip("xy", (MAPS[name]["x"], MAPS[name]["y"]), strict=True):
+        c = float(centre[key])
+        if key in SPEED_AXES:
+            c = math.sqrt(math.pi * c / 2)  # the mean speed of the default temperature
+        hit = next((float(v) for v in vals if abs(v - c) < 1e-3), None)
+        if hit is not None and axis == "x" and key in SPEED_AXES:  # recorded from kT
+            hit = round(math.sqrt(math.pi * kT(hit) / 2), 6)
+        out.append(hit)
+    return out[0], out[1]
+
+
 #: Titles of the maps in figures.
 TITLES = {
     "cold": "cold phase",
@@ -202,8 +220,6 @@ def plot_maps(result: RegimeResult | pd.DataFrame, fig: Any = None) -> Any:
         fig = plt.figure(figsize=(4.8 * cols + 1.0, 3.9 * rows), constrained_layout=True)
     axes = fig.subplots(rows, cols, squeeze=False).ravel()
     vmax = float(np.nanmax(np.abs(summary["drift_mean"]))) or 1.0
-    centre = dict(CENTRE)
-    centre.update(object_drag=2.0, arena=1800.0, tau=1.0, light_spread_deg=0.0, threshold=0.5)
     for ax, (name, h) in zip(axes, panels, strict=False):
         m = MAPS[name]
         xs = sorted(h["x"].unique())
@@ -221,14 +237,10 @@ def plot_maps(result: RegimeResult | pd.DataFrame, fig: Any = None) -> Any:
             dark = abs(c["drift_mean"]) > 0.6 * vmax
             ax.text(j, i, text, ha="center", va="center", fontsize=7,
                     color="white" if dark else "black")  # fmt: skip
-        cx = centre.get(m["x"][0])
-        cy = centre.get(m["y"][0])
-        if m["y"][0] in SPEED_AXES and cy is not None:
-            cy = math.sqrt(math.pi * cy / 2)
-        if cx in xs and cy is not None and any(abs(cy - y) < 1e-3 for y in ys):
-            i = min(range(len(ys)), key=lambda k: abs(ys[k] - cy))
-            ax.add_patch(plt.Rectangle((xs.index(cx) - 0.5, i - 0.5), 1, 1, fill=False,
-                                       lw=2.5, ec="k"))  # fmt: skip
+        cx, cy = default_cell(name)
+        if cx in xs and cy in ys:  # the default regime's cell
+            ax.add_patch(plt.Rectangle((xs.index(cx) - 0.5, ys.index(cy) - 0.5), 1, 1,
+                                       fill=False, lw=2.5, ec="k"))  # fmt: skip
         ax.set_xticks(range(len(xs)), [f"{x:g}" for x in xs])
         ax.set_yticks(range(len(ys)), [f"{y:g}" for y in ys])
         ax.set_xlabel(m["x"][2])
@@ -283,13 +295,13 @@ def run_regime(
     if cfg["arena"] is not None:
         base.update(width=cfg["arena"], height=cfg["arena"])
     base.update(overrides or {})
-    out = Path(out)
-    if not out.absolute().parent.is_dir():
-        raise ConfigError(f"study output directory's parent {str(out.parent)!r} does not exist")
+    from thermoswarm.fsutil import check_output_dir
+
+    out = check_output_dir(out)  # missing parents are created with it
     from thermoswarm.sweep import SweepSpec, expand
 
     expand(SweepSpec("transport-free", out, base, {}, seed_list))  # bad values: nothing written
-    out.mkdir(exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
 
     def _collect() -> list[dict[str, Any]]:
         rows: list[dict[str, Any]] = []

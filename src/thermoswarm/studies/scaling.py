@@ -374,9 +374,9 @@ def run_scaling(
     base: dict[str, Any] = {"variant": variant, "duration": duration or cfg["duration"],
                             "record.interval": cfg.get("record.interval", 5.0),
                             "record.netcdf": False, **(overrides or {})}  # fmt: skip
-    out = Path(out)
-    if not out.absolute().parent.is_dir():
-        raise ConfigError(f"study output directory's parent {str(out.parent)!r} does not exist")
+    from thermoswarm.fsutil import check_output_dir
+
+    out = check_output_dir(out)  # missing parents are created with it
     bases = []
     for n in ns:
         b = dict(base)
@@ -480,16 +480,3 @@ def load_scaling(path: str | Path) -> ScalingResult:
     data = json.loads((Path(path) / "scaling.json").read_text())
     return ScalingResult(runs=pd.DataFrame(data["runs"]), summary=pd.DataFrame(data["summary"]),
                          setting=data["setting"])  # fmt: skip
-
-
-def main(argv: Sequence[str] | None = None) -> None:
-    """``python -m thermoswarm.studies.scaling``: the same as ``thermoswarm study scaling``."""
-    import sys
-
-    from thermoswarm.cli import main as cli_main
-
-    cli_main(["study", "scaling", *(sys.argv[1:] if argv is None else argv)])
-
-
-if __name__ == "__main__":
-    main()

@@ -21,6 +21,10 @@ TrackEval's MOT17 preprocessing does.  Class -1 (absent) counts as class 1.
 Definitions: ``mota = 1 - (fn + fp + idsw) / n_gt``; ``motp`` = mean IoU of the
 matches; ``idsw_rate = idsw / n_gt`` (ID switches per ground-truth detection, the
 paper's "ID switch rate"); ``idf1 = 2 idtp / (n_gt + n_pred)``.
+
+HOTA (:func:`_hota`): ``hota``, ``deta``, ``assa`` and ``loca``, each the mean over the
+IoU thresholds 0.05, 0.10, ..., 0.95 as TrackEval reports them (independent of
+``iou``); equal to TrackEval's to 1e-6 on the test fixtures.
 """
 
 from __future__ import annotations
@@ -35,25 +39,54 @@ from scipy.optimize import linear_sum_assignment
 from thermoswarm.errors import InputError
 from thermoswarm.tracking.anatomy import box_iou
 
-__all__ = ["evaluate_tables", "evaluate_files", "METRIC_KEYS"]
+__all__ = ["evaluate_tables", "evaluate_files", "METRIC_KEYS", "HOTA_ALPHAS"]
 
 #: The keys of the result of :func:`evaluate_tables`.
 METRIC_KEYS = (
     "mota", "motp", "idf1", "idp", "idr", "idsw", "idsw_rate", "fp", "fn", "tp", "n_gt",
     "n_pred", "n_gt_ids", "n_pred_ids", "n_frames", "precision", "recall", "mt", "pt",
-    "ml", "frag", "iou_threshold",
+    "ml", "frag", "iou_threshold", "hota", "deta", "assa", "loca",
 )  # fmt: skip
+
+#: HOTA's localisation thresholds (TrackEval's ``array_labels``): 0.05, 0.10, ..., 0.95.
+HOTA_ALPHAS = np.arange(0.05, 0.99, 0.05)
 
 _DISTRACTORS = (2, 7, 8, 12)
 _EPS = np.finfo(float).eps
 
 
-def _frames(table: np.ndarray, n_frames: int) -> list[np.ndarray]:
-    """Row indices per frame 1..n_frames."""
+def _frames(table: np.ndarray, first: int, n_frames: int) -> list[np.ndarray]:
+    """Row indices per frame ``first .. first + n_frames - 1``."""
     f = table[:, 0].astype(np.int64)
     order = np.argsort(f, kind="stable")
-    bounds = np.searchsorted(f[order], np.arange(1, n_frames + 2))
+    bounds = np.searchsorted(f[order], np.arange(first, first + n_frames + 1))
     return [order[bounds[i] : bounds[i + 1]] for i in range(n_frames)]
+
+
+def _as_table(t: np.ndarray, name: str) -> np.ndarray:
+    """A MOT table as ``(n, 10)`` floats (6-column rows get conf 1, the rest -1), with
+    integer frames >= 0 spanning at most :data:`~thermoswarm.io.mot.MAX_FRAMES`."""
+    from thermoswarm.io.mot import MAX_FRAMES
+
+    t = np.asarray(t, dtype=np.float64)
+    if t.size == 0:
+        return np.zeros((0, 10))
+    if t.ndim != 2 or not 6 <= t.shape[1] <= 10:
+        raise InputError(f"{name}: a MOT table has 6 to 10 columns, got shape {t.shape}")
+    if t.shape[1] < 10:
+        pad = np.full((t.shape[0], 10 - t.shape[1]), -1.0)
+        if t.shape[1] == 6:
+            pad[:, 0] = 1.0
+        t = np.hstack([t, pad])
+    f = t[:, 0]
+    bad = ~np.isfinite(f) | (f < 0) | (f != np.round(f))
+    if bad.any():
+        raise InputError(f"{name}: frame {float(f[np.argmax(bad)])!r} is not an integer >= 0")
+    if f.max() - f.min() + 1 > MAX_FRAMES:
+        raise InputError(
+            f"{name}: frames {f.min():.0f} to {f.max():.0f} span more than {MAX_FRAMES:,} frames"
+        )
+    return t
 
 
 def _check_unique(table: np.ndarray, name: str) -> None:
@@ -66,6 +99,71 @@ def _check_unique(table: np.ndarray, name: str) -> None:
         raise InputError(
             f"{name}: id {int(bad % 2**31)} appears twice in frame {int(bad // 2**31)}"
         )
+
+
+def _hota(
+    frames: list[tuple[np.ndarray, np.ndarray, np.ndarray]], n_gid: int, n_pid: int
+) -> dict[str, float]:
+    """HOTA, DetA, AssA and LocA (Luiten et al. 2021), averaged over :data:`HOTA_ALPHAS`.
+
+    ``frames``: per frame the relabelled gt ids, predicted ids and their IoU matrix.
+    The algorithm of TrackEval's ``HOTA.eval_sequence``, step for step: a global
+    alignment score of every id pair (IoU-weighted co-occurrence), per frame a
+    Hungarian matching maximising alignment x IoU, then per threshold alpha the
+    matches with IoU >= alpha count as TP; AssA averages, over TP, the Jaccard index
+    of the matched id pair's whole tracks.
+    """
+    A = HOTA_ALPHAS.size
+    eps = np.finfo(float).eps
+    n_gt = sum(g.size for g, _, _ in frames)
+    n_pr = sum(p.size for _, p, _ in frames)
+    if n_pr == 0 or n_gt == 0:
+        return {"hota": 0.0, "deta": 0.0, "assa": 0.0, "loca": 1.0}
+    potential = np.zeros((n_gid, n_pid))
+    gt_count = np.zeros((n_gid, 1))
+    pr_count = np.zeros((1, n_pid))
+    for g, p, sim in frames:
+        if g.size and p.size:
+            denom = sim.sum(0)[None, :] + sim.sum(1)[:, None] - sim
+            mask = denom > eps
+            s_iou = np.zeros_like(sim)
+            s_iou[mask] = sim[mask] / denom[mask]
+            potential[g[:, None], p[None, :]] += s_iou
+        gt_count[g] += 1
+        pr_count[0, p] += 1
+    align = potential / (gt_count + pr_count - potential)
+    tp, fn, fp, loc = (np.zeros(A) for _ in range(4))
+    matches = np.zeros((A, n_gid, n_pid))
+    for g, p, sim in frames:
+        if g.size == 0 or p.size == 0:
+            fp += p.size
+            fn += g.size
+            continue
+        r, c = linear_sum_assignment(-(align[g[:, None], p[None, :]] * sim))
+        ms = sim[r, c]
+        for a, alpha in enumerate(HOTA_ALPHAS):
+            ok = ms >= alpha - eps
+            k = int(ok.sum())
+            tp[a] += k
+            fn[a] += g.size - k
+            fp[a] += p.size - k
+            if k:
+                loc[a] += ms[ok].sum()
+                matches[a, g[r[ok]], p[c[ok]]] += 1
+    assa = np.empty(A)
+    for a in range(A):
+        m = matches[a]
+        jac = m / np.maximum(1, gt_count + pr_count - m)
+        assa[a] = np.sum(m * jac) / max(1.0, tp[a])
+    deta = tp / np.maximum(1, tp + fn + fp)
+    loca = np.maximum(1e-10, loc) / np.maximum(1e-10, tp)
+    hota = np.sqrt(deta * assa)
+    return {
+        "hota": float(hota.mean()),
+        "deta": float(deta.mean()),
+        "assa": float(assa.mean()),
+        "loca": float(loca.mean()),
+    }
 
 
 def evaluate_tables(
@@ -81,7 +179,9 @@ def evaluate_tables(
     Parameters
     ----------
     gt, pred
-        MOT tables ``(n, >=6)`` (:func:`thermoswarm.io.mot.read_mot_table`), boxes in px.
+        MOT tables ``(n, 6..10)`` (:func:`thermoswarm.io.mot.read_mot_table`), boxes in
+        px; 6-column rows count as considered (``conf`` 1).  Frames are integers from 0
+        or 1; both tables are counted from 0 when either has a frame 0.
     iou
         IoU threshold of a match, in (0, 1].
 
@@ -92,17 +192,21 @@ def evaluate_tables(
     """
     if not (0 < iou <= 1):
         raise InputError(f"iou must be in (0, 1], got {iou!r}")
-    gt = np.asarray(gt, dtype=np.float64).reshape(-1, max(np.shape(gt)[-1], 6))
-    pred = np.asarray(pred, dtype=np.float64).reshape(-1, max(np.shape(pred)[-1], 6))
+    gt = _as_table(gt, gt_name)
+    pred = _as_table(pred, pred_name)
     _check_unique(gt, gt_name)
     _check_unique(pred, pred_name)
-    n_frames = int(max(gt[:, 0].max(initial=0), pred[:, 0].max(initial=0)))
+    # Frames are counted from 0 when either table has a frame 0, else from 1
+    # (MOTChallenge); frames without rows in either table are empty, never dropped.
+    first = 0 if (gt[:, 0].min(initial=1) == 0 or pred[:, 0].min(initial=1) == 0) else 1
+    last = int(max(gt[:, 0].max(initial=first - 1), pred[:, 0].max(initial=first - 1)))
+    n_frames = last - first + 1
     gt_cls = gt[:, 7].astype(np.int64) if gt.shape[1] > 7 else np.ones(len(gt), np.int64)
     gt_cls = np.where(gt_cls == -1, 1, gt_cls)
     gt_keep = (gt[:, 6] != 0) & (gt_cls == 1)
     distractor = np.isin(gt_cls, _DISTRACTORS)
-    gt_rows = _frames(gt, n_frames)
-    pr_rows = _frames(pred, n_frames)
+    gt_rows = _frames(gt, first, n_frames)
+    pr_rows = _frames(pred, first, n_frames)
 
     # Relabel ids to 0..n-1 (over rows that are evaluated).
     per_frame = []
@@ -138,17 +242,18 @@ def evaluate_tables(
     frag = np.zeros(n_gid)
     potential = np.zeros((n_gid, n_pid))
     pr_count = np.zeros(n_pid)
+    hota_frames = []
     for g, p in per_frame:
         gi, pi = gid[g], pid[p]
         gt_count[gi] += 1
         pr_count[pi] += 1
-        if len(g) == 0:
+        if len(g) == 0 or len(p) == 0:
+            hota_frames.append((gi, pi, np.zeros((len(g), len(p)))))
             fp += len(p)
-            continue
-        if len(p) == 0:
             fn += len(g)
             continue
         sim = box_iou(gt[g, 2:6], pred[p, 2:6])
+        hota_frames.append((gi, pi, sim))
         mi, mj = np.nonzero(sim >= iou)
         np.add.at(potential, (gi[mi], pi[mj]), 1)
         score = 1000.0 * (pi[None, :] == prev_step[gi][:, None]) + sim
@@ -223,6 +328,7 @@ def evaluate_tables(
         "ml": ml,
         "frag": n_frag,
         "iou_threshold": float(iou),
+        **_hota(hota_frames, n_gid, n_pid),
     }
 
 
@@ -237,8 +343,8 @@ def evaluate_files(
     from thermoswarm.io.mot import read_mot_table
 
     gt_path, pred_path = Path(gt_path), Path(pred_path)
-    gt = read_mot_table(gt_path)
-    pred = read_mot_table(pred_path, allow_empty=True)
+    gt = read_mot_table(gt_path, min_frame=0)
+    pred = read_mot_table(pred_path, allow_empty=True, min_frame=0)
     if np.any(pred[:, 1] < 0):
         raise InputError(f"{pred_path}: rows with id -1 are detections, not tracks")
     return evaluate_tables(gt, pred, iou=iou, gt_name=str(gt_path), pred_name=str(pred_path))

@@ -8,11 +8,13 @@ with noise ``R = r^2 I`` (px^2).
 
 Adaptation (the "adaptive" of the paper's adaptive Kalman filter): each track's ``q``
 follows its innovations.  For a consistent filter the normalised innovation squared
-``nis = v' S^-1 v`` has mean 2 (the measurement dimension); a running mean of ``nis``
-above 2 says that the ant changes speed or direction more than the filter assumes,
-below 2 that it moves more steadily, and ``q`` is scaled by ``(mean nis / 2)^gain``
-after each update, within ``[q_min, q_max]`` (covariance matching on the innovations;
-Mehra 1972, Mohamed & Schwarz 1999).  Ants switch between slow and fast phases, so a
+``nis = v' S^-1 v`` has mean 2 (the measurement dimension).  After each update the
+running mean ``m <- (1 - nis_rate) m + nis_rate nis`` is formed; a mean above 2 says
+that the ant changes speed or direction more than the filter assumes, below 2 that it
+moves more steadily, and ``q`` is multiplied by ``(m / 2)^(gain * nis_rate)`` and kept
+within ``[q_min, q_max]`` (a small step each update, so ``q`` follows ``m`` over about
+``1 / nis_rate`` updates; covariance matching on the innovations, Mehra 1972, Mohamed &
+Schwarz 1999).  Ants switch between slow and fast phases, so a
 fixed ``q`` is either too stiff for fast ants or too loose for slow ones.
 """
 
@@ -97,7 +99,9 @@ def update(
 def adapt(
     q: np.ndarray, nis_mean: np.ndarray, nis: np.ndarray, p: KalmanParams
 ) -> tuple[np.ndarray, np.ndarray]:
-    """New process-noise intensities and running mean NIS after an update."""
+    """New process-noise intensities and running mean NIS after an update:
+    ``m' = (1 - nis_rate) m + nis_rate nis``, ``q' = clip(q (m' / 2)^(gain nis_rate),
+    q_min, q_max)``."""
     nis_mean = (1 - p.nis_rate) * nis_mean + p.nis_rate * nis
     q = np.clip(q * (nis_mean / 2.0) ** (p.gain * p.nis_rate), p.q_min, p.q_max)
     return q, nis_mean

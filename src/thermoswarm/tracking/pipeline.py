@@ -10,15 +10,17 @@
 3. frames whose tracks are final (after the tracker's fixed lag) are drawn into the
    overlay video, so nothing but a short ring of small frames is kept in memory.
 
-:func:`track_detection_file` runs the tracker on a MOTChallenge detection file
-(``frame, -1, left, top, width, height, conf, ...``) without video; head and tail are
-then unknown (NaN) and the body point is the box centre.
+:func:`track_detection_file` runs the tracker on another detector's boxes without
+video (MOTChallenge, YOLO txt or COCO JSON; :mod:`~thermoswarm.tracking.detfiles`):
+head and tail are then unknown (NaN), the body point is the box centre, the boxes
+written are the detections' own, the tracker's unit of length is the objects' size
+measured from the boxes, and the frames keep the input's numbering.
 
 Both write into ``out_dir``: ``tracks.nc`` (trajectory format, mm and s, keypoints
-head/body/tail), ``tracks_mot.txt`` (MOTChallenge, body-centred boxes in px),
-``detections.txt`` (MOT detection rows, to re-track without the video),
-``overlay.mp4`` (unless disabled) and ``summary.json``; every file is written
-atomically.
+head/body/tail; from detection files only when a scale ``px_per_mm`` is given),
+``tracks_mot.txt`` (MOTChallenge boxes in px), ``detections.txt`` (video only: MOT
+detection rows, to re-track without the video), ``overlay.mp4`` (unless disabled) and
+``summary.json``; every file is written atomically.
 """
 
 from __future__ import annotations
@@ -95,7 +97,7 @@ def track_video(
     video
         Video file or folder of frames.
     out_dir
-        Output folder (created; its parent must exist).
+        Output folder (created with its parents).
     px_per_mm
         Image scale (px per mm).
     fps
@@ -145,7 +147,7 @@ def track_video(
     if progress:
         from tqdm import tqdm
 
-        frames = tqdm(frames, total=total, unit="frame", desc="track")
+        frames = tqdm(frames, total=total, unit="frame", desc="track", disable=None)
     k = -1
     try:
         for k, frame in enumerate(frames):
@@ -220,7 +222,7 @@ def _summary(
     source: str,
     fps: float,
     fps_source: str,
-    px_per_mm: float,
+    px_per_mm: float | None,
     tracker: TrackerConfig,
     detector: str | None,
     model: Any,
@@ -256,57 +258,85 @@ def _summary(
 
 
 def detections_from_table(table: np.ndarray) -> list[FrameDetections]:
-    """Per-frame detections from MOT detection rows (frames 1-based; box centres as body
-    points, head and tail unknown)."""
-    frames = table[:, 0].astype(np.int64)
-    n = int(frames.max())
-    order = np.argsort(frames, kind="stable")
-    bounds = np.searchsorted(frames[order], np.arange(1, n + 2))
-    out = []
-    for f in range(n):
-        rows = table[order[bounds[f] : bounds[f + 1]]]
-        pts = np.full((len(rows), 3, 2), np.nan)
-        pts[:, 1, 0] = rows[:, 2] + rows[:, 4] / 2
-        pts[:, 1, 1] = rows[:, 3] + rows[:, 5] / 2
-        scores = np.clip(np.where(rows[:, 6] < 0, 1.0, rows[:, 6]), 0, 1)
-        out.append(FrameDetections(pts, scores, boxes=rows[:, 2:6]))
-    return out
+    """Per-frame detections from MOT detection rows, frames 1, 2, ... (box centres as
+    body points, head and tail unknown; a negative score counts as 1)."""
+    from thermoswarm.tracking.detfiles import DetectionTable
+
+    t = DetectionTable(
+        table[:, 0].astype(np.int64),
+        table[:, 2:6].astype(np.float64),
+        np.clip(np.where(table[:, 6] < 0, 1.0, table[:, 6]), 0, 1),
+        "table",
+        "mot",
+    )
+    return t.per_frame(first_frame=1)[1]
 
 
 def track_detection_file(
     detections: str | os.PathLike,
     out_dir: str | os.PathLike,
     *,
-    px_per_mm: float,
     fps: float,
+    px_per_mm: float | None = None,
     tracker_config: TrackerConfig | None = None,
+    fmt: str | None = None,
+    image_size: tuple[int, int] | None = None,
+    first_frame: int | None = None,
+    length_px: float | None = None,
 ) -> dict[str, Any]:
-    """Track MOTChallenge detections (no video); write the outputs; return the summary."""
-    from thermoswarm.io.mot import read_mot_table
+    """Track another detector's boxes (no video); write the outputs; return the summary.
+
+    Parameters
+    ----------
+    detections
+        MOTChallenge file, folder of YOLO per-frame files or COCO JSON
+        (:func:`~thermoswarm.tracking.detfiles.read_detections`).
+    fps
+        Frame rate (frame numbers only in the files).
+    px_per_mm
+        Image scale; only converts ``tracks.nc`` to mm, which is not written without it.
+    fmt, image_size
+        Format (default from the path) and ``(width, height)`` px (needed by YOLO).
+    first_frame
+        Number of the first frame (0 or 1; default 0 if the file has a frame 0, else 1);
+        the tracks keep the input's numbering.
+    length_px
+        The objects' length in px, the tracker's unit; default the median longer box
+        side of all detections.
+    """
+    from thermoswarm.tracking.detfiles import read_detections
 
     path = Path(detections)
-    table = read_mot_table(path)  # an empty file is an InputError naming it
     if fps is None or not (fps > 0 and np.isfinite(fps)):
         raise InputError(f"{path}: detections have frame numbers only; pass --fps")
+    if px_per_mm is not None and not (px_per_mm > 0 and np.isfinite(px_per_mm)):
+        raise InputError(f"px_per_mm must be a positive number, got {px_per_mm!r}")
+    table = read_detections(path, fmt=fmt, image_size=image_size)
+    if len(table) == 0:
+        raise InputError(f"{path}: no detections")
+    first, dets = table.per_frame(first_frame)
+    size = length_px if length_px is not None else table.length_px()
     out = prepare_output_dir(out_dir)
     tcfg = tracker_config or TrackerConfig()
     t0 = time.perf_counter()
-    tracker = Tracker(tcfg, px_per_mm=px_per_mm, fps=fps)
-    dets = detections_from_table(table)
+    tracker = Tracker(tcfg, fps=fps, length_px=size, frame_size=table.image_size)
     for d in dets:
         tracker.predict()
         tracker.update(d)
     result = tracker.finish()
+    result.first_frame = first
     elapsed = time.perf_counter() - t0
-    names = _write_outputs(
-        result,
-        out,
-        px_per_mm=px_per_mm,
-        fps=fps,
-        source=str(path),
-        det_rows=None,
-        attrs={"detector": "detections file"},
-    )
+    from thermoswarm.io.mot import write_mot_table
+
+    write_mot_table(out / "tracks_mot.txt", result.mot_table())
+    names = ["tracks_mot.txt"]
+    if px_per_mm is not None:
+        from thermoswarm.io.netcdf import write as write_nc
+
+        attrs = {"detector": f"{table.fmt} detections file", "first_frame": first}
+        ds = result.dataset(px_per_mm=px_per_mm, fps=fps, source_file=str(path), attrs=attrs)
+        write_nc(ds, out / "tracks.nc")
+        names.insert(0, "tracks.nc")
     summary = _summary(
         result,
         source=str(path),
@@ -316,12 +346,15 @@ def track_detection_file(
         tracker=tcfg,
         detector=None,
         model=None,
-        n_det=int(table.shape[0]),
+        n_det=len(table),
         elapsed=elapsed,
         prepare=0.0,
-        size=None,
+        size=table.image_size,
         outputs=names + ["summary.json"],
         detector_options=None,
+    )
+    summary.update(
+        detections_format=table.fmt, first_frame=first, length_px=float(tracker.length_px or 0)
     )
     atomic_write_json(out / "summary.json", summary)
     return summary

@@ -9,10 +9,10 @@ Each frame:
    given to detectors that accept them (``hints``), to split touching ants.
 2. **Cost** of track ``i`` and detection ``j``:
    ``iou_weight (1 - IoU) + distance_weight d / L + angle_weight |sin(da)|`` with ``d``
-   the distance of the body points, ``L`` the ant length and ``da`` the angle between
+   the distance of the body points, ``L`` the body length and ``da`` the angle between
    the body axes (head-tail ambiguity ignored).  A pair is allowed only inside the
    gate: Mahalanobis distance of the innovation below ``gate_sigmas`` and ``d`` below
-   what ``max_speed_mm_s`` allows since the track's last detection.
+   what ``max_speed_bl_s`` allows since the track's last detection.
 3. **Assign** with :func:`scipy.optimize.linear_sum_assignment`, confirmed tracks
    first (including tracks that lost their ant within the last ``max_gap_s``), then
    tentative tracks with the detections left; pairs costing more than ``max_cost`` are
@@ -25,12 +25,12 @@ Each frame:
    ends at once rather than coasting.
 5. **Re-linking across short gaps**: a coasting track that gets a detection again, or
    a newly confirmed track that starts where a lost track would be (within
-   ``max_speed_mm_s`` of its last position), continues the old identity; the missing
+   ``max_speed_bl_s`` of its last position), continues the old identity; the missing
    frames are filled by linear interpolation (``interpolate``) and flagged.
 6. **Head and tail**: each matched detection is oriented by the sum of three kinds of
    evidence for its head-tail order: agreement with the track's previous heading
    (``continuity_weight``), with the direction of motion (``motion_weight``, scaled
-   by how well the speed is known relative to ``head_motion_speed_mm_s``), and the
+   by how well the speed is known relative to ``head_motion_speed_bl_s``), and the
    detector's own confidence (``shape_weight``); a negative sum swaps head and tail.
 
 7. **At the end** (:meth:`Tracker.finish`): motion no ant can make is removed (a
@@ -42,8 +42,13 @@ Each frame:
 Online output is final with a fixed lag (``Tracker.lag`` frames): identities and rows
 of frame ``k`` never change once frame ``k + lag`` has been processed, so overlays can
 be drawn while the video streams; only step 7 then touches a few rows and the
-head-tail order.  Positions are px (full frame); ``fps`` and ``px_per_mm`` convert the
-config's physical limits.
+head-tail order.
+
+Scale: positions are px (full frame), and every length in the config is in body
+lengths ``L`` (px per body length: given, derived from ``px_per_mm`` and the paper's
+ant, or estimated from the first detections), every time in seconds (``fps``).  So
+the same detections scaled by any factor give the same identities; the mm scale only
+converts the exported trajectories (:meth:`TrackResult.dataset`).
 """
 
 from __future__ import annotations
@@ -58,33 +63,36 @@ from scipy.optimize import linear_sum_assignment
 from thermoswarm.config import check
 from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy, kalman
-from thermoswarm.tracking.detect import FrameDetections
+from thermoswarm.tracking.detection import FrameDetections
 
-__all__ = ["TrackerConfig", "Tracker", "TrackResult"]
+__all__ = ["TrackerConfig", "Tracker", "TrackResult", "track_detections", "estimate_length_px"]
 
 _BIG = 1e6
 
 
 @dataclass(frozen=True)
 class TrackerConfig:
-    """Tracker options (physical units: mm, s; converted with ``px_per_mm`` and ``fps``).
+    """Tracker options, in units of the objects' own size and of time.
 
-    See the module docstring for the role of each weight and limit.
-    ``accel_mm_s2``: initial sd of the ants' acceleration (sets the Kalman process
-    noise, which then adapts within ``[accel/adapt_range, accel*adapt_range]``);
-    ``meas_noise_px``: sd of detected body points (px), divided by
-    ``score ** score_noise_power`` for a detection of score below 1.  ``ant_length_mm`` and
-    ``ant_width_mm`` set distance units and box padding (half the width).
+    Lengths are in body lengths ``L`` (the tracked objects' length in px, given to the
+    :class:`Tracker` or estimated from the detections), times in seconds (converted
+    with ``fps``); nothing depends on the mm scale of the image.  See the module
+    docstring for the role of each weight and limit.  ``accel_bl_s2``: initial sd of
+    the objects' acceleration (sets the Kalman process noise, which then adapts within
+    ``[q/adapt_range, q*adapt_range]``); ``meas_noise_bl``: sd of detected body points,
+    divided by ``score ** score_noise_power`` for a detection of score below 1;
+    ``width_bl``: object width, half of which pads body-centred pose boxes.  The
+    defaults are the paper's ant (7.14 x 2.5 mm, 100 mm/s at most) in these units.
     """
 
     n_init: int = 3
     tentative_max_misses: int = 1
     max_gap_s: float = 1.0
-    max_speed_mm_s: float = 100.0
-    accel_mm_s2: float = 200.0
+    max_speed_bl_s: float = 14.0
+    accel_bl_s2: float = 28.0
     adapt: bool = True
     adapt_range: float = 5.0
-    meas_noise_px: float = 1.0
+    meas_noise_bl: float = 0.04605  # 1 px at the paper's 3.04 px/mm
     score_noise_power: float = 4.0
     gate_sigmas: float = 5.0
     iou_weight: float = 1.0
@@ -96,12 +104,11 @@ class TrackerConfig:
     duplicate_radius: float = 0.3
     interpolate: bool = True
     fix_jumps: bool = True
-    head_motion_speed_mm_s: float = 3.0
+    head_motion_speed_bl_s: float = 0.42
     continuity_weight: float = 1.0
     motion_weight: float = 1.5
     shape_weight: float = 1.0
-    ant_length_mm: float = anatomy.ANT_LENGTH_MM
-    ant_width_mm: float = anatomy.ANT_WIDTH_MM
+    width_bl: float = anatomy.ANT_WIDTH_MM / anatomy.ANT_LENGTH_MM
 
     def __post_init__(self) -> None:
         check(self.n_init >= 1, "n_init", "a positive integer", self.n_init)
@@ -115,14 +122,13 @@ class TrackerConfig:
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
         for name in (
-            "max_speed_mm_s",
-            "accel_mm_s2",
-            "meas_noise_px",
+            "max_speed_bl_s",
+            "accel_bl_s2",
+            "meas_noise_bl",
             "gate_sigmas",
             "max_cost",
-            "head_motion_speed_mm_s",
-            "ant_length_mm",
-            "ant_width_mm",
+            "head_motion_speed_bl_s",
+            "width_bl",
         ):
             v = getattr(self, name)
             check(math.isfinite(v) and v > 0, name, "a positive number", v)
@@ -139,6 +145,29 @@ class TrackerConfig:
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
         check(0 <= self.min_score <= 1, "min_score", "in [0, 1]", self.min_score)
+
+
+def estimate_length_px(dets: FrameDetections) -> float | None:
+    """Typical object length (px) of one frame's detections, or None if it has none.
+
+    From poses (head and tail known) the median head-tail span divided by its share of
+    the body (:data:`~thermoswarm.tracking.anatomy.KEYPOINT_OFFSETS`); otherwise the
+    median of the boxes' longer sides (a box-only detector's object size).
+    """
+    if len(dets) == 0:
+        return None
+    p = dets.points
+    span = np.linalg.norm(p[:, 0] - p[:, 2], axis=-1)
+    span = span[np.isfinite(span) & (span > 0)]
+    if span.size:
+        k = float(anatomy.KEYPOINT_OFFSETS[0] - anatomy.KEYPOINT_OFFSETS[2])
+        return float(np.median(span)) / k
+    if dets.boxes is not None:
+        side = np.max(dets.boxes[:, 2:4], axis=1)
+        side = side[np.isfinite(side) & (side > 0)]
+        if side.size:
+            return float(np.median(side))
+    return None
 
 
 @dataclass(eq=False)
@@ -168,10 +197,13 @@ class _Track:
 class TrackResult:
     """All confirmed tracks, one row per (frame, track), sorted by frame then id.
 
-    ``frames`` are 0-based frame indices; ``points`` ``(k, 3, 2)`` px [head, body,
-    tail] (head/tail NaN when the detector gave boxes only); ``boxes`` ``(k, 4)`` MOT
-    boxes px; ``scores`` detection scores (0 for interpolated rows); ``interpolated``
-    flags rows filled across a gap.
+    ``frames`` are 0-based frame indices (of the frames given to the tracker);
+    ``points`` ``(k, 3, 2)`` px [head, body, tail] (head/tail NaN when the detector
+    gave boxes only); ``boxes`` ``(k, 4)`` MOT boxes px (the detections' own boxes
+    where they had some); ``scores`` detection scores (0 for interpolated rows);
+    ``interpolated`` flags rows filled across a gap; ``first_frame`` the number that
+    the MOT table gives the first frame (1 as MOTChallenge counts, 0 for 0-based
+    inputs).
     """
 
     frames: np.ndarray
@@ -181,15 +213,17 @@ class TrackResult:
     scores: np.ndarray
     interpolated: np.ndarray
     n_frames: int
+    first_frame: int = 1
 
     @property
     def n_tracks(self) -> int:
         return int(np.unique(self.ids).size)
 
     def mot_table(self) -> np.ndarray:
-        """MOTChallenge rows ``frame (1-based), id, box, conf, -1, -1, -1``."""
+        """MOTChallenge rows ``frame, id, box, conf, -1, -1, -1`` (frames numbered from
+        ``first_frame``)."""
         t = np.full((self.frames.size, 10), -1.0)
-        t[:, 0] = self.frames + 1
+        t[:, 0] = self.frames + self.first_frame
         t[:, 1] = self.ids
         t[:, 2:6] = self.boxes
         t[:, 6] = self.scores
@@ -246,54 +280,71 @@ class Tracker:
     ----------
     config
         :class:`TrackerConfig`.
-    px_per_mm, fps
-        Image scale and frame rate (they convert the config's mm and s).
+    fps
+        Frame rate (converts the config's times).
+    length_px
+        The objects' body length in px, the unit of every gate and noise level.
+        Default: ``ant_length * px_per_mm`` when ``px_per_mm`` is given, else estimated
+        from the first frame that has detections (:func:`estimate_length_px`).
+    px_per_mm
+        Image scale; only used for the default ``length_px`` (the paper's ant).
     frame_size
-        ``(width, height)`` px, if known: a track that misses its ant while its
-        prediction is outside the frame ends at once (the ant walked out).
+        ``(width, height)`` px, if known: a track that misses its object while its
+        prediction is outside the frame ends at once (it walked out).
     """
 
     def __init__(
         self,
         config: TrackerConfig | None = None,
         *,
-        px_per_mm: float,
         fps: float,
+        length_px: float | None = None,
+        px_per_mm: float | None = None,
         frame_size: tuple[int, int] | None = None,
     ) -> None:
-        if not (px_per_mm > 0 and math.isfinite(px_per_mm)):
+        if px_per_mm is not None and not (px_per_mm > 0 and math.isfinite(px_per_mm)):
             raise InputError(f"px_per_mm must be a positive number, got {px_per_mm!r}")
+        if length_px is not None and not (length_px > 0 and math.isfinite(length_px)):
+            raise InputError(f"length_px must be a positive number, got {length_px!r}")
         if not (fps > 0 and math.isfinite(fps)):
             raise InputError(f"fps must be a positive number, got {fps!r}")
         self.config = c = config or TrackerConfig()
         self.frame_size = frame_size
-        self.px_per_mm = float(px_per_mm)
         self.fps = float(fps)
-        self.length_px = c.ant_length_mm * px_per_mm
-        self.pad = 0.5 * c.ant_width_mm * px_per_mm
         self.max_gap = int(round(c.max_gap_s * fps))
-        self.step_px = c.max_speed_mm_s * px_per_mm / fps
-        self.motion_px = c.head_motion_speed_mm_s * px_per_mm / fps
-        q = (c.accel_mm_s2 * px_per_mm / fps**2) ** 2
-        rng_ = c.adapt_range if c.adapt else 1.0
-        self.kp = kalman.KalmanParams(
-            r=c.meas_noise_px,
-            q0=q,
-            q_min=q / rng_,
-            q_max=q * rng_,
-            v0=max(self.step_px / 3, 0.5),
-            gain=0.5 if c.adapt else 0.0,
-        )
         #: Frames after which a frame's output can no longer change.
         self.lag = max(self.max_gap, c.n_init + c.tentative_max_misses) + 1
         self.frame = -1
         self._tracks: list[_Track] = []
         self._next_id = 1
         self._predicted = False
-        self._chunks: list[tuple[np.ndarray, ...]] = []
+        self._chunks: list[tuple[Any, ...]] = []
         self._pending: dict[int, list[tuple[int, np.ndarray, np.ndarray]]] = {}
         self._popped = -1
         self._hinted: list[_Track] = []
+        self.length_px: float | None = None
+        if length_px is None and px_per_mm is not None:
+            length_px = anatomy.ANT_LENGTH_MM * px_per_mm
+        if length_px is not None:
+            self._set_length(float(length_px))
+
+    def _set_length(self, length_px: float) -> None:
+        """Convert the config's body lengths and seconds to px and frames."""
+        c, fps = self.config, self.fps
+        L = self.length_px = length_px
+        self.pad = 0.5 * c.width_bl * L
+        self.step_px = c.max_speed_bl_s * L / fps
+        self.motion_px = c.head_motion_speed_bl_s * L / fps
+        q = (c.accel_bl_s2 * L / fps**2) ** 2
+        rng_ = c.adapt_range if c.adapt else 1.0
+        self.kp = kalman.KalmanParams(
+            r=c.meas_noise_bl * L,
+            q0=q,
+            q_min=q / rng_,
+            q_max=q * rng_,
+            v0=self.step_px / 3,
+            gain=0.5 if c.adapt else 0.0,
+        )
 
     # ------------------------------------------------------------------ prediction
     def predict(self) -> np.ndarray:
@@ -328,31 +379,28 @@ class Tracker:
         cost = np.full((n, m), _BIG)
         if n == 0 or not avail.any():
             return cost
-        pred = np.stack([t.x[:2] for t in tracks])
-        Ps = np.stack([t.P for t in tracks])
-        _, S = kalman.innovation(np.stack([t.x for t in tracks]), Ps, self.kp.r)
+        X = np.array([t.x for t in tracks])
+        pred = X[:, :2]
+        _, S = kalman.innovation(X, np.array([t.P for t in tracks]), self.kp.r)
         Sinv = np.linalg.inv(S)
         d = pts[None, :, 1, :] - pred[:, None, :]  # (n, m, 2)
         maha = np.einsum("nmi,nij,nmj->nm", d, Sinv, d)
-        dist = np.linalg.norm(d, axis=-1)
+        dist = np.hypot(d[..., 0], d[..., 1])
         gap = np.array([self.frame - t.last for t in tracks], float)
         reach = self.step_px * gap + 2 * self.pad
         ok = (maha <= c.gate_sigmas**2) & (dist <= reach[:, None]) & avail[None, :]
-        pposes = self._predicted_poses_of(tracks)
+        pposes = self._predicted_poses_of(tracks, pred)
         pboxes = self._boxes_of(pposes, tracks)
         iou = anatomy.box_iou(pboxes, boxes)
+        total = c.iou_weight * (1 - iou) + c.distance_weight * dist / self.length_px
         ta = pposes[:, 0] - pposes[:, 2]
         da = pts[:, 0] - pts[:, 2]
-        cross = ta[:, None, 0] * da[None, :, 1] - ta[:, None, 1] * da[None, :, 0]
-        norm = np.linalg.norm(ta, axis=-1)[:, None] * np.linalg.norm(da, axis=-1)[None, :]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            sin = np.abs(cross) / norm
-        sin = np.where(np.isfinite(sin), sin, 0.0)
-        total = (
-            c.iou_weight * (1 - iou)
-            + c.distance_weight * dist / self.length_px
-            + c.angle_weight * sin
-        )
+        if c.angle_weight > 0 and np.isfinite(ta).any() and np.isfinite(da).any():
+            cross = ta[:, None, 0] * da[None, :, 1] - ta[:, None, 1] * da[None, :, 0]
+            norm = np.hypot(ta[:, 0], ta[:, 1])[:, None] * np.hypot(da[:, 0], da[:, 1])[None, :]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                sin = np.abs(cross) / norm
+            total = total + c.angle_weight * np.where(np.isfinite(sin), sin, 0.0)
         if hinted is not None:
             # A detection found from another track's prediction belongs to that track.
             owner = np.array([id(t) for t in tracks])
@@ -361,19 +409,27 @@ class Tracker:
         cost[ok] = total[ok]
         return cost
 
-    def _predicted_poses_of(self, tracks: list[_Track]) -> np.ndarray:
-        out = np.empty((len(tracks), 3, 2))
-        for i, t in enumerate(tracks):
-            out[i, 1] = t.x[:2]
-            out[i, 0] = t.x[:2] + t.shape[0]
-            out[i, 2] = t.x[:2] + t.shape[1]
-        return out
+    def _predicted_poses_of(
+        self, tracks: list[_Track], body: np.ndarray | None = None
+    ) -> np.ndarray:
+        if not tracks:
+            return np.empty((0, 3, 2))
+        if body is None:
+            body = np.array([t.x[:2] for t in tracks])
+        shape = np.array([t.shape for t in tracks])  # (n, 2, 2)
+        return np.stack([body + shape[:, 0], body, body + shape[:, 1]], axis=1)
 
     def _boxes_of(self, poses: np.ndarray, tracks: list[_Track]) -> np.ndarray:
+        unknown = ~np.isfinite(poses[:, [0, 2]]).all(axis=(1, 2))
+        if unknown.all():
+            half = np.array([t.half for t in tracks]).reshape(-1, 2)
+            return np.concatenate([poses[:, 1] - half, 2 * half], axis=1)
         boxes = anatomy.pose_boxes(poses, self.pad)
-        for i, t in enumerate(tracks):
-            if not np.all(np.isfinite(t.shape)):
-                boxes[i] = [*(poses[i, 1] - t.half), *(2 * t.half)]
+        if unknown.any():
+            idx = np.flatnonzero(unknown)
+            half = np.array([tracks[i].half for i in idx])
+            boxes[idx, :2] = poses[idx, 1] - half
+            boxes[idx, 2:] = 2 * half
         return boxes
 
     def _assign(
@@ -479,6 +535,11 @@ class Tracker:
         self._predicted = False
         k = self.frame
         n = len(dets)
+        if self.length_px is None:
+            est = estimate_length_px(dets)
+            if est is None:
+                return  # nothing to track yet, and no size to measure it by
+            self._set_length(est)
         pts = dets.points
         hc = dets.head_confidence if dets.head_confidence is not None else np.ones(n)
         boxes = dets.box_array(self.pad) if n else np.zeros((0, 4))
@@ -517,11 +578,23 @@ class Tracker:
             heading = np.array(
                 [t.heading if t.heading is not None else (np.nan, np.nan) for t in ts]
             )
-            p_all = self._orient_many(pts[js], hc[js], heading, vel_before, vsd)
+            if np.isfinite(pts[js][:, [0, 2]]).any():
+                p_all = self._orient_many(pts[js], hc[js], heading, vel_before, vsd)
+            else:  # boxes only: no head and tail to orient
+                p_all = pts[js].copy()
             box_all = boxes[js] if dets.boxes is not None else anatomy.pose_boxes(p_all, self.pad)
+            posed = np.isfinite(p_all[:, [0, 2]]).all(axis=(1, 2))
+            # Box-only tracks: half box size smoothed over the detections (vectorised).
+            halves = np.array([t.half for t in ts])
+            hits = np.array([t.hits for t in ts])
+            bh = boxes[js, 2:4] / 2
+            new_half = np.where((hits > 1)[:, None], 0.7 * halves + 0.3 * bh, bh)
             for i, (t, j) in enumerate(zip(ts, js, strict=True)):
                 t.x, t.P, t.q, t.nis = x[i], P[i], float(q[i]), float(nm[i])
-                self._set_shape(t, p_all[i], boxes[j])
+                if posed[i]:
+                    self._set_shape(t, p_all[i], boxes[j], True)
+                else:
+                    t.half = new_half[i]
                 t.hits += 1
                 t.misses = 0
                 self._touch(t, k, p_all[i], box_all[i], float(dets.scores[j]), float(hc[j]))
@@ -542,7 +615,9 @@ class Tracker:
         # Births (not on top of a matched detection: split duplicates).
         used = ~avail
         for j in np.flatnonzero(avail):
-            if dets.scores[j] < c.min_score or not np.all(np.isfinite(pts[j, 1])):
+            if dets.scores[j] < c.min_score or not (
+                math.isfinite(pts[j, 1, 0]) and math.isfinite(pts[j, 1, 1])
+            ):
                 continue
             if used.any():
                 dd = np.linalg.norm(pts[used, 1] - pts[j, 1], axis=-1)
@@ -578,8 +653,12 @@ class Tracker:
         w, h = self.frame_size
         return bool(xy[0] < 0 or xy[1] < 0 or xy[0] > w - 1 or xy[1] > h - 1)
 
-    def _set_shape(self, t: _Track, p: np.ndarray, box: np.ndarray) -> None:
-        if np.all(np.isfinite(p[[0, 2]])):
+    def _set_shape(
+        self, t: _Track, p: np.ndarray, box: np.ndarray, posed: bool | None = None
+    ) -> None:
+        if posed is None:
+            posed = bool(np.isfinite(p[[0, 2]]).all())
+        if posed:
             t.shape = np.stack([p[0] - p[1], p[2] - p[1]])
             a = p[0] - p[2]
             na = float(np.hypot(*a))
@@ -690,7 +769,7 @@ class Tracker:
         interp: np.ndarray,
     ) -> np.ndarray:
         # Rows sorted by track, then frame.
-        """Remove what no ant can do: moving faster than ``max_speed_mm_s``.
+        """Remove what no ant can do: moving faster than ``max_speed_bl_s``.
 
         Rows are sorted by track then frame; ``pts``, ``boxes``, ``scores`` and
         ``interp`` are changed in place.  A single row that jumps away and back (a
@@ -736,7 +815,7 @@ class Tracker:
         and tail swapped); the evidence for a state is the agreement of its head
         direction with the direction of motion (central differences of the body
         point, weighted by ``v^2 / (v^2 + v_min^2)`` with ``v_min`` the
-        ``head_motion_speed_mm_s``) times ``motion_weight``, plus ``shape_weight``
+        ``head_motion_speed_bl_s``) times ``motion_weight``, plus ``shape_weight``
         times the detector's ``2 head_confidence - 1``; turning the head by an angle
         ``a`` between consecutive rows costs ``continuity_weight (1 - cos a)``.  The
         best sequence of states (Viterbi) is kept.  Boxes do not change (the
@@ -794,13 +873,15 @@ class Tracker:
 def track_detections(
     detections: list[FrameDetections],
     *,
-    px_per_mm: float,
     fps: float,
+    length_px: float | None = None,
+    px_per_mm: float | None = None,
     config: TrackerConfig | None = None,
     frame_size: tuple[int, int] | None = None,
 ) -> TrackResult:
-    """Track a list of per-frame detections (frame ``k`` is ``detections[k]``)."""
-    tr = Tracker(config, px_per_mm=px_per_mm, fps=fps, frame_size=frame_size)
+    """Track a list of per-frame detections (frame ``k`` is ``detections[k]``); see
+    :class:`Tracker` for the parameters."""
+    tr = Tracker(config, fps=fps, length_px=length_px, px_per_mm=px_per_mm, frame_size=frame_size)
     for d in detections:
         tr.predict()
         tr.update(d)

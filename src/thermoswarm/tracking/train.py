@@ -46,10 +46,8 @@ from __future__ import annotations
 import contextlib
 import copy
 import dataclasses
-import json
 import math
 import os
-import tempfile
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
@@ -62,6 +60,23 @@ from thermoswarm.config import check, to_dict
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_json
 from thermoswarm.tracking import anatomy
+from thermoswarm.tracking.train_augment import AugmentConfig, _Sampler
+from thermoswarm.tracking.train_data import (
+    NODE_ALIASES,
+    LabeledFrames,
+    SynthDataConfig,
+    read_coco,
+    read_labels,
+    read_slp,
+    synthetic_data,
+)
+from thermoswarm.tracking.train_validate import (
+    ValidationConfig,
+    ValidationSet,
+    detection_metrics,
+    evaluate_detector,
+    synthetic_validation,
+)
 from thermoswarm.tracking.unet import ModelConfig
 
 __all__ = [
@@ -77,184 +92,11 @@ __all__ = [
     "ValidationSet",
     "synthetic_validation",
     "evaluate_detector",
+    "detection_metrics",
     "train",
     "train_from_sources",
     "NODE_ALIASES",
 ]
-
-#: Skeleton node names recognised as head, body and tail (lower case).
-NODE_ALIASES: tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]] = (
-    ("head",),
-    ("body", "thorax", "mesosoma", "centroid", "center", "centre", "trunk"),
-    ("tail", "gaster", "abdomen"),
-)
-
-
-# ----------------------------------------------------------------------------- data
-
-
-@dataclass
-class LabeledFrames:
-    """Frames with labelled ants.
-
-    Attributes
-    ----------
-    frames
-        RGB ``uint8`` ``(H, W, 3)`` images (sizes may differ).
-    points
-        Per frame ``(n, 3, 2)`` float px: head, body, tail of each labelled ant, NaN
-        where a point is not labelled.
-    px_per_mm
-        Scale of the images.
-    source
-        Where they came from (for reports).
-    """
-
-    frames: list[np.ndarray]
-    points: list[np.ndarray]
-    px_per_mm: float
-    source: str = ""
-
-    def __post_init__(self) -> None:
-        if len(self.frames) != len(self.points):
-            raise ValueError("frames and points must have the same length")
-
-    @property
-    def n_instances(self) -> int:
-        return int(sum(p.shape[0] for p in self.points))
-
-    def __len__(self) -> int:
-        return len(self.frames)
-
-    def subset(self, idx: Sequence[int]) -> LabeledFrames:
-        return LabeledFrames(
-            [self.frames[i] for i in idx],
-            [self.points[i] for i in idx],
-            self.px_per_mm,
-            self.source,
-        )
-
-    def rescaled(self, px_per_mm: float) -> LabeledFrames:
-        """The frames resized to another scale (px per mm), points mapped with them."""
-        from thermoswarm.tracking.unet import to_model_scale
-
-        ratio = px_per_mm / self.px_per_mm
-        if abs(ratio - 1) < 1e-6:
-            return self
-        frames, points = [], []
-        for f, p in zip(self.frames, self.points, strict=True):
-            g, (fx, fy) = to_model_scale(f, ratio)
-            q = p.copy()
-            q[..., 0] = (q[..., 0] + 0.5) * fx - 0.5
-            q[..., 1] = (q[..., 1] + 0.5) * fy - 0.5
-            frames.append(g)
-            points.append(q)
-        return LabeledFrames(frames, points, px_per_mm, self.source)
-
-    @staticmethod
-    def concat(parts: Sequence[LabeledFrames]) -> LabeledFrames:
-        if not parts:
-            raise InputError("no training data")
-        scale = parts[0].px_per_mm
-        out = LabeledFrames([], [], scale, " + ".join(p.source for p in parts))
-        for p in parts:
-            p = p.rescaled(scale)
-            out.frames.extend(p.frames)
-            out.points.extend(p.points)
-        return out
-
-
-@dataclass(frozen=True)
-class SynthDataConfig:
-    """Synthetic training data: ``n_videos`` videos, ``frames_per_video`` frames each
-    (``frame_step`` frames apart), of ``width`` x ``height`` px (the road along the
-    long side; each size varies by up to ``size_jitter`` of itself), with a density of
-    ants drawn uniformly between ``density_min`` and ``density_max`` ants per 100 mm of
-    road (the benchmark: 40 ants on 632 mm, 6.3), ant lengths drawn within
-    ``length_jitter`` of the paper's 7.14 mm, and, if ``vary_imaging``, noise, blur,
-    lighting and shadows varied around the generator's defaults.  ``codec``: pass the
-    frames through x264 (CRF 20) like the benchmark videos."""
-
-    n_videos: int = 40
-    frames_per_video: int = 12
-    frame_step: int = 5
-    width: int = 640
-    height: int = 224
-    size_jitter: float = 0.25
-    density_min: float = 4.0
-    density_max: float = 13.0
-    length_jitter: float = 0.1
-    vary_imaging: bool = True
-    codec: bool = True
-
-    def __post_init__(self) -> None:
-        check(self.n_videos >= 1, "n_videos", "a positive integer", self.n_videos)
-        check(
-            self.frames_per_video >= 1,
-            "frames_per_video",
-            "a positive integer",
-            self.frames_per_video,
-        )
-        check(self.frame_step >= 1, "frame_step", "a positive integer", self.frame_step)
-        check(self.width >= 64, "width", "at least 64 px", self.width)
-        check(self.height >= 64, "height", "at least 64 px", self.height)
-        check(0 <= self.size_jitter < 1, "size_jitter", "in [0, 1)", self.size_jitter)
-        check(
-            0 < self.density_min <= self.density_max,
-            "density_min",
-            "positive and <= density_max",
-            self.density_min,
-        )
-        check(0 <= self.length_jitter < 0.5, "length_jitter", "in [0, 0.5)", self.length_jitter)
-
-
-@dataclass(frozen=True)
-class AugmentConfig:
-    """Augmentations: ``rotate`` (any angle half the time, multiples of 90 degrees
-    otherwise), ``flip`` (mirror), ``scale`` (relative, uniform +-), ``brightness``
-    (relative gain +-), ``contrast`` (relative +-), ``colour`` (per-channel gain +-),
-    ``noise_sigma`` (largest Gaussian noise, grey levels), ``blur_sigma`` (largest
-    Gaussian blur, px; applied to ``blur_probability`` of the samples)."""
-
-    rotate: bool = True
-    flip: bool = True
-    scale: float = 0.08
-    brightness: float = 0.25
-    contrast: float = 0.2
-    colour: float = 0.06
-    noise_sigma: float = 6.0
-    blur_sigma: float = 1.2
-    blur_probability: float = 0.3
-
-    def __post_init__(self) -> None:
-        for name in ("scale", "brightness", "contrast", "colour"):
-            v = getattr(self, name)
-            check(0 <= v < 0.9, name, "in [0, 0.9)", v)
-        for name in ("noise_sigma", "blur_sigma"):
-            v = getattr(self, name)
-            check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
-        check(
-            0 <= self.blur_probability <= 1, "blur_probability", "in [0, 1]", self.blur_probability
-        )
-
-
-@dataclass(frozen=True)
-class ValidationConfig:
-    """The held-out synthetic video of synthetic training: ``width`` x ``height`` px,
-    ``n_ants`` ants, ``n_frames`` frames (default: the benchmark's geometry and
-    density, 5 s), its own ``seed``."""
-
-    width: int = 1920
-    height: int = 1080
-    n_ants: int = 40
-    n_frames: int = 150
-    seed: int = 1_000_003
-
-    def __post_init__(self) -> None:
-        check(self.width >= 64, "width", "at least 64 px", self.width)
-        check(self.height >= 64, "height", "at least 64 px", self.height)
-        check(self.n_ants >= 1, "n_ants", "a positive integer", self.n_ants)
-        check(self.n_frames >= 10, "n_frames", "at least 10", self.n_frames)
 
 
 @dataclass(frozen=True)
@@ -363,582 +205,6 @@ class TrainConfig:
 
 
 # -------------------------------------------------------------- synthetic source
-
-
-def _codec_roundtrip(frames: list[np.ndarray], fps: float) -> list[np.ndarray]:
-    """Encode frames with x264 (CRF 20, as the benchmark videos) and decode them."""
-    from thermoswarm.tracking.synth import write_video
-    from thermoswarm.tracking.video import open_video
-
-    with tempfile.TemporaryDirectory(prefix="thermoswarm-train-") as tmp:
-        path = Path(tmp) / "v.mp4"
-        write_video(frames, path, fps)
-        out = list(open_video(path).frames())
-    if len(out) != len(frames):
-        raise RuntimeError(f"codec round trip returned {len(out)} of {len(frames)} frames")
-    return out
-
-
-def synthetic_data(
-    config: SynthDataConfig,
-    rng: np.random.Generator,
-    *,
-    px_per_mm: float = 3.04,
-    progress: Callable[[int, int], None] | None = None,
-) -> LabeledFrames:
-    """Render labelled frames from many synthetic videos (see :class:`SynthDataConfig`)."""
-    from thermoswarm.tracking.synth import SynthConfig, generate
-
-    frames: list[np.ndarray] = []
-    points: list[np.ndarray] = []
-    c = config
-    for v in range(c.n_videos):
-        w = int(round(c.width * (1 + c.size_jitter * rng.uniform(-1, 1))))
-        h = int(round(c.height * (1 + c.size_jitter * rng.uniform(-1, 1))))
-        w, h = max(w, h), min(w, h)
-        h = max(h, int(math.ceil(44 * px_per_mm)))  # the 40 mm road must fit
-        w, h = w + w % 2, h + h % 2  # even sizes for the codec's 4:2:0 chroma
-        road_mm = w / px_per_mm
-        density = rng.uniform(c.density_min, c.density_max)
-        n_ants = max(1, int(round(density * road_mm / 100)))
-        kw: dict[str, Any] = dict(
-            width=w,
-            height=h,
-            n_ants=n_ants,
-            n_frames=c.frames_per_video * c.frame_step,
-            px_per_mm=px_per_mm,
-            ant_length_mm=anatomy.ANT_LENGTH_MM * (1 + c.length_jitter * rng.uniform(-1, 1)),
-        )
-        if c.vary_imaging:
-            kw.update(
-                noise_sigma=float(rng.uniform(2.0, 7.0)),
-                blur_sigma_px=float(rng.uniform(0.3, 1.0)),
-                lighting_drift=float(rng.uniform(0.0, 0.2)),
-                flicker=float(rng.uniform(0.0, 0.03)),
-                shadow_strength=float(rng.uniform(0.0, 0.4)),
-                exposure=float(rng.uniform(0.2, 0.8)),
-            )
-        video = generate(SynthConfig(**kw), rng)
-        ks = np.arange(c.frames_per_video) * c.frame_step + int(rng.integers(c.frame_step))
-        imgs = [video.render(int(k)) for k in ks]
-        if c.codec:
-            imgs = _codec_roundtrip(imgs, video.config.fps)
-        for k, img in zip(ks, imgs, strict=True):
-            kp = video.keypoints[k]
-            frames.append(img)
-            points.append(kp[np.isfinite(kp[:, 1, 0])].copy())
-        if progress is not None:
-            progress(v + 1, c.n_videos)
-    return LabeledFrames(frames, points, px_per_mm, f"synthetic ({c.n_videos} videos)")
-
-
-# --------------------------------------------------------------- labelled sources
-
-
-def _node_indices(
-    names: Sequence[str], nodes: Sequence[str] | None, where: str
-) -> tuple[int, int, int]:
-    low = [n.lower() for n in names]
-    if nodes is not None:
-        if len(nodes) != 3:
-            raise InputError(f"nodes must name head, body and tail (3 names), got {list(nodes)}")
-        out = []
-        for want in nodes:
-            if want.lower() not in low:
-                raise InputError(
-                    f"{where}: skeleton has no node {want!r}; its nodes are: " + ", ".join(names)
-                )
-            out.append(low.index(want.lower()))
-        return out[0], out[1], out[2]
-    out = []
-    for role, aliases in zip(("head", "body", "tail"), NODE_ALIASES, strict=True):
-        hit = [i for i, n in enumerate(low) if n in aliases]
-        if not hit:
-            raise InputError(
-                f"{where}: no {role} node among {', '.join(names)} "
-                f"(expected one of {', '.join(aliases)}); name them with --nodes HEAD,BODY,TAIL"
-            )
-        out.append(hit[0])
-    return out[0], out[1], out[2]
-
-
-def read_slp(
-    path: str | os.PathLike, *, px_per_mm: float, nodes: Sequence[str] | None = None
-) -> LabeledFrames:
-    """Labelled frames of a SLEAP ``.slp`` file (images embedded or in readable videos).
-
-    User-labelled instances are used where a frame has any, else its predicted ones.
-    """
-    path = Path(path)
-    try:
-        import sleap_io as sio
-    except ImportError:
-        raise InputError(
-            f"{path}: reading SLEAP files needs sleap-io (pip install 'thermoswarm[io]')"
-        ) from None
-    if not path.is_file():
-        raise InputError(f"{path}: no such file")
-    try:
-        labels = sio.load_slp(str(path))
-    except Exception as exc:
-        raise InputError(f"{path}: not a readable SLEAP file ({type(exc).__name__})") from None
-    frames: list[np.ndarray] = []
-    points: list[np.ndarray] = []
-    cache: dict[int, tuple[int, int, int]] = {}
-    for lf in labels.labeled_frames:
-        insts = lf.user_instances or lf.instances
-        if not insts:
-            continue
-        try:
-            img = np.asarray(lf.image)
-        except Exception as exc:
-            raise InputError(
-                f"{path}: image of frame {lf.frame_idx} of {lf.video.filename} cannot be "
-                f"read ({type(exc).__name__}); embed the images (a .pkg.slp) or keep the "
-                "video beside the labels"
-            ) from None
-        if img is None or img.ndim not in (2, 3):
-            raise InputError(f"{path}: frame {lf.frame_idx} has no image")
-        img = _rgb(img)
-        pts = np.full((len(insts), 3, 2), np.nan)
-        for j, inst in enumerate(insts):
-            sk = inst.skeleton
-            key = id(sk)
-            if key not in cache:
-                cache[key] = _node_indices(sk.node_names, nodes, str(path))
-            xy = inst.numpy()
-            pts[j] = xy[list(cache[key])]
-        pts = pts[np.isfinite(pts[:, 1, 0])]
-        frames.append(img)
-        points.append(pts)
-    if not frames:
-        raise InputError(f"{path}: no labelled frames")
-    return LabeledFrames(frames, points, float(px_per_mm), f"SLEAP {path.name}")
-
-
-def _rgb(img: np.ndarray) -> np.ndarray:
-    img = np.asarray(img)
-    if img.dtype != np.uint8:
-        if np.issubdtype(img.dtype, np.floating) and img.max(initial=0) <= 1.0:
-            img = img * 255.0
-        img = np.clip(img, 0, 255).astype(np.uint8)
-    if img.ndim == 2:
-        img = img[:, :, None]
-    if img.shape[2] == 1:
-        img = np.repeat(img, 3, axis=2)
-    return np.ascontiguousarray(img[:, :, :3])
-
-
-def read_coco(
-    path: str | os.PathLike,
-    *,
-    px_per_mm: float,
-    image_root: str | os.PathLike | None = None,
-    nodes: Sequence[str] | None = None,
-) -> LabeledFrames:
-    """Labelled frames of a COCO keypoint JSON file and its images.
-
-    ``image_root`` (default: the JSON file's folder) is where ``file_name`` paths
-    start.  Keypoints with visibility 0 are not labelled (NaN); 1 and 2 count.  Only
-    categories that define ``keypoints`` are used.
-    """
-    import cv2
-
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such file")
-    try:
-        doc = json.loads(path.read_text())
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path}: not a JSON file ({exc})") from None
-    if not isinstance(doc, dict) or not all(
-        isinstance(doc.get(k), list) for k in ("images", "annotations", "categories")
-    ):
-        raise InputError(f"{path}: not COCO keypoints (needs images, annotations, categories)")
-    root = Path(image_root) if image_root is not None else path.parent
-    cats: dict[int, tuple[int, int, int]] = {}
-    for cat in doc["categories"]:
-        try:
-            names = cat.get("keypoints")
-            if names:
-                cats[int(cat["id"])] = _node_indices([str(n) for n in names], nodes, str(path))
-        except (KeyError, TypeError, ValueError):
-            raise InputError(f"{path}: malformed category {cat!r:.80}") from None
-    if not cats:
-        raise InputError(f"{path}: no category defines keypoints")
-    by_image: dict[int, list[np.ndarray]] = {}
-    for i, ann in enumerate(doc["annotations"]):
-        try:
-            cid = int(ann["category_id"])
-            if cid not in cats:
-                continue
-            kp = np.asarray(ann["keypoints"], dtype=np.float64).reshape(-1, 3)
-            img_id = int(ann["image_id"])
-        except (KeyError, TypeError, ValueError):
-            raise InputError(f"{path}: annotation {i} is malformed") from None
-        idx = list(cats[cid])
-        if max(idx) >= kp.shape[0]:
-            raise InputError(f"{path}: annotation {i} has {kp.shape[0]} keypoints, too few")
-        sel = kp[idx]
-        xy = np.where(sel[:, 2:3] > 0, sel[:, :2], np.nan)
-        by_image.setdefault(img_id, []).append(xy)
-    frames: list[np.ndarray] = []
-    points: list[np.ndarray] = []
-    for im in doc["images"]:
-        try:
-            img_id, name = int(im["id"]), str(im["file_name"])
-        except (KeyError, TypeError, ValueError):
-            raise InputError(f"{path}: malformed image entry {im!r:.80}") from None
-        if img_id not in by_image:
-            continue
-        file = root / name
-        bgr = cv2.imread(str(file), cv2.IMREAD_COLOR) if file.is_file() else None
-        if bgr is None:
-            raise InputError(f"{path}: image {file} is missing or unreadable")
-        pts = np.stack(by_image[img_id])
-        frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-        points.append(pts[np.isfinite(pts[:, 1, 0])])
-    if not frames:
-        raise InputError(f"{path}: no image has keypoint annotations")
-    return LabeledFrames(frames, points, float(px_per_mm), f"COCO {path.name}")
-
-
-def read_labels(
-    path: str | os.PathLike,
-    *,
-    px_per_mm: float,
-    nodes: Sequence[str] | None = None,
-    image_root: str | os.PathLike | None = None,
-) -> LabeledFrames:
-    """:func:`read_slp` for ``.slp`` files, :func:`read_coco` for ``.json`` files."""
-    p = Path(path)
-    if p.suffix.lower() == ".slp":
-        return read_slp(p, px_per_mm=px_per_mm, nodes=nodes)
-    if p.suffix.lower() == ".json":
-        return read_coco(p, px_per_mm=px_per_mm, image_root=image_root, nodes=nodes)
-    raise InputError(f"{p}: unknown label format (expected .slp or COCO .json)")
-
-
-# ---------------------------------------------------------------- augmentation
-
-
-def _affine(
-    rng: np.random.Generator,
-    aug: AugmentConfig,
-    centre: np.ndarray,
-    target: np.ndarray,
-) -> np.ndarray:
-    """2x3 matrix: rotation, mirror and scale about ``centre``, which lands on
-    ``target`` (output px)."""
-    theta = 0.0
-    if aug.rotate:
-        theta = rng.uniform(0, 2 * np.pi) if rng.random() < 0.5 else 0.5 * np.pi * rng.integers(4)
-    s = 1.0 + aug.scale * rng.uniform(-1, 1)
-    c, si = math.cos(theta) * s, math.sin(theta) * s
-    A = np.array([[c, -si], [si, c]])
-    if aug.flip and rng.random() < 0.5:
-        A = A @ np.diag([-1.0, 1.0])
-    t = target - A @ centre
-    return np.column_stack([A, t])
-
-
-def _apply(M: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    return pts @ M[:, :2].T + M[:, 2]
-
-
-def _photometric(rng: np.random.Generator, aug: AugmentConfig, imgs: np.ndarray) -> np.ndarray:
-    """Blur, brightness, contrast, colour and noise on a batch ``(B, H, W, 3)`` of
-    ``uint8`` RGB images; returns ``uint8`` (vectorised over the batch)."""
-    import cv2
-
-    B = imgs.shape[0]
-    x = imgs.astype(np.float32)
-    if aug.blur_sigma > 0 and aug.blur_probability > 0:
-        for b in np.flatnonzero(rng.random(B) < aug.blur_probability):
-            x[b] = cv2.GaussianBlur(x[b], (0, 0), float(rng.uniform(0.3, aug.blur_sigma)))
-    gain = (1 + aug.brightness * rng.uniform(-1, 1, (B, 1, 1, 1))) * (
-        1 + aug.colour * rng.uniform(-1, 1, (B, 1, 1, 3))
-    )
-    con = 1 + aug.contrast * rng.uniform(-1, 1, (B, 1, 1, 1))
-    mean = x.mean(axis=(1, 2), keepdims=True)
-    x = (x - mean) * con.astype(np.float32) + mean
-    x *= gain.astype(np.float32)
-    if aug.noise_sigma > 0:
-        sd = rng.uniform(0, aug.noise_sigma, (B, 1, 1, 1)).astype(np.float32)
-        x += sd * rng.standard_normal(x.shape, dtype=np.float32)
-    np.clip(x, 0, 255, out=x)
-    return np.rint(x).astype(np.uint8)
-
-
-class _Sampler:
-    """Draws augmented centroid patches and pose crops from labelled frames."""
-
-    def __init__(self, data: LabeledFrames, config: TrainConfig, rng: np.random.Generator):
-        from scipy.spatial import cKDTree
-
-        self.data = data
-        self.cfg = config
-        self.mc = config.model
-        self.rng = rng
-        self.length_px = anatomy.ANT_LENGTH_MM * data.px_per_mm
-        n = np.array([p.shape[0] for p in data.points], dtype=np.float64)
-        if n.sum() == 0:
-            raise InputError(f"{data.source}: the training frames hold no labelled ant")
-        # Frames for patches: in proportion to their area (every pixel equally likely).
-        area = np.array([f.shape[0] * f.shape[1] for f in data.frames], dtype=np.float64)
-        self.p_frame = area / area.sum()
-        # Ants for crops: crowded ones (a neighbour within half a body length) weigh more.
-        inst_frame, inst_idx, weight = [], [], []
-        for i, p in enumerate(data.points):
-            if p.shape[0] == 0:
-                continue
-            b = p[:, 1]
-            crowded = np.zeros(p.shape[0], bool)
-            if p.shape[0] > 1:
-                d, _ = cKDTree(b).query(b, k=2)
-                crowded = d[:, 1] < 0.5 * self.length_px
-            inst_frame.append(np.full(p.shape[0], i))
-            inst_idx.append(np.arange(p.shape[0]))
-            weight.append(1.0 + config.crowd_weight * crowded)
-        self.inst_frame = np.concatenate(inst_frame)
-        self.inst_idx = np.concatenate(inst_idx)
-        w = np.concatenate(weight)
-        self.p_inst = w / w.sum()
-        self.n_crowded = int((w > 1).sum())
-
-    def centroid_batch(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Inputs ``(B, h, w, 3)`` uint8 at the network's input scale and target maps
-        ``(B, h, w)`` float32, plus a weight map ``(B, h, w)`` (0 where unlabelled
-        ants may be: none for complete labels)."""
-        import cv2
-
-        cfg, mc, rng = self.cfg, self.mc, self.rng
-        P = cfg.patch_size
-        s = mc.input_scale
-        h = int(round(P * s))
-        xs_in = (np.arange(h) + 0.5) / s - 0.5  # cell centres in patch px
-        X, Y = np.meshgrid(xs_in, xs_in)
-        inputs = np.empty((cfg.centroid_batch, h, h, 3), np.uint8)
-        patches = np.empty((cfg.centroid_batch, P, P, 3), np.uint8)
-        targets = np.zeros((cfg.centroid_batch, h, h), np.float32)
-        two_s2 = 2 * mc.sigma_px**2
-        for b in range(cfg.centroid_batch):
-            i = int(rng.choice(len(self.data), p=self.p_frame))
-            frame, pts = self.data.frames[i], self.data.points[i]
-            H, W = frame.shape[:2]
-            if pts.shape[0] and rng.random() < 0.8:
-                j = int(rng.integers(pts.shape[0]))
-                c = pts[j, 1] + rng.uniform(-0.3 * P, 0.3 * P, 2)
-            else:
-                c = np.array([rng.uniform(0, W), rng.uniform(0, H)])
-            M = _affine(rng, cfg.augment, c, np.array([(P - 1) / 2, (P - 1) / 2]))
-            patches[b] = cv2.warpAffine(
-                frame, M, (P, P), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT_101
-            )
-            if pts.shape[0]:
-                q = _apply(M, pts[:, 1])
-                inside = (
-                    (q[:, 0] > -3 * mc.sigma_px)
-                    & (q[:, 0] < P + 3 * mc.sigma_px)
-                    & (q[:, 1] > -3 * mc.sigma_px)
-                    & (q[:, 1] < P + 3 * mc.sigma_px)
-                )
-                q = q[inside]
-                if q.shape[0]:
-                    d2 = (X[None] - q[:, 0, None, None]) ** 2 + (
-                        Y[None] - q[:, 1, None, None]
-                    ) ** 2
-                    targets[b] = np.exp(-d2.min(0) / two_s2)
-        patches = _photometric(rng, cfg.augment, patches)
-        for b in range(cfg.centroid_batch):
-            inputs[b] = cv2.resize(patches[b], (h, h), interpolation=cv2.INTER_AREA)
-        return inputs, targets, np.ones_like(targets)
-
-    def pose_batch(self) -> tuple[np.ndarray, np.ndarray]:
-        """Crops ``(B, C, C, 3)`` uint8 and their points ``(B, 3, 2)`` (crop px, NaN
-        where unlabelled)."""
-        import cv2
-
-        cfg, mc, rng = self.cfg, self.mc, self.rng
-        C = mc.crop_size
-        crops = np.empty((cfg.pose_batch, C, C, 3), np.uint8)
-        pts_out = np.empty((cfg.pose_batch, 3, 2))
-        picks = rng.choice(self.p_inst.size, size=cfg.pose_batch, p=self.p_inst)
-        for b, k in enumerate(picks):
-            i, j = int(self.inst_frame[k]), int(self.inst_idx[k])
-            frame, every = self.data.frames[i], self.data.points[i]
-            if rng.random() < cfg.anchor_far_fraction:
-                # A peak off the body (on a head or gaster): uniform in a disc.
-                r = cfg.anchor_far_px * math.sqrt(rng.random())
-                a = rng.uniform(0, 2 * np.pi)
-                jit = np.array([r * math.cos(a), r * math.sin(a)])
-            else:
-                s = cfg.anchor_jitter_px
-                jit = np.clip(rng.normal(0, s, 2), -3 * s, 3 * s)
-            anchor = every[j, 1] + jit
-            # A crop is answered with the ant whose body point is nearest its centre.
-            pts = every[int(np.argmin(np.linalg.norm(every[:, 1] - anchor, axis=1)))]
-            # The inference crop puts the rounded anchor at pixel C // 2: the anchor
-            # lands within half a pixel of it.
-            target = np.array([C // 2, C // 2]) + rng.uniform(-0.5, 0.5, 2)
-            M = _affine(rng, cfg.augment, anchor, target)
-            crops[b] = cv2.warpAffine(
-                frame, M, (C, C), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT_101
-            )
-            pts_out[b] = _apply(M, pts)
-        return _photometric(rng, cfg.augment, crops), pts_out
-
-
-# ---------------------------------------------------------------- validation
-
-
-@dataclass
-class ValidationSet:
-    """Frames and truth for evaluation: a synthetic video (``mot_gt``: MOT ground
-    truth, ``fps``) or labelled frames (``mot_gt`` None).
-
-    ``frames`` is a list of RGB frames or the path of a video file, decoded at each
-    evaluation (a long 1080p validation video would not fit in memory).
-    """
-
-    frames: list[np.ndarray] | Path
-    points: list[np.ndarray]
-    px_per_mm: float
-    fps: float | None = None
-    mot_gt: np.ndarray | None = None
-    description: str = ""
-    _keep: Any = field(default=None, repr=False)  # the temporary folder of the video
-
-    def iter_frames(self) -> Iterator[np.ndarray]:
-        if isinstance(self.frames, Path):
-            from thermoswarm.tracking.video import open_video
-
-            yield from open_video(self.frames).frames(len(self.points), prefetch=4)
-        else:
-            yield from self.frames
-
-
-def synthetic_validation(
-    config: ValidationConfig, *, px_per_mm: float = 3.04, codec: bool = True
-) -> ValidationSet:
-    """A held-out synthetic video with its ground truth.
-
-    With ``codec`` the video is encoded like the benchmark videos (x264, CRF 20) into a
-    temporary file, which lives as long as the returned object; otherwise the frames
-    are kept in memory.
-    """
-    from thermoswarm.tracking.synth import SynthConfig, generate, write_video
-
-    cfg = SynthConfig(
-        width=config.width,
-        height=config.height,
-        n_ants=config.n_ants,
-        n_frames=config.n_frames,
-        px_per_mm=px_per_mm,
-    )
-    video = generate(cfg, np.random.default_rng(config.seed))
-    keep = None
-    if codec:
-        keep = tempfile.TemporaryDirectory(prefix="thermoswarm-val-")
-        frames: list[np.ndarray] | Path = Path(keep.name) / "validation.mp4"
-        write_video(video.frames(), frames, cfg.fps)
-    else:
-        frames = list(video.frames())
-    kp = video.keypoints
-    points = [kp[k][np.isfinite(kp[k, :, 1, 0])] for k in range(cfg.n_frames)]
-    return ValidationSet(
-        frames,
-        points,
-        px_per_mm,
-        cfg.fps,
-        video.mot_gt,
-        f"synthetic {config.width}x{config.height}, {config.n_ants} ants, "
-        f"{config.n_frames} frames, seed {config.seed}",
-        keep,
-    )
-
-
-def detection_metrics(
-    detections: Sequence[Any], truth: Sequence[np.ndarray], radius_px: float
-) -> dict[str, float]:
-    """Per-frame matching of detected and true body points (Hungarian, within
-    ``radius_px``): precision, recall, F1 and keypoint errors (px) of the matches."""
-    from scipy.optimize import linear_sum_assignment
-
-    tp = fp = fn = 0
-    errs: list[np.ndarray] = []
-    flips = []
-    for det, gt in zip(detections, truth, strict=True):
-        P = det.points
-        if gt.shape[0] == 0 or P.shape[0] == 0:
-            fp += P.shape[0]
-            fn += gt.shape[0]
-            continue
-        D = np.linalg.norm(gt[:, None, 1] - P[None, :, 1], axis=-1)
-        D = np.where(np.isfinite(D), D, np.inf)
-        # Pairs beyond the radius cost more than any possible set of matches within it.
-        r, c = linear_sum_assignment(np.where(D <= radius_px, D, 1e6))
-        ok = D[r, c] <= radius_px
-        r, c = r[ok], c[ok]
-        tp += r.size
-        fp += P.shape[0] - r.size
-        fn += gt.shape[0] - r.size
-        e = np.linalg.norm(gt[r] - P[c], axis=-1)  # (m, 3)
-        errs.append(e)
-        ax_g = gt[r, 0] - gt[r, 2]
-        ax_p = P[c, 0] - P[c, 2]
-        good = np.all(np.isfinite(ax_g), 1) & np.all(np.isfinite(ax_p), 1)
-        flips.append(((ax_g * ax_p).sum(-1) < 0)[good])
-    e = np.concatenate(errs) if errs else np.zeros((0, 3))
-    out = {
-        "tp": int(tp),
-        "fp": int(fp),
-        "fn": int(fn),
-        "precision": tp / max(tp + fp, 1),
-        "recall": tp / max(tp + fn, 1),
-    }
-    out["f1"] = 2 * tp / max(2 * tp + fp + fn, 1)
-    for k, name in enumerate(anatomy.KEYPOINTS):
-        ek = e[:, k][np.isfinite(e[:, k])]
-        out[f"{name}_error_median_px"] = float(np.median(ek)) if ek.size else float("nan")
-        out[f"{name}_error_p90_px"] = float(np.quantile(ek, 0.9)) if ek.size else float("nan")
-    fl = np.concatenate(flips) if flips else np.zeros(0, bool)
-    out["head_tail_swapped"] = float(fl.mean()) if fl.size else float("nan")
-    return out
-
-
-def evaluate_detector(detector: Any, val: ValidationSet) -> dict[str, Any]:
-    """Detect every validation frame; detection metrics, and for a video also the
-    tracker's CLEAR-MOT scores (``mota``, ``idf1``, ``idsw_rate``, ...) against the
-    ground truth."""
-    t0 = time.perf_counter()
-    dets = []
-    t_det = 0.0
-    size = (0, 0)
-    for f in val.iter_frames():
-        t1 = time.perf_counter()
-        dets.append(detector.detect(f))
-        t_det += time.perf_counter() - t1
-        size = f.shape[:2]
-    if len(dets) != len(val.points):
-        raise InputError(f"validation: {len(dets)} frames for {len(val.points)} labelled ones")
-    radius = 0.5 * anatomy.ANT_LENGTH_MM * val.px_per_mm
-    out: dict[str, Any] = detection_metrics(dets, val.points, radius)
-    out["detect_seconds_per_frame"] = t_det / max(len(dets), 1)
-    out["eval_seconds"] = time.perf_counter() - t0
-    if val.mot_gt is not None:
-        from thermoswarm.tracking.evaluate import evaluate_tables
-        from thermoswarm.tracking.tracker import track_detections
-
-        H, W = size
-        res = track_detections(dets, px_per_mm=val.px_per_mm, fps=val.fps, frame_size=(W, H))
-        m = evaluate_tables(val.mot_gt, res.mot_table())
-        for k in ("mota", "idf1", "idsw", "idsw_rate", "fp", "fn", "n_gt", "motp"):
-            out[f"track_{k}" if k in ("fp", "fn") else k] = m[k]
-    return out
-
-
-# ------------------------------------------------------------------- training
 
 
 @contextlib.contextmanager
@@ -1099,6 +365,7 @@ def train(
                     val_data.points,
                     data.px_per_mm,
                     description=f"{n_val} held-out frames of {data.source}",
+                    ignore=val_data.ignore,
                 )
         sampler = _Sampler(data, cfg, rng)
         model.train()
@@ -1125,7 +392,7 @@ def train(
         if progress:
             from tqdm import tqdm
 
-            bar = tqdm(total=cfg.max_steps, unit="step", desc="train")
+            bar = tqdm(total=cfg.max_steps, unit="step", desc="train", disable=None)
         t_train = time.perf_counter()
         step = 0
         for step in range(1, cfg.max_steps + 1):
@@ -1221,6 +488,7 @@ def train(
                 "n_frames": len(data),
                 "n_instances": data.n_instances,
                 "n_crowded_instances": sampler.n_crowded,
+                "n_ignored": data.n_ignored,
                 "px_per_mm": data.px_per_mm,
             },
             "validation": None if validation is None else validation.description,
@@ -1270,6 +538,7 @@ def train_from_sources(
     config: TrainConfig | None = None,
     progress: bool = False,
     log: Callable[[str], None] | None = None,
+    include_predicted: bool = False,
 ) -> dict[str, Any]:
     """What ``thermoswarm track train`` runs: gather the data, then :func:`train`.
 
@@ -1285,7 +554,7 @@ def train_from_sources(
     px_per_mm
         Scale of the labelled images (required with ``labels``); the synthetic data are
         rendered at it too (default: ``config.model.px_per_mm``).
-    nodes, image_root
+    nodes, image_root, include_predicted
         See :func:`read_labels`.
     init
         Fine-tune this model instead of starting from random weights.
@@ -1310,7 +579,13 @@ def train_from_sources(
     else:
         scale = px_per_mm if px_per_mm is not None else cfg.model.px_per_mm
     parts = [
-        read_labels(p, px_per_mm=float(px_per_mm), nodes=nodes, image_root=image_root)
+        read_labels(
+            p,
+            px_per_mm=float(px_per_mm),
+            nodes=nodes,
+            image_root=image_root,
+            include_predicted=include_predicted,
+        )
         for p in labels
     ]
     validation = None

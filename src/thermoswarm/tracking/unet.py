@@ -84,7 +84,7 @@ from thermoswarm.config import check, check_positive, from_mapping, to_dict
 from thermoswarm.errors import ConfigError, InputError
 from thermoswarm.fsutil import atomic_write_bytes
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.detect import FrameDetections, load_checked
+from thermoswarm.tracking.detection import FrameDetections, load_checked
 
 __all__ = [
     "FORMAT",

@@ -1,4 +1,7 @@
-"""Figures in the manner of the paper's panels, and the analysis report.
+"""Figures in the manner of the paper's panels, and the analysis report (``report.html``).
+
+They draw what the fits expose (:meth:`~thermoswarm.analysis.fit.ExponentialFit.density_curves`)
+and what the study computed; nothing in :mod:`thermoswarm.analysis` imports this module.
 
 Every function draws on :class:`matplotlib.figure.Figure` objects (no pyplot, no
 display: the Agg canvas renders them), so it runs headless and leaves no global state.
@@ -18,13 +21,14 @@ display: the Agg canvas renders them), so it runs headless and leaves no global 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from matplotlib.figure import Figure
 
-if TYPE_CHECKING:  # pragma: no cover
-    from thermoswarm.analysis.study import StudyResult
+from thermoswarm.analysis.explain import explain_phases, format_p_value, trend_statement
+from thermoswarm.analysis.phase_tests import PhaseComparison
+from thermoswarm.analysis.study import StudyResult
 
 __all__ = [
     "energy_axis",
@@ -65,7 +69,9 @@ def _hist(ax: Any, x: np.ndarray, scale: float, bins: int, color: str, label: st
     centers = 0.5 * (edges[1:] + edges[:-1])
     ok = dens > 0
     ax.plot(centers[ok], dens[ok], "o", ms=3, color=color, alpha=0.7, label=label)
-    return hi, (float(dens[ok].min()) / 5.0 if ok.any() else None)
+    if not ok.any():
+        return hi, None
+    return hi, (float(dens[ok].min()) / 5.0, float(dens[ok].max()) * 5.0)
 
 
 def plot_density_fit(
@@ -86,8 +92,6 @@ def plot_density_fit(
     :class:`~thermoswarm.analysis.fit.PhaseComparison` (both fits drawn).  ``scale``
     multiplies the x axis (e.g. 1e10 for J shown in 1e-10 J).
     """
-    from thermoswarm.analysis.fit import ExponentialFit, ExponentialMixtureFit, PhaseComparison
-
     hi = ymin = None
     if x is not None:
         hi, ymin = _hist(ax, x, scale, bins, color, "data")
@@ -103,22 +107,16 @@ def plot_density_fit(
     else:
         fits = [(model, "C3", "-")]
     for m, c, ls in fits:
-        if isinstance(m, ExponentialMixtureFit):
-            lab = (
-                f"2 phases: $\\phi$={m.phi_:.2f}, kT1={m.kT1_ * scale:.3g}, "
-                f"kT2={m.kT2_ * scale:.3g}"
-            )
-            ax.plot(grid, m.pdf(native) / scale, ls, color=c, lw=1.6, label=lab)
-            if components and not m.degenerate_:
-                for w, k in ((m.phi_, m.kT1_), (1 - m.phi_, m.kT2_)):
-                    ax.plot(grid, w * np.exp(-native / k) / k / scale, ":", color=c, lw=1)
-        elif isinstance(m, ExponentialFit):
-            lab = f"1 phase: kT={m.kT_ * scale:.3g}"
-            ax.plot(grid, m.pdf(native) / scale, ls, color=c, lw=1.6, label=lab)
+        curves = m.density_curves(native, label_scale=scale)
+        label = curves["label"]
+        ax.plot(grid, curves["total"] / scale, ls, color=c, lw=1.6, label=label)
+        if components and len(curves["components"]) > 1:
+            for _, _, comp in curves["components"]:
+                ax.plot(grid, comp / scale, ":", color=c, lw=1)
     ax.set_yscale("log")
     ax.set_xlim(0, hi)
-    if ymin is not None:
-        ax.set_ylim(bottom=ymin)
+    if ymin is not None:  # the data's range: a mixture's spike at zero must not hide it
+        ax.set_ylim(ymin[0], ymin[1])
     ax.set_ylabel("probability density")
     return ax
 
@@ -316,14 +314,56 @@ def regions_figure(result: StudyResult, max_points: int = 5000) -> Figure:
 # Report
 
 
+#: What each step bucket of ``data_quality`` means, in the report.
+BUCKET_HELP = {
+    "missing_position": "an end's position missing (NaN, inf or low confidence)",
+    "time_gap": "longer than --gap-factor times the individual's median step",
+    "static_track": "the individual never leaves --min-track-extent (a static object)",
+    "over_max_speed": "faster than --max-speed",
+    "implausible": "faster than the implausible-motion threshold (glitch, identity swap)",
+    "resting": "at or below --resting-speed: not moving",
+    "stationary_dropped": "in a long stationary period (--drop-stationary)",
+    "used": "used in the fits",
+}
+
+#: Row labels of the test-sample table.
+TEST_SAMPLE_LABELS = {
+    "n": "test-sample size n (what each bootstrap test uses)",
+    "n_available": "steps available",
+    "thinning_step": "thinning step (steps)",
+    "max_n": "cap (--test-size)",
+    "decorrelation_lag": "decorrelation lag (steps)",
+    "tau_int": "integrated autocorrelation time (steps)",
+    "note": "note",
+}
+
+
+def _labelled(d: dict[str, Any], labels: dict[str, str]) -> dict[str, Any]:
+    return {labels.get(k, k): v for k, v in d.items()}
+
+
+def _data_quality_rows(dq: dict[str, Any]) -> list[dict[str, Any]]:
+    total = dq.get("n_steps_total") or 0
+    return [
+        {
+            "bucket": name,
+            "steps": n,
+            "fraction": (n / total) if total else None,
+            "meaning": BUCKET_HELP.get(name, ""),
+        }
+        for name, n in dq.get("step_buckets", {}).items()
+    ] + [{"bucket": "total", "steps": total, "fraction": 1.0 if total else None, "meaning": ""}]
+
+
 def _fit_rows(block: dict[str, Any]) -> list[dict[str, Any]]:
     one, two = block["one_phase"], block["two_phase"]
+    nb = block.get("n_bootstrap")
     return [
         {
             "model": "one phase",
             "parameters": f"kT = {one['kT']:.5g} \u00b1 {one['kT_se']:.2g}",
             "ks (test)": one["ks"],
-            "p (bootstrap)": one["p_value"],
+            "p (bootstrap)": format_p_value(one["p_value"], nb),
             "n (test)": one["n"],
             "ks (all, naive)": one["naive"]["ks"],
             "p (naive)": one["naive"]["p_value"],
@@ -337,7 +377,7 @@ def _fit_rows(block: dict[str, Any]) -> list[dict[str, Any]]:
                 f"kT2 = {two['kT2']:.5g} \u00b1 {two['kT2_se']:.2g}"
             ),
             "ks (test)": two["ks"],
-            "p (bootstrap)": two["p_value"],
+            "p (bootstrap)": format_p_value(two["p_value"], nb),
             "n (test)": two["n"],
             "ks (all, naive)": two["naive"]["ks"],
             "p (naive)": two["naive"]["p_value"],
@@ -358,43 +398,96 @@ def build_report(result: StudyResult) -> str:
     src = fits.get("source_file") or "trajectories"
     rep = HtmlReport("thermoswarm analysis", subtitle=str(src))
     e = fits["energy"]
+    excluded = fits.get("excluded", {})
+    plaus = fits.get("plausibility", {})
     with rep.section("Summary"):
         summary = {
             "tracks with data": fits["n_tracks"],
-            "energy samples (steps)": fits["n_samples"],
+            "energy samples (steps used)": fits["n_samples"],
             "energy unit": unit,
+            "left out of the fits": excluded.get("statement"),
         }
         if "one_phase" in e:
             summary.update(
                 {
                     "preferred model": e["preferred"],
                     "decided by": e["preferred_by"],
-                    "LR test p-value (bootstrap)": e["lr_p_value"],
+                    "LR test p-value (bootstrap)": format_p_value(
+                        e["lr_p_value"], e.get("n_bootstrap")
+                    ),
                     "LR test n": e["lr_n"],
                     "BIC prefers": e["bic_preferred"],
                 }
             )
-        tr = fits["steering"].get("trend", {})
-        if tr.get("slope") is not None:
-            summary["kT_theta trend vs energy"] = (
-                f"{tr['direction'] or 'no significant trend'} "
-                f"(slope {tr['slope']:.3g}, p = {fmt_value(tr['p_value'], '.2g')})"
+            why = explain_phases(e)
+            if why:
+                summary["why two phases"] = why
+        if plaus.get("temperatures"):
+            summary["temperatures plausible"] = (
+                "yes"
+                if plaus.get("all_plausible")
+                else plaus.get("warning", "not checked (no bound)")
             )
+        tr = fits["steering"].get("trend", {})
+        summary["kT_theta against energy"] = trend_statement(tr)
         rep.table(summary)
+        if plaus.get("warning"):
+            rep.paragraph(f"Warning: {plaus['warning']}.")
         rep.paragraph(
             "p-values: 'bootstrap' p-values are parametric-bootstrap p-values valid for "
             "fitted parameters, computed on the test sample (thinned by the "
-            "autocorrelation time, capped in size; its n is given). 'naive' p-values "
-            "treat the fitted law as known and all steps as independent, as the paper "
-            "does; they are shown for comparison only.",
+            "autocorrelation time, capped in size; its n is given); '< x' means no "
+            "bootstrap replicate reached the observed statistic (x = 1/(B+1)). 'naive' "
+            "p-values treat the fitted law as known and all steps as independent, as the "
+            "paper does; they are shown for comparison only.",
             note=True,
         )
+    dq = fits["data_quality"]
     with rep.section("Data quality"):
-        rep.table(fits["data_quality"], header=("count", "value"))
+        rep.table(
+            _data_quality_rows(dq),
+            caption="every step in exactly one bucket; the buckets sum to the total",
+        )
+        rep.table(
+            {k: v for k, v in dq.items() if k != "step_buckets" and not k.startswith("n_steps_")},
+            header=("counter (docs/analysis.md)", "value"),
+            caption="counters of the samples and of what was handled",
+        )
+    if excluded:
+        with rep.section("Left out of the fits"):
+            imp, rest = excluded["implausible"], excluded["resting"]
+            rep.paragraph(excluded["statement"] + ".")
+            rule = {
+                k: v
+                for k, v in imp.items()
+                if k not in ("worst", "individuals_all_implausible", "n", "excluded")
+            }
+            rep.table(rule, header=("implausible-motion rule", "value"))
+            if imp.get("worst"):
+                rep.table(imp["worst"], caption="the fastest implausible steps")
+            if imp.get("individuals_all_implausible"):
+                rep.paragraph(
+                    "Individuals whose every moving step is implausible (left out "
+                    "entirely): " + ", ".join(imp["individuals_all_implausible"])
+                )
+            rep.table(rest, header=("resting", "value"))
+    if plaus.get("temperatures"):
+        with rep.section("Plausibility of the fitted temperatures"):
+            rep.paragraph(
+                f"Bound: {fmt_value(plaus['bound_mm_s'], '.4g')} mm/s "
+                f"({plaus['bound_source']}); {plaus['rule']}."
+            )
+            rep.table(
+                [{"temperature": k, **v} for k, v in plaus["temperatures"].items()],
+            )
     with rep.section("Energy: one phase or two"):
         if "one_phase" in e:
             rep.table(_fit_rows(e), caption=f"energy unit {unit}")
-            rep.table(e["test_sample"], caption="test sample", header=("", ""))
+            rep.table(
+                _labelled(e["test_sample"], TEST_SAMPLE_LABELS),
+                caption="test sample",
+                header=("quantity", "value"),
+            )
             if result.energy is not None:
                 rep.figure(
                     energy_figure(result.energy, energy[valid], unit),
@@ -417,9 +510,13 @@ def build_report(result: StudyResult) -> str:
                             "kT2": lv["two_phase"]["kT2"],
                             "KS 1 (naive)": lv["one_phase"]["naive"]["ks"],
                             "KS 2 (naive)": lv["two_phase"]["naive"]["ks"],
-                            "p 1 (boot)": lv["one_phase"]["p_value"],
-                            "p 2 (boot)": lv["two_phase"]["p_value"],
-                            "LR p": lv["lr_p_value"],
+                            "p 1 (boot)": format_p_value(
+                                lv["one_phase"]["p_value"], lv.get("n_bootstrap")
+                            ),
+                            "p 2 (boot)": format_p_value(
+                                lv["two_phase"]["p_value"], lv.get("n_bootstrap")
+                            ),
+                            "LR p": format_p_value(lv["lr_p_value"], lv.get("n_bootstrap")),
                             "preferred": lv["preferred"],
                         }
                     )
@@ -430,7 +527,8 @@ def build_report(result: StudyResult) -> str:
             kc = g["ks_comparison"]
             rep.paragraph(
                 f"Paired t-test of KS (1 phase) vs KS (2 phases) across groups: "
-                f"t = {kc['t_statistic']}, p = {kc['p_value']}. {kc['method']}.",
+                f"t = {fmt_value(kc['t_statistic'])}, p = {format_p_value(kc['p_value'])}. "
+                f"{kc['method']}.",
                 note=True,
             )
             gr = result.groups.get(spec)
@@ -448,7 +546,7 @@ def build_report(result: StudyResult) -> str:
                 "kT_theta (rad/s)": b.get("kT_theta"),
                 "SE": b.get("kT_theta_se"),
                 "KS (test)": b.get("ks"),
-                "p (bootstrap)": b.get("p_value"),
+                "p (bootstrap)": format_p_value(b.get("p_value"), fits["settings"]["n_bootstrap"]),
                 "n (test)": b.get("n"),
                 "KS (naive)": (b.get("naive") or {}).get("ks"),
                 "p (naive)": (b.get("naive") or {}).get("p_value"),
@@ -459,6 +557,7 @@ def build_report(result: StudyResult) -> str:
         ]
         rep.table(rows)
         if st.get("trend"):
+            rep.paragraph(trend_statement(st["trend"]))
             rep.table(
                 {k: v for k, v in st["trend"].items() if not isinstance(v, dict)},
                 caption="kT_theta versus energy",

@@ -1,4 +1,4 @@
-"""Running the robot's own controller in the simulator.
+"""The robot's own controller (:mod:`thermoswarm.robot.controller`) in the simulator.
 
 :class:`ControllerPolicy` is an engine policy whose decisions are made by
 :class:`~thermoswarm.robot.controller.Controller` -- the code that runs on the robot --
@@ -19,6 +19,7 @@ import numpy as np
 
 from thermoswarm.policy import Action, Observation
 from thermoswarm.robot.controller import HAL, Config, Controller
+from thermoswarm.sim.light import SensingParams, read_sensors
 
 __all__ = ["ControllerPolicy", "SimulatedHAL"]
 
@@ -66,8 +67,6 @@ class SimulatedHAL(HAL):
     """
 
     def __init__(self, position, heading, lights, occluders=None, params=None, rng=None):
-        from thermoswarm.sim.light import SensingParams
-
         self.position = np.asarray(position, dtype=float).copy()
         self.heading = float(heading)
         self.lights = lights
@@ -78,8 +77,6 @@ class SimulatedHAL(HAL):
         self.driven = 0.0
 
     def light(self):
-        from thermoswarm.sim.light import read_sensors
-
         r = read_sensors(
             self.position[None, :],
             np.array([self.heading]),

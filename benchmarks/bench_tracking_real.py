@@ -1,0 +1,357 @@
+"""Our tracker beside ByteTrack, OC-SORT and SORT on the same detections of real ant
+sequences; MOTA, IDF1, HOTA, ID switches and frames per second for each.
+
+Data: folders ``DATA/<sequence>/gt/gt.txt`` (MOTChallenge ground truth of real ant
+video).  The benchmark was run on an excerpt of the public ANTS dataset (Cao et al.
+2021, "ANTS -- ant detection and tracking", Mendeley Data, doi:10.17632/9ws98g4npw;
+manual point annotations with identities, boxes of fixed size around each point): see
+docs/tracking.md for how to obtain it.  That dataset ships no detector output (its
+``det.txt`` is the ground truth without identities), so the detections are the
+ground truth passed through a seeded detection-noise model (:func:`noisy_detections`:
+misses, runs of misses, jitter, merged neighbours, duplicates and false boxes, with
+scores); a folder ``DATA/<sequence>/det/det.txt`` of real detector output is used
+instead with ``--use-det``.
+
+Every tracker sees the same boxes and scores; scores are computed with
+``thermoswarm.tracking.evaluate`` (equal to TrackEval's CLEAR, Identity and HOTA,
+tested; ``--check-trackeval`` re-checks every row here).  Speed: tracking only (no I/O,
+no scoring), the best of ``--repeat`` runs interleaved with the other trackers', frames
+per second in this process; ``ours/it`` is our speed over the tracker's (geometric mean
+over seeds; > 1: ours is faster).
+
+    python benchmarks/bench_tracking_real.py DATA --tune Seq0006Object21Image64
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from thermoswarm.io.mot import read_mot_table
+from thermoswarm.tracking.detect import FrameDetections
+from thermoswarm.tracking.evaluate import evaluate_tables
+from thermoswarm.tracking.tracker import Tracker, TrackerConfig
+
+#: Noise levels of the detection model (per ground-truth box unless said otherwise).
+NOISE = {
+    "moderate": dict(
+        p_miss=0.08, p_run=0.01, run_mean=5, jitter=0.06, size_jitter=0.06,
+        p_merge=0.5, p_dup=0.02, fp_rate=0.03,
+    ),
+    "hard": dict(
+        p_miss=0.15, p_run=0.03, run_mean=8, jitter=0.12, size_jitter=0.12,
+        p_merge=0.8, p_dup=0.05, fp_rate=0.08,
+    ),
+}  # fmt: skip
+
+
+def noisy_detections(gt: np.ndarray, level: str, seed: int) -> np.ndarray:
+    """MOT detection rows made from ground truth ``gt`` by a seeded noise model.
+
+    Per object and frame: missed with ``p_miss``, or within a run of misses (a run
+    starts with ``p_run`` and lasts a geometric number of frames of mean
+    ``run_mean``: occlusions); centre moved by a normal of sd ``jitter`` x box size,
+    sides scaled by ``exp(N(0, size_jitter))``.  Two objects whose centres are closer
+    than 0.6 box sizes are merged into one box covering both with ``p_merge``
+    (touching ants).  A second box offset by 0.3 sizes is added with ``p_dup``, and
+    ``fp_rate`` false boxes per object and frame appear anywhere in the objects'
+    range.  Scores: Beta(6, 2) for true boxes, Beta(3, 3) for merged and duplicated
+    ones, Beta(2, 5) for false ones.
+    """
+    p = NOISE[level]
+    rng = np.random.default_rng(seed)
+    gt = gt[np.lexsort((gt[:, 1], gt[:, 0]))]
+    frames = np.unique(gt[:, 0]).astype(int)
+    run_left: dict[int, int] = {}
+    lo, hi = gt[:, 2:4].min(0), (gt[:, 2:4] + gt[:, 4:6]).max(0)
+    out = []
+    for f in frames:
+        rows = gt[gt[:, 0] == f]
+        n = len(rows)
+        size = rows[:, 4:6].mean(1)
+        keep = np.ones(n, bool)
+        for i, ident in enumerate(rows[:, 1].astype(int)):
+            left = run_left.get(ident, 0)
+            if left == 0 and rng.random() < p["p_run"]:
+                left = int(rng.geometric(1 / p["run_mean"]))
+            if left > 0:
+                keep[i] = False
+                run_left[ident] = left - 1
+            elif rng.random() < p["p_miss"]:
+                keep[i] = False
+        c = rows[:, 2:4] + rows[:, 4:6] / 2
+        boxes, scores = [], []
+        used = np.zeros(n, bool)
+        for i in range(n):
+            if not keep[i] or used[i]:
+                continue
+            d = np.linalg.norm(c - c[i], axis=1)
+            near = np.flatnonzero(keep & ~used & (d < 0.6 * size[i]) & (np.arange(n) != i))
+            if near.size and rng.random() < p["p_merge"]:
+                j = near[0]
+                x0 = np.minimum(rows[i, 2:4], rows[j, 2:4])
+                x1 = np.maximum(rows[i, 2:4] + rows[i, 4:6], rows[j, 2:4] + rows[j, 4:6])
+                boxes.append([*x0, *(x1 - x0)])
+                scores.append(rng.beta(3, 3))
+                used[[i, j]] = True
+                continue
+            used[i] = True
+            wh = rows[i, 4:6] * np.exp(p["size_jitter"] * rng.standard_normal(2))
+            cc = c[i] + p["jitter"] * size[i] * rng.standard_normal(2)
+            boxes.append([*(cc - wh / 2), *wh])
+            scores.append(rng.beta(6, 2))
+            if rng.random() < p["p_dup"]:
+                off = 0.3 * size[i] * rng.standard_normal(2)
+                boxes.append([*(cc + off - wh / 2), *wh])
+                scores.append(rng.beta(3, 3))
+        for _ in range(rng.poisson(p["fp_rate"] * n)):
+            s = float(np.median(size))
+            xy = rng.uniform(lo, np.maximum(hi - s, lo + 1))
+            boxes.append([*xy, s, s])
+            scores.append(rng.beta(2, 5))
+        for b, s in zip(boxes, scores, strict=True):
+            out.append([f, -1, *b, s, -1, -1, -1])
+    return np.asarray(out, dtype=np.float64).reshape(-1, 10)
+
+
+def _per_frame(dets: np.ndarray, n_frames: int) -> list[np.ndarray]:
+    return [dets[dets[:, 0] == f] for f in range(1, n_frames + 1)]
+
+
+def run_ours(frames: list[np.ndarray], fps: float, config: TrackerConfig) -> np.ndarray:
+    tr = Tracker(config, fps=fps)
+    for r in frames:
+        b = r[:, 2:6]
+        pts = np.full((len(r), 3, 2), np.nan)
+        pts[:, 1] = b[:, :2] + b[:, 2:] / 2
+        tr.predict()
+        tr.update(FrameDetections(pts, r[:, 6], boxes=b))
+    return tr.finish().mot_table()
+
+
+#: The peers' options searched on the tuning sequences (their own search spaces,
+#: ``trackers``' ``search_space``, on a coarse grid); the defaults are in every grid.
+PEER_GRID = {
+    "ByteTrack": dict(
+        track_activation_threshold=[0.3, 0.5, 0.7], high_conf_det_threshold=[0.4, 0.6],
+        minimum_iou_threshold=[0.1, 0.3], minimum_consecutive_frames=[1, 2, 3],
+    ),
+    "OC-SORT": dict(
+        high_conf_det_threshold=[0.3, 0.45, 0.6], minimum_iou_threshold=[0.1, 0.2, 0.3],
+        minimum_consecutive_frames=[1, 2, 3],
+    ),
+    "SORT": dict(
+        track_activation_threshold=[0.25, 0.5], minimum_iou_threshold=[0.1, 0.2, 0.3],
+        minimum_consecutive_frames=[1, 2, 3],
+    ),
+}  # fmt: skip
+
+
+def run_peer(
+    name: str, frames: list[np.ndarray], fps: float, options: dict | None = None
+) -> np.ndarray:
+    import supervision as sv
+    from trackers import ByteTrackTracker, OCSORTTracker, SORTTracker
+
+    make = {"ByteTrack": ByteTrackTracker, "OC-SORT": OCSORTTracker, "SORT": SORTTracker}
+    tracker = make[name](frame_rate=fps, **(options or {}))
+    out = []
+    for k, r in enumerate(frames, 1):
+        xyxy = np.c_[r[:, 2:4], r[:, 2:4] + r[:, 4:6]] if len(r) else np.zeros((0, 4))
+        det = sv.Detections(
+            xyxy=xyxy.astype(np.float32),
+            confidence=r[:, 6].astype(np.float32),
+            class_id=np.zeros(len(r), int),
+        )
+        res = tracker.update(det)
+        ok = res.tracker_id >= 0
+        for b, i, s in zip(res.xyxy[ok], res.tracker_id[ok], res.confidence[ok], strict=True):
+            out.append([k, i + 1, b[0], b[1], b[2] - b[0], b[3] - b[1], s, -1, -1, -1])
+    return np.asarray(out, dtype=np.float64).reshape(-1, 10)
+
+
+def _gmean(x: list[float]) -> float:
+    return float(np.exp(np.mean(np.log(x))))
+
+
+def _trackeval_check(gt: np.ndarray, pred: np.ndarray, ours: dict, tmp: Path) -> None:
+    """TrackEval on the same tables; raise if any reported number differs."""
+    import trackeval
+
+    from thermoswarm.io.mot import write_mot_table
+
+    n = int(max(gt[:, 0].max(), pred[:, 0].max(initial=1)))
+    (tmp / "gt" / "s" / "gt").mkdir(parents=True, exist_ok=True)
+    (tmp / "tr" / "t" / "data").mkdir(parents=True, exist_ok=True)
+    write_mot_table(tmp / "gt" / "s" / "gt" / "gt.txt", gt)
+    write_mot_table(tmp / "tr" / "t" / "data" / "s.txt", pred)
+    cfg = dict(GT_FOLDER=str(tmp / "gt"), TRACKERS_FOLDER=str(tmp / "tr"), SKIP_SPLIT_FOL=True,
+               SEQ_INFO={"s": n}, TRACKERS_TO_EVAL=["t"], PRINT_CONFIG=False,
+               OUTPUT_FOLDER=str(tmp / "o"))  # fmt: skip
+    ev = dict(USE_PARALLEL=False, PRINT_RESULTS=False, PRINT_CONFIG=False, TIME_PROGRESS=False,
+              OUTPUT_SUMMARY=False, OUTPUT_DETAILED=False, PLOT_CURVES=False,
+              DISPLAY_LESS_PROGRESS=True)  # fmt: skip
+    with contextlib.redirect_stdout(io.StringIO()):
+        res, _ = trackeval.Evaluator(ev).evaluate(
+            [trackeval.datasets.MotChallenge2DBox(cfg)],
+            [trackeval.metrics.CLEAR({"PRINT_CONFIG": False}),
+             trackeval.metrics.Identity({"PRINT_CONFIG": False}),
+             trackeval.metrics.HOTA({"PRINT_CONFIG": False})],
+        )  # fmt: skip
+    # Ours again on the same written (rounded) tables that TrackEval read.
+    from thermoswarm.tracking.evaluate import evaluate_files
+
+    ours = evaluate_files(tmp / "gt" / "s" / "gt" / "gt.txt", tmp / "tr" / "t" / "data" / "s.txt")
+    r = res["MotChallenge2DBox"]["t"]["s"]["pedestrian"]
+    te = {"mota": r["CLEAR"]["MOTA"], "idf1": r["Identity"]["IDF1"],
+          "hota": float(np.mean(r["HOTA"]["HOTA"])), "idsw": r["CLEAR"]["IDSW"]}  # fmt: skip
+    for k, v in te.items():
+        if abs(ours[k] - v) > 1e-4:
+            raise AssertionError(f"{k}: ours {ours[k]} != TrackEval {v}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("data", type=Path, help="folder of sequences <seq>/gt/gt.txt")
+    ap.add_argument("--tune", nargs="*", default=[], help="sequences our defaults were tuned on")
+    ap.add_argument("--fps", type=float, default=25.0, help="frame rate of the sequences")
+    ap.add_argument("--levels", nargs="+", default=["moderate", "hard"], choices=list(NOISE))
+    ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    ap.add_argument("--repeat", type=int, default=3, help="timing: best of this many runs")
+    ap.add_argument("--use-det", action="store_true", help="use <seq>/det/det.txt")
+    ap.add_argument("--check-trackeval", action="store_true")
+    ap.add_argument("--no-peer-tuning", action="store_true", help="peers at their defaults")
+    ap.add_argument("--set", dest="overrides", nargs="*", default=[], metavar="KEY=VALUE",
+                    help="our tracker's options (e.g. max_gap_s=0.5), for tuning")  # fmt: skip
+    ap.add_argument(
+        "--limit",
+        nargs="*",
+        default=[],
+        metavar="SEQ=N",
+        help="use only frames 1..N of sequence SEQ (the published table: "
+        "Seq0001Object10Image94=53 Seq0006Object21Image64=57 Seq0007Object26Image64=18)",
+    )
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    from thermoswarm.config import from_mapping, parse_overrides
+
+    cfg = from_mapping(TrackerConfig, parse_overrides(args.overrides), source="--set")
+    limit = {}
+    for item in args.limit:
+        name, _, n = item.partition("=")
+        if not n.isdigit():
+            print(f"--limit: expected SEQ=N, got {item!r}", file=sys.stderr)
+            return 2
+        limit[name] = int(n)
+
+    def load_gt(seq: str) -> np.ndarray:
+        gt = read_mot_table(args.data / seq / "gt" / "gt.txt")
+        return gt[gt[:, 0] <= limit[seq]] if seq in limit else gt
+
+    seqs = sorted(p.name for p in args.data.iterdir() if (p / "gt" / "gt.txt").exists())
+    if not seqs:
+        print(f"{args.data}: no <sequence>/gt/gt.txt found", file=sys.stderr)
+        return 2
+    names = ["ours", "ByteTrack", "OC-SORT", "SORT"]
+    rows = []
+    import itertools
+    import tempfile
+
+    def detections(seq: str, gt: np.ndarray, level: str | None, seed: int | None):
+        if args.use_det:
+            return read_mot_table(args.data / seq / "det" / "det.txt")
+        return noisy_detections(gt, level, seed)
+
+    runs = [("det.txt", None)] if args.use_det else [
+        (lvl, s) for lvl in args.levels for s in args.seeds]  # fmt: skip
+    # The peers' options: the best of PEER_GRID on the tuning sequences (mean MOTA +
+    # IDF1 over their detection runs); their defaults if no sequence is for tuning.
+    peer_options: dict[str, dict] = {n: {} for n in PEER_GRID}
+    tune = [s for s in seqs if s in args.tune]
+    if tune and not args.no_peer_tuning:
+        cache = {}
+        for seq in tune:
+            gt = load_gt(seq)
+            for level, seed in runs:
+                cache[seq, level, seed] = (
+                    gt,
+                    _per_frame(detections(seq, gt, level, seed), int(gt[:, 0].max())),
+                )
+        for name, grid in PEER_GRID.items():
+            best = -np.inf
+            for values in itertools.product(*grid.values()):
+                opt = dict(zip(grid, values, strict=True))
+                score = np.mean([
+                    sum(evaluate_tables(gt, run_peer(name, fr, args.fps, opt))[k]
+                        for k in ("mota", "idf1"))
+                    for gt, fr in cache.values()])  # fmt: skip
+                if score > best:
+                    best, peer_options[name] = score, opt
+        print("peer options tuned on", ", ".join(tune), file=sys.stderr)
+        for name, opt in peer_options.items():
+            print(f"  {name}: {opt}", file=sys.stderr)
+
+    for seq in seqs:
+        gt = load_gt(seq)
+        n_frames = int(gt[:, 0].max())
+        for level, seed in runs:
+            frames = _per_frame(detections(seq, gt, level, seed), n_frames)
+            fns = {"ours": lambda fr=frames: run_ours(fr, args.fps, cfg)}
+            for n in names[1:]:
+                fns[n] = lambda n=n, fr=frames: run_peer(n, fr, args.fps, peer_options[n])
+            # Timing interleaved (ours, peer, peer, ..., repeated): load changes hit all.
+            best = dict.fromkeys(names, np.inf)
+            preds = {}
+            for _ in range(args.repeat):
+                for name in names:
+                    t0 = time.perf_counter()
+                    preds[name] = fns[name]()
+                    best[name] = min(best[name], time.perf_counter() - t0)
+            for name in names:
+                pred, secs = preds[name], best[name]
+                m = evaluate_tables(gt, pred)
+                if args.check_trackeval:
+                    with tempfile.TemporaryDirectory() as tmp:
+                        _trackeval_check(gt, pred, m, Path(tmp))
+                rows.append(dict(
+                    sequence=seq, split="tune" if seq in args.tune else "held-out",
+                    detections=level, seed=seed, tracker=name, mota=m["mota"], idf1=m["idf1"],
+                    hota=m["hota"], idsw=m["idsw"], fps=n_frames / secs,
+                    speed_vs_ours=best["ours"] / secs, n_gt=m["n_gt"],
+                    n_frames=n_frames, n_gt_ids=m["n_gt_ids"]))  # fmt: skip
+    if args.json:
+        print(json.dumps({"peer_options": peer_options, "rows": rows}, indent=1))
+        return 0
+    # Mean over seeds per sequence, level and tracker.
+    print(f"{'sequence':24s} {'split':8s} {'dets':9s} {'tracker':9s} "
+          f"{'MOTA':>6s} {'IDF1':>6s} {'HOTA':>6s} {'IDSW':>5s} {'frames/s':>9s} "
+          f"{'ours/it':>8s}")  # fmt: skip
+    key = lambda r: (r["sequence"], r["detections"])  # noqa: E731
+    for k in sorted({key(r) for r in rows}):
+        group = [r for r in rows if key(r) == k]
+        for name in names:
+            g = [r for r in group if r["tracker"] == name]
+            print(f"{k[0]:24s} {g[0]['split']:8s} {k[1]:9s} {name:9s} "
+                  f"{np.mean([r['mota'] for r in g]):6.3f} {np.mean([r['idf1'] for r in g]):6.3f} "
+                  f"{np.mean([r['hota'] for r in g]):6.3f} {np.mean([r['idsw'] for r in g]):5.1f} "
+                  f"{np.mean([r['fps'] for r in g]):9.0f} "
+                  f"{_gmean([1 / r['speed_vs_ours'] for r in g]):8.2f}")  # fmt: skip
+    peers = (
+        "at their defaults" if args.no_peer_tuning or not tune else "tuned on " + ", ".join(tune)
+    )
+    print(
+        f"(means over detection seeds {args.seeds}; fps assumed {args.fps:g}; tracking time "
+        f"only, best of {args.repeat}, this process; ours at its defaults; peers {peers})"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

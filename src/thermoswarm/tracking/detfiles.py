@@ -1,0 +1,348 @@
+"""Detections of other detectors, read from files: MOTChallenge, YOLO txt, COCO JSON.
+
+Every reader returns a :class:`DetectionTable`: frame numbers exactly as the file
+gives them, boxes ``left, top, width, height`` in px and scores in [0, 1].
+
+``mot``
+    One text file of MOTChallenge rows ``frame, id, left, top, width, height, conf,
+    ...`` (the id is ignored; a negative ``conf``, as in files without scores, counts
+    as 1).  Frames may start at 0 or 1.
+``yolo``
+    A folder of per-frame text files (what YOLO detectors write with ``save_txt``),
+    each line ``class cx cy w h [conf]`` normalised by the image size, which must be
+    given (``image_size``).  The frame number is the last integer in the file name
+    (``clip_000123.txt`` -> 123).  Frames without a file have no detections.
+``coco``
+    A JSON file: either COCO's results format (a list of ``{"image_id", "bbox",
+    "score"}``, the frame number being ``image_id``) or a dataset with ``images`` and
+    ``annotations`` (frame number: the image's ``frame_id``, else the last integer of
+    its ``file_name``, else its ``id``; ``score`` 1 when absent).  ``bbox`` is
+    ``[x, y, width, height]`` in px.
+
+Frame numbering is kept: the tracker runs from frame 0 when the file has a frame 0,
+else from frame 1 (or from ``first_frame``), frames without detections are empty,
+and the tracks are written with the same numbers.  Negative frame numbers, a frame
+range over :data:`MAX_FRAMES`, boxes of negative or zero size and non-finite values
+are refused with a one-line :class:`~thermoswarm.errors.InputError`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from thermoswarm.errors import InputError
+from thermoswarm.tracking.detection import FrameDetections
+
+__all__ = [
+    "DetectionTable",
+    "FORMATS",
+    "MAX_FRAMES",
+    "read_detections",
+    "parse_image_size",
+]
+
+#: Formats :func:`read_detections` reads.
+FORMATS = ("mot", "yolo", "coco")
+
+#: The longest frame range accepted (10 million frames: 3.9 days at 30 fps).
+MAX_FRAMES = 10_000_000
+
+_INT = re.compile(r"(\d+)")
+
+
+@dataclass(frozen=True)
+class DetectionTable:
+    """Detections of a whole video, one row per box.
+
+    ``frames`` (n,) int frame numbers as in the file; ``boxes`` (n, 4) ``left, top,
+    width, height`` px; ``scores`` (n,) in [0, 1]; ``image_size`` ``(width, height)``
+    px if the file or the caller knows it; ``fmt`` the format read.
+    """
+
+    frames: np.ndarray
+    boxes: np.ndarray
+    scores: np.ndarray
+    source: str
+    fmt: str
+    image_size: tuple[int, int] | None = None
+
+    def __len__(self) -> int:
+        return int(self.frames.size)
+
+    def first_frame(self, first_frame: int | None = None) -> int:
+        """The number of the tracker's first frame: ``first_frame`` if given, else 0
+        when the file has a frame 0, else 1."""
+        if first_frame is not None:
+            if first_frame not in (0, 1):
+                raise InputError(f"first_frame must be 0 or 1, got {first_frame!r}")
+            if len(self) and int(self.frames.min()) < first_frame:
+                raise InputError(
+                    f"{self.source}: frame {int(self.frames.min())} comes before the "
+                    f"first frame {first_frame}"
+                )
+            return first_frame
+        return 0 if len(self) and int(self.frames.min()) == 0 else 1
+
+    def per_frame(self, first_frame: int | None = None) -> tuple[int, list[FrameDetections]]:
+        """``(first, dets)``: detections of frames ``first, first + 1, ...`` up to the
+        last frame with a detection (box centres as body points, head and tail
+        unknown)."""
+        first = self.first_frame(first_frame)
+        if len(self) == 0:
+            return first, []
+        n = int(self.frames.max()) - first + 1
+        order = np.argsort(self.frames, kind="stable")
+        bounds = np.searchsorted(self.frames[order], np.arange(first, first + n + 1))
+        out = []
+        for f in range(n):
+            rows = order[bounds[f] : bounds[f + 1]]
+            b = self.boxes[rows]
+            pts = np.full((rows.size, 3, 2), np.nan)
+            pts[:, 1] = b[:, :2] + b[:, 2:] / 2
+            out.append(FrameDetections(pts, self.scores[rows], boxes=b))
+        return first, out
+
+    def length_px(self) -> float | None:
+        """Median longer side of the boxes (px): the objects' size, None if empty."""
+        if len(self) == 0:
+            return None
+        return float(np.median(np.max(self.boxes[:, 2:], axis=1)))
+
+
+def _check_table(source: str, frames: np.ndarray, boxes: np.ndarray, where: list[str]) -> None:
+    """One-line errors for bad rows; ``where[i]`` names row ``i`` (file:line)."""
+    bad = ~np.all(np.isfinite(boxes), axis=1)
+    if bad.any():
+        raise InputError(f"{where[int(np.argmax(bad))]}: non-finite box value")
+    bad = (boxes[:, 2] <= 0) | (boxes[:, 3] <= 0)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(
+            f"{where[i]}: box width and height must be positive, got "
+            f"{boxes[i, 2]:g} x {boxes[i, 3]:g}"
+        )
+    if frames.size:
+        if frames.min() < 0:
+            i = int(np.argmin(frames))
+            raise InputError(f"{where[i]}: negative frame number {int(frames[i])}")
+        span = int(frames.max()) - int(frames.min()) + 1
+        if span > MAX_FRAMES:
+            raise InputError(
+                f"{source}: frames {int(frames.min())} to {int(frames.max())} span "
+                f"{span:,} frames, more than the {MAX_FRAMES:,} accepted"
+            )
+
+
+def _read_mot(path: Path) -> DetectionTable:
+    from thermoswarm.io.mot import read_mot_table
+
+    table = read_mot_table(path, min_frame=0)
+    frames = table[:, 0].astype(np.int64)
+    boxes = table[:, 2:6].copy()
+    where = [f"{path}: row {i + 1}" for i in range(len(table))]
+    _check_table(str(path), frames, boxes, where)
+    scores = np.clip(np.where(table[:, 6] < 0, 1.0, table[:, 6]), 0.0, 1.0)
+    return DetectionTable(frames, boxes, scores, str(path), "mot")
+
+
+def _frame_number(name: str, source: str) -> int:
+    nums = _INT.findall(Path(name).stem)
+    if not nums:
+        raise InputError(f"{source}: no frame number in the file name {name!r}")
+    return int(nums[-1])
+
+
+def _read_yolo(path: Path, image_size: tuple[int, int] | None) -> DetectionTable:
+    if image_size is None:
+        raise InputError(
+            f"{path}: YOLO boxes are normalised by the image size; pass --image-size "
+            "WIDTHxHEIGHT (or a frame or the video to read it from)"
+        )
+    W, H = image_size
+    files = sorted(p for p in path.iterdir() if p.suffix.lower() == ".txt")
+    if not files:
+        raise InputError(f"{path}: no .txt files (YOLO detections: one file per frame)")
+    frames, rows, where = [], [], []
+    seen: dict[int, str] = {}
+    for f in files:
+        k = _frame_number(f.name, str(path))
+        if k in seen:
+            raise InputError(f"{path}: files {seen[k]!r} and {f.name!r} are both frame {k}")
+        seen[k] = f.name
+        try:
+            text = f.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            raise InputError(f"{f}: not a YOLO text file") from None
+        for lineno, line in enumerate(text.splitlines(), 1):
+            parts = line.split()
+            if not parts:
+                continue
+            if len(parts) not in (5, 6):
+                raise InputError(
+                    f"{f}:{lineno}: expected 'class cx cy w h [conf]', got {len(parts)} values"
+                )
+            try:
+                v = [float(x) for x in parts]
+            except ValueError:
+                raise InputError(f"{f}:{lineno}: non-numeric value in {line[:60]!r}") from None
+            if not all(math.isfinite(x) for x in v):
+                raise InputError(f"{f}:{lineno}: non-finite value")
+            cx, cy, w, h = v[1:5]
+            if max(abs(cx), abs(cy), abs(w), abs(h)) > 1.5:
+                raise InputError(
+                    f"{f}:{lineno}: cx cy w h must be normalised to [0, 1] "
+                    f"(got {cx:g} {cy:g} {w:g} {h:g}; pixel coordinates?)"
+                )
+            conf = v[5] if len(v) == 6 else 1.0
+            frames.append(k)
+            rows.append((cx * W - w * W / 2, cy * H - h * H / 2, w * W, h * H, conf))
+            where.append(f"{f}:{lineno}")
+    return _assemble(path, frames, rows, where, "yolo", image_size)
+
+
+def _read_coco(path: Path, image_size: tuple[int, int] | None) -> DetectionTable:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise InputError(f"{path}: not a JSON file ({e})") from None
+    frame_of: dict[object, int] = {}
+    sizes: set[tuple[int, int]] = set()
+    if isinstance(data, dict):
+        anns = data.get("annotations")
+        if not isinstance(anns, list):
+            raise InputError(f"{path}: a COCO file needs an 'annotations' list")
+        for img in data.get("images", []) or []:
+            if not isinstance(img, dict) or "id" not in img:
+                raise InputError(f"{path}: every entry of 'images' needs an 'id'")
+            if "frame_id" in img:
+                frame_of[img["id"]] = _int(img["frame_id"], path, "frame_id")
+            elif "file_name" in img and _INT.findall(Path(str(img["file_name"])).stem):
+                frame_of[img["id"]] = _frame_number(str(img["file_name"]), str(path))
+            else:
+                frame_of[img["id"]] = _int(img["id"], path, "image id")
+            if "width" in img and "height" in img:
+                sizes.add((int(img["width"]), int(img["height"])))
+    elif isinstance(data, list):
+        anns = data
+    else:
+        raise InputError(f"{path}: expected a COCO dataset (object) or results (list)")
+    frames, rows, where = [], [], []
+    for i, a in enumerate(anns):
+        here = f"{path}: annotation {i}"
+        if not isinstance(a, dict) or "bbox" not in a or "image_id" not in a:
+            raise InputError(f"{here}: needs 'image_id' and 'bbox'")
+        if frame_of:
+            if a["image_id"] not in frame_of:
+                raise InputError(f"{here}: image_id {a['image_id']!r} is not in 'images'")
+            k = frame_of[a["image_id"]]
+        else:
+            k = _int(a["image_id"], path, "image_id")
+        bb = a["bbox"]
+        if not (isinstance(bb, list) and len(bb) == 4):
+            raise InputError(f"{here}: bbox must be [x, y, width, height]")
+        try:
+            x, y, w, h = (float(v) for v in bb)
+            s = float(a.get("score", 1.0))
+        except (TypeError, ValueError):
+            raise InputError(f"{here}: non-numeric bbox or score") from None
+        frames.append(k)
+        rows.append((x, y, w, h, s))
+        where.append(here)
+    size = image_size
+    if size is None and len(sizes) == 1:
+        size = next(iter(sizes))
+    return _assemble(path, frames, rows, where, "coco", size)
+
+
+def _int(v: object, path: Path, what: str) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
+        raise InputError(f"{path}: {what} must be an integer frame number, got {v!r}")
+    return int(v)
+
+
+def _assemble(
+    path: Path,
+    frames: list[int],
+    rows: list[tuple[float, ...]],
+    where: list[str],
+    fmt: str,
+    size: tuple[int, int] | None,
+) -> DetectionTable:
+    fr = np.asarray(frames, dtype=np.int64)
+    arr = np.asarray(rows, dtype=np.float64).reshape(-1, 5)
+    boxes = arr[:, :4].copy()
+    _check_table(str(path), fr, boxes, where)
+    if not np.all(np.isfinite(arr[:, 4])):
+        raise InputError(f"{where[int(np.argmax(~np.isfinite(arr[:, 4])))]}: non-finite score")
+    scores = np.clip(arr[:, 4], 0.0, 1.0)
+    return DetectionTable(fr, boxes, scores, str(path), fmt, size)
+
+
+def _sniff(path: Path) -> str:
+    if path.is_dir():
+        return "yolo"
+    if path.suffix.lower() == ".json":
+        return "coco"
+    return "mot"
+
+
+def read_detections(
+    path: str | Path,
+    *,
+    fmt: str | None = None,
+    image_size: tuple[int, int] | None = None,
+) -> DetectionTable:
+    """Read detections; ``fmt`` one of :data:`FORMATS` (default: a folder is
+    ``yolo``, a ``.json`` file ``coco``, anything else ``mot``).
+
+    ``image_size`` ``(width, height)`` px: needed by YOLO's normalised boxes; for the
+    others it only tells the tracker where objects leave the image.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file or folder")
+    fmt = fmt or _sniff(path)
+    if fmt not in FORMATS:
+        raise InputError(f"unknown detection format {fmt!r}; expected one of {FORMATS}")
+    if fmt == "yolo":
+        if not path.is_dir():
+            raise InputError(f"{path}: YOLO detections are a folder of per-frame .txt files")
+        return _read_yolo(path, image_size)
+    if path.is_dir():
+        raise InputError(f"{path}: a folder; {fmt} detections are one file")
+    if fmt == "coco":
+        return _read_coco(path, image_size)
+    table = _read_mot(path)
+    return DetectionTable(table.frames, table.boxes, table.scores, table.source, "mot", image_size)
+
+
+def parse_image_size(value: str) -> tuple[int, int]:
+    """``WIDTHxHEIGHT`` (e.g. ``1920x1080``), or an image or video file to read it from."""
+    m = re.fullmatch(r"\s*(\d+)\s*[xX,]\s*(\d+)\s*", value)
+    if m:
+        w, h = int(m.group(1)), int(m.group(2))
+        if w < 1 or h < 1:
+            raise InputError(f"--image-size: width and height must be positive, got {value!r}")
+        return w, h
+    p = Path(value)
+    if not p.exists():
+        raise InputError(
+            f"--image-size: expected WIDTHxHEIGHT or an image/video file, got {value!r}"
+        )
+    try:
+        from PIL import Image
+
+        with Image.open(p) as im:
+            return int(im.size[0]), int(im.size[1])
+    except Exception:  # not an image PIL reads: try it as a video
+        pass
+    from thermoswarm.tracking.video import open_video
+
+    src = open_video(p)
+    return int(src.size[0]), int(src.size[1])
