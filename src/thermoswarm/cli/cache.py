@@ -62,7 +62,7 @@ def warm_kernels(*, verbose: bool = False) -> C.JitTime:
             if verbose:
                 print(f"  {name:20s} {time.perf_counter() - t:6.1f} s", flush=True)
         t = time.perf_counter()
-        from thermoswarm.analysis.fit import compare_phases
+        from thermoswarm.analysis.phase_tests import compare_phases
 
         rng = np.random.default_rng(0)
         x = np.concatenate([rng.exponential(1.0, 300), rng.exponential(5.0, 300)])
