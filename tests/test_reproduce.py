@@ -15,7 +15,7 @@ import re
 import pytest
 
 from thermoswarm.report.paper import COMPARISONS
-from thermoswarm.reproduce import SMOKE, TITLES, reproduce
+from thermoswarm.reproduce import SMOKE, TITLES, _Pool, reproduce
 
 TINY = dataclasses.replace(
     SMOKE,
@@ -155,3 +155,16 @@ def test_a_rerun_reuses_the_runs_and_logs_one_line_per_step(done, capfd):
     assert again["compression"] == res["compression"]
     assert again["transport_free"] == res["transport_free"]
     assert again["regime"] == res["regime"] and again["scaling"] == res["scaling"]
+
+
+def test_the_shared_pool_runs_in_worker_processes():
+    """With more than one worker the sweeps' runs go to other processes (the test above
+    runs in-process); one pool serves every submission."""
+    import os
+
+    pool = _Pool(2)
+    try:
+        pids = {pool.submit(os.getpid).result(timeout=120) for _ in range(3)}
+    finally:
+        pool.shutdown(wait=True)
+    assert pids and os.getpid() not in pids

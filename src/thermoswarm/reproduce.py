@@ -117,9 +117,9 @@ class _Pool(Executor):
     scaling).
 
     A pool per sweep started fresh worker processes (each importing the engine, SciPy
-    and xarray) 17 times in the compression step alone.  A worker that dies gets a
-    fresh pool at the next submission (the sweep retries its run).  ``workers == 1``
-    runs everything in this process, one run at a time.
+    and xarray) 17 times in the compression step alone.  Processes: the sweeps' local
+    pool (a worker that dies fails only its own run, which the sweep retries).
+    ``workers == 1`` runs everything in this process, one run at a time.
     """
 
     def __init__(self, workers: int | None) -> None:
@@ -131,9 +131,9 @@ class _Pool(Executor):
             from concurrent.futures import ThreadPoolExecutor
 
             return ThreadPoolExecutor(max_workers=1)
-        from thermoswarm.sweep import _default_executor
+        from thermoswarm.sweep import local_pool
 
-        return _default_executor(self.workers)
+        return local_pool(self.workers)
 
     def submit(self, fn, /, *args, **kwargs):  # type: ignore[override]
         from concurrent.futures.process import BrokenProcessPool
@@ -582,10 +582,11 @@ def _transport_free(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | Non
                 "max displacement toward the target (mm)": mm["max_displacement_toward_target"],
                 "final displacement (mm)": mm["displacement_toward_target"]}
                for v, (mm, _, _) in variants.items()],
-            caption=f"Free space: the target reached in {d['reached']} of {d['seeds']} runs; "
-            f"time to target median {_text(d['time_to_target_median'], 's')} (range "
-            f"{_text(d['time_to_target_min'], 's')} to {_text(d['time_to_target_max'], 's')}); "
-            "time to target \u2013 = not reached within the run",
+            caption=f"Free space: the target reached in {d['reached']} of {d['seeds']} runs"
+            + (f"; time to target median {_text(d['time_to_target_median'], 's')} (range "
+               f"{_text(d['time_to_target_min'], 's')} to "
+               f"{_text(d['time_to_target_max'], 's')})" if d["reached"] else "")
+            + "; time to target \u2013 = not reached within the run",
             floatfmt=".4g",
         )  # fmt: skip
         path = animate(
@@ -766,6 +767,15 @@ def _scaling(out: Path, plan: Plan, rep: Any, workers: int | None,
         trend[r.setting["series"]] = t
     first = results[0].setting
     horizon, target = first["horizon"], first["target_distance"]
+    window = min(horizon, float(first["base"].get("duration") or horizon))  # runs may be shorter
+
+    def interval(lo: Any, hi: Any) -> str:
+        """An interval of a median: unbounded above when its end is a run that never
+        arrived; none with fewer than two runs."""
+        if lo is None and hi is None:
+            return "\u2013"
+        return f"{_text(lo)} to {_text(hi) if hi is not None else 'unbounded'}"
+
     reached = int(sum((row.get("reached") or 0) for row in rows))
     names = {"fixed": "fixed arena", "density": "arena grows with N"}
     with rep.section("Scaling with swarm size (panels u and v)"):
@@ -778,7 +788,7 @@ def _scaling(out: Path, plan: Plan, rep: Any, workers: int | None,
                 for r in results
             )
             + f". Capacity: the maximum displacement toward the target within the first "
-            f"{_text(horizon, 's')} (later the object meets the target and the wall, which "
+            f"{_text(window, 's')} (later the object meets the target and the wall, which "
             f"cap it); time to the target line {_text(target, 'mm')} above the start. Medians "
             "with distribution-free 95 % intervals (order statistics; with fewer than 6 runs "
             "the range); a run that never arrived counts as slower than any that did."
@@ -786,18 +796,16 @@ def _scaling(out: Path, plan: Plan, rep: Any, workers: int | None,
         rep.table(
             [{"series": names.get(row["series"], row["series"]), "robots": row["n"],
               "arena side (mm)": row["arena"], "seeds": row["seeds"],
-              f"max displacement in {_text(horizon, 's')} (mm), median": row["maxdisp_median"],
-              "95 % interval (mm)": f"{_text(row['maxdisp_ci_low'])} to "
-                                    f"{_text(row['maxdisp_ci_high'])}",
+              f"max displacement in {_text(window, 's')} (mm), median": row["maxdisp_median"],
+              "95 % interval (mm)": interval(row["maxdisp_ci_low"], row["maxdisp_ci_high"]),
               "mean ± sd (mm)": f"{_text(row['maxdisp_mean'])} ± {_text(row['maxdisp_sd'])}",
               "reached the target": f"{int(row['reached'])} of {int(row['seeds'])}",
               "time to target (s), median": row["time_median"],
-              "95 % interval (s)": f"{_text(row['time_ci_low'])} to "
-                                   f"{_text(row['time_ci_high'])}",
+              "95 % interval (s)": interval(row["time_ci_low"], row["time_ci_high"]),
               "fastest run (s)": row["time_min"]} for row in rows],
             caption=f"Capacity and time to the target line {_text(target, 'mm')} above the "
-            "start (n/a: no interval, or an end among the runs that never arrived; median "
-            "time \u2013: fewer than half arrived)",
+            "start (median time \u2013: fewer than half the runs arrived; an interval "
+            "unbounded: its end is a run that never arrived)",
             floatfmt=".4g",
         )  # fmt: skip
         fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), constrained_layout=True)
@@ -813,7 +821,7 @@ def _scaling(out: Path, plan: Plan, rep: Any, workers: int | None,
             fig.delaxes(axes[1])
             fig.set_size_inches(4.8, 3.6)
         _fig(rep, fig, f"(u) Maximum displacement toward the target within the first "
-             f"{_text(horizon, 's')} against the number of robots"
+             f"{_text(window, 's')} against the number of robots"
              + (f"; (v) time to the target line {_text(target, 'mm')} above the start" if reached
                 else "")
              + ": medians over seeds with 95 % intervals, dots the runs"
