@@ -110,10 +110,6 @@ def mechanism(out, setting, seeds, variant, workers, overrides):
 def scaling(out, setting, seeds, ns, variant, workers, overrides, target_distance, horizon):
     """Maximum displacement and time to target versus the number of robots; writes
     OUT/scaling.json, OUT/scaling.md and OUT/scaling.png."""
-    _precheck(out, overrides)
-    from thermoswarm.studies._common import dotted_overrides
-    from thermoswarm.studies.scaling import run_scaling
-
     sizes = None
     if ns is not None:
         try:
@@ -121,6 +117,10 @@ def scaling(out, setting, seeds, ns, variant, workers, overrides, target_distanc
         except ValueError:
             raise click.BadParameter(f"expected integers like 50,200, got {ns!r}",
                                      param_hint="--ns") from None  # fmt: skip
+    _precheck(out, overrides)
+    from thermoswarm.studies._common import dotted_overrides
+    from thermoswarm.studies.scaling import run_scaling
+
     res = run_scaling(out, setting, ns=sizes, seeds=seeds, variant=variant, max_workers=workers,
                       target_distance=target_distance, horizon=horizon,
                       overrides=dotted_overrides(overrides))  # fmt: skip
