@@ -94,9 +94,9 @@ DEFAULT_ARENA = {
     "zigzag": (2400.0, 2400.0),
 }
 #: Simulated seconds when ``duration`` is not given: every run of seeds 0-9 of the
-#: defaults reaches the target within it (free: at most 747 s, obstacle 929 s, zigzag
-#: 1294 s; ``docs/scenarios_transport.md``).
-DEFAULT_DURATION = {"free": 1200.0, "obstacle": 1200.0, "zigzag": 1800.0}
+#: defaults reaches the target within it (free: at most 998 s, obstacle 1578 s, zigzag
+#: 1153 s; ``docs/scenarios_transport.md``).
+DEFAULT_DURATION = {"free": 1200.0, "obstacle": 1800.0, "zigzag": 1800.0}
 #: Batches of the time-averaged force (batch-means standard error).
 FORCE_BATCHES = 20
 
@@ -114,8 +114,8 @@ class TransportFreeParams:
         Arena size (mm); ``None``: 1800 x 1800 (free, obstacle), 2400 x 2400 (zigzag).
     duration : float or None
         Simulated seconds, warm-up included; ``None``: :data:`DEFAULT_DURATION` of the
-        variant (1200 s; zigzag 1800 s), within which every run of seeds 0-9 of the
-        defaults reached the target.
+        variant (free 1200 s; obstacle and zigzag 1800 s), within which every run of
+        seeds 0-9 of the defaults reached the target.
     warmup : float
         Seconds during which the object is held in place (its contact force measured:
         ``metrics["force_held"]``) before it is released; displacement, time to target
