@@ -15,7 +15,7 @@ import re
 import pytest
 
 from thermoswarm.report.paper import COMPARISONS
-from thermoswarm.reproduce import SMOKE, TITLES, reproduce
+from thermoswarm.reproduce import SMOKE, TITLES, _Pool, reproduce
 
 TINY = dataclasses.replace(
     SMOKE,
@@ -69,6 +69,19 @@ def test_results_json_holds_every_experiment_with_its_verdicts(done):
     free = on_disk["transport_free"]
     assert free["default"]["seeds"] == TINY.free_seeds and free["default"]["n"] == TINY.free_n
     assert len(free["default"]["time_to_target"]) == TINY.free_seeds
+    times = [t for t in free["default"]["time_to_target"] if t is not None]
+    assert free["default"]["reached"] == len(times)
+    assert free["default"]["time_to_target_min"] == (min(times) if times else None)
+    phase = free["default"]["phase_by_region_mean"]
+    assert all(phase[k] is None or 0 <= phase[k] <= 1 for k in phase if "fraction" in k)
+    regime = on_disk["regime"]
+    assert regime["maps"] == list(TINY.regime_maps) and len(regime["rows"]) == 9  # 3 x 3
+    for r in regime["rows"]:  # each cell's verdict from its own interval
+        assert r["seeds"] == TINY.study_seeds
+        lo, hi = r["drift_ci_low"], r["drift_ci_high"]
+        want = "toward target" if lo > 0 else "away from target" if hi < 0 else "no detect"
+        assert r["verdict"].startswith(want)
+    assert sum(r["default"] for r in regime["rows"]) == 1  # the default regime's cell
     assert [r["n"] for r in on_disk["scaling"]["rows"]] == list(TINY.scaling_ns)
     assert len(on_disk["mechanism"]["rows"]) == 8  # 2 mappings x 2 heading laws x 2 sensings
     assert on_disk["transport_connected"]["seeds"] == TINY.connected_seeds
@@ -135,9 +148,23 @@ def test_a_rerun_reuses_the_runs_and_logs_one_line_per_step(done, capfd):
     text = logged.out + logged.err
     assert "\r" not in text and "it/s" not in text  # no progress bar in a log
     lines = [ln for ln in text.splitlines() if ln.strip()]
-    steps = [ln for ln in lines if re.match(r"^\[ *[\d. a-z]+\] \d/7 \w+ done in ", ln)]
-    assert len(steps) == 7 and len(lines) == 8 and lines[-1].startswith("wrote ")
+    steps = [ln for ln in lines if re.match(r"^\[ *[\d. a-z]+\] \d/8 \w+ done in ", ln)]
+    assert len(steps) == 8 and len(lines) == 9 and lines[-1].startswith("wrote ")
     assert all("left" in ln for ln in steps[:-1]) and "left" not in steps[-1]
     # the same runs, the same numbers
     assert again["compression"] == res["compression"]
     assert again["transport_free"] == res["transport_free"]
+    assert again["regime"] == res["regime"] and again["scaling"] == res["scaling"]
+
+
+def test_the_shared_pool_runs_in_worker_processes():
+    """With more than one worker the sweeps' runs go to other processes (the test above
+    runs in-process); one pool serves every submission."""
+    import os
+
+    pool = _Pool(2)
+    try:
+        pids = {pool.submit(os.getpid).result(timeout=120) for _ in range(3)}
+    finally:
+        pool.shutdown(wait=True)
+    assert pids and os.getpid() not in pids

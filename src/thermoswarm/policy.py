@@ -368,6 +368,14 @@ class LightSwitchedTransport:
         ``kT_theta * tau``; the heading correlation decays as ``(1 + (kT_theta tau)^2)^-k``
         after ``k`` periods.
     speed_law : {"boltzmann", "half-normal"}
+    kT_theta_cold : float or None
+        Steering temperature (rad/s) of cold robots; ``None``: ``kT_theta`` for both
+        phases.  The paper's steering law has a temperature ``E(v)`` that falls with
+        speed (slow ants turn more: its Discussion table), so cold robots may steer
+        hotter than hot ones.
+    v_max : float or None
+        Top speed (mm/s): sampled speeds above it are cut to it, as a motor saturates
+        (the paper's robot: about 33 mm/s).  ``None``: no cut.
     """
 
     kT_hot: float
@@ -377,6 +385,8 @@ class LightSwitchedTransport:
     heading_law: str = "uniform"
     kT_theta: float = 0.3
     speed_law: str = "boltzmann"
+    kT_theta_cold: float | None = None
+    v_max: float | None = None
 
     def __post_init__(self) -> None:
         speed_law(self.speed_law, self.kT_hot)
@@ -391,6 +401,11 @@ class LightSwitchedTransport:
             raise ValueError(f"threshold must be in [0, 1), got {self.threshold!r}")
         if not (math.isfinite(self.kT_theta) and self.kT_theta > 0):
             raise ValueError(f"kT_theta must be a positive number (rad/s), got {self.kT_theta!r}")
+        c = self.kT_theta_cold
+        if c is not None and not (math.isfinite(c) and c > 0):
+            raise ValueError(f"kT_theta_cold must be a positive number (rad/s), got {c!r}")
+        if self.v_max is not None and not (self.v_max > 0):
+            raise ValueError(f"v_max must be a positive number (mm/s), got {self.v_max!r}")
 
     def phase(self, light: np.ndarray) -> np.ndarray:
         """Phase of robots at light levels ``light``: :data:`PHASE_HOT` (1) or
@@ -404,13 +419,19 @@ class LightSwitchedTransport:
         return np.where(self.phase(light) == PHASE_HOT, self.kT_hot, self.kT_cold)
 
     def act(self, obs: Observation, rng: np.random.Generator) -> Action:
-        v = _speeds(self.speed_law, self.temperature(obs.light), rng, obs.n)
+        hot = self.phase(obs.light) == PHASE_HOT
+        v = _speeds(self.speed_law, np.where(hot, self.kT_hot, self.kT_cold), rng, obs.n)
+        if self.v_max is not None:
+            np.minimum(v, self.v_max, out=v)
         if self.heading_law == "uniform":
             heading = rng.uniform(-math.pi, math.pi, obs.n)
             heading += obs.zero_heading
         else:
             turn = rng.standard_exponential(obs.n)
-            turn *= self.kT_theta * obs.tau
+            if self.kT_theta_cold is None:
+                turn *= self.kT_theta * obs.tau
+            else:
+                turn *= np.where(hot, self.kT_theta, self.kT_theta_cold) * obs.tau
             turn[rng.random(obs.n) < 0.5] *= -1.0
             heading = turn + obs.heading
         return Action(heading=heading, speed=v)

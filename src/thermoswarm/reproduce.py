@@ -8,12 +8,16 @@ Runs, into ``OUT/``:
    pressure against temperature at fixed density, and the temperature that holds the
    density fixed as the force varies (the paper's panel w);
 3. ``transport-connected``: the object carried into the target room, over seeds;
-4. ``transport-free``: the default (the combination the mechanism study found to
-   move the object toward the light) and the ``obstacle`` and ``zigzag`` variants;
-5. the transport mechanism study (both light-to-phase mappings x fresh or persistent
+4. ``transport-free``: the default (the regime of the drift-speed search in which the
+   object reaches the target fastest) and the ``obstacle`` and ``zigzag`` variants,
+   with the phase separation over time;
+5. the drift-speed maps of that search (the object's drift over the parameters
+   Algorithm 5 leaves open);
+6. the transport mechanism study (both light-to-phase mappings x fresh or persistent
    headings x ideal or photoresistor sensing, 10 seeds each);
-6. scaling with swarm size (the paper's panels u and v);
-7. one law for three systems: synthetic ants, an elastic gas and light-switched
+7. scaling with swarm size (the paper's panels u and v): robots added to a fixed arena,
+   and an arena that grows with the swarm;
+8. one law for three systems: synthetic ants, an elastic gas and light-switched
    robots, each analysed by the same :func:`~thermoswarm.analysis.study.run_study`.
 
 and writes ``OUT/report.html`` (self-contained), ``OUT/results.json`` (the headline
@@ -55,44 +59,53 @@ class Plan:
     connected_seeds: int = 10
     connected_duration: float | None = None  # None: the scenario's default (600 s)
     free_seeds: int = 10
-    free_duration: float = 1200.0
+    # None: the scenario's durations (1200 s; zig-zag 1800 s), in which every seed arrives
+    free_duration: float | None = None
     free_n: int | None = None  # None: the scenario's default (1,200 robots)
-    variant_duration: float = 600.0
-    study: str = "full"  # mechanism and scaling settings
+    variant_duration: float | None = None
+    study: str = "full"  # mechanism and regime settings ("quick" or "full")
     study_seeds: int | None = None  # None: the setting's
+    mechanism_seeds: int | None = None  # None: study_seeds
     study_overrides: dict[str, Any] = field(default_factory=dict)  # dotted keys
+    regime_maps: tuple[str, ...] | None = None  # None: every map
+    scaling_settings: tuple[str, ...] = ("fixed", "density")
     scaling_ns: tuple[int, ...] | None = None  # None: the setting's
     unified_robots: int = 1200
     unified_duration: float = 120.0
     gas_duration: float = 400.0
     ant_frames: int = 600
     n_bootstrap: int = 200
-    #: seconds per step on an idle 2-core machine (warm Numba cache; quick: the measured
-    #: CPU seconds, halved for the steps whose runs share two cores), for the estimate of
-    #: what is left; only their proportions matter (rescaled as steps finish)
+    #: seconds per step on a 2-core machine (warm Numba cache; quick: the wall seconds of
+    #: one run at a load of 2-3), for the estimate of what is left; only their
+    #: proportions matter (rescaled as steps finish)
     expected: dict[str, float] = field(default_factory=dict)
 
 
+#: The quick mechanism study runs 5 of its 10 seeds: at the transport's defaults the
+#: captions' mapping with persistent headings drives nearly every robot hot and straight
+#: into the walls, where the jammed crowd needs the engine's full sweep limit each step
+#: (45-55 s a run against 2-4 s for the other combinations: 84 % of the study's time).
 QUICK = Plan("quick", compression_duration=1600.0, connected_seeds=3, free_seeds=3,
-             free_duration=600.0, variant_duration=400.0, study="quick",
-             unified_duration=60.0,
-             expected={"unified_law": 12, "narrow_road": 7, "compression": 10,
-                       "transport_connected": 5, "transport_free": 14, "mechanism": 54,
-                       "scaling": 6})  # fmt: skip
+             study="quick", mechanism_seeds=5, regime_maps=("cold", "hot"),
+             scaling_settings=("quick",), unified_duration=60.0,
+             expected={"unified_law": 12, "narrow_road": 6, "compression": 20,
+                       "transport_connected": 4, "transport_free": 49, "regime": 81,
+                       "mechanism": 300, "scaling": 18})  # fmt: skip
 FULL = Plan("full", expected={"unified_law": 60, "narrow_road": 25, "compression": 90,
-                              "transport_connected": 30, "transport_free": 120,
-                              "mechanism": 1000, "scaling": 600})  # fmt: skip
+                              "transport_connected": 30, "transport_free": 200,
+                              "regime": 1000, "mechanism": 3000, "scaling": 2800})  # fmt: skip
 #: Every step at a toy scale (a minute or two on 2 cores): checks that an install runs
 #: end to end; the numbers mean nothing.
 SMOKE = Plan("smoke", road_duration=40.0, compression_duration=150.0, pictures_duration=60.0,
              connected_seeds=2, connected_duration=40.0, free_seeds=2, free_duration=30.0,
              free_n=300, variant_duration=20.0, study="quick", study_seeds=2,
              study_overrides={"n": 150, "duration": 30.0, "warmup": 10.0},
-             scaling_ns=(50, 150), unified_robots=200, unified_duration=10.0,
-             gas_duration=20.0, ant_frames=150, n_bootstrap=19,
+             regime_maps=("cold",), scaling_settings=("quick",), scaling_ns=(50, 150),
+             unified_robots=200, unified_duration=10.0, gas_duration=20.0, ant_frames=150,
+             n_bootstrap=19,
              expected={"unified_law": 8, "narrow_road": 3, "compression": 8,
-                       "transport_connected": 3, "transport_free": 6, "mechanism": 12,
-                       "scaling": 6})  # fmt: skip
+                       "transport_connected": 3, "transport_free": 6, "regime": 6,
+                       "mechanism": 12, "scaling": 6})  # fmt: skip
 PLANS = {p.name: p for p in (SMOKE, QUICK, FULL)}
 
 
@@ -105,12 +118,13 @@ def _duration(seconds: float) -> str:
 
 
 class _Pool(Executor):
-    """One pool for every sweep of a ``reproduce`` (compression, mechanism, scaling).
+    """One pool for every sweep of a ``reproduce`` (compression, regime, mechanism,
+    scaling).
 
     A pool per sweep started fresh worker processes (each importing the engine, SciPy
-    and xarray) 17 times in the compression step alone.  A worker that dies gets a
-    fresh pool at the next submission (the sweep retries its run).  ``workers == 1``
-    runs everything in this process, one run at a time.
+    and xarray) 17 times in the compression step alone.  Processes: the sweeps' local
+    pool (a worker that dies fails only its own run, which the sweep retries).
+    ``workers == 1`` runs everything in this process, one run at a time.
     """
 
     def __init__(self, workers: int | None) -> None:
@@ -122,9 +136,9 @@ class _Pool(Executor):
             from concurrent.futures import ThreadPoolExecutor
 
             return ThreadPoolExecutor(max_workers=1)
-        from thermoswarm.sweep import _default_executor
+        from thermoswarm.sweep import local_pool
 
-        return _default_executor(self.workers)
+        return local_pool(self.workers)
 
     def submit(self, fn, /, *args, **kwargs):  # type: ignore[override]
         from concurrent.futures.process import BrokenProcessPool
@@ -458,6 +472,45 @@ def _transport_connected(out: Path, plan: Plan, rep: Any, seed: int, bars: bool 
     return res
 
 
+def _phase_figure(metrics: dict[str, Any]) -> Any:
+    """Phase separation over time (one run): the share of hot robots in the lit region
+    and in the shadow, and the density of each phase in its own region."""
+    import matplotlib.pyplot as plt
+
+    reg = metrics["phase_by_region"]
+    t = np.asarray(reg["time"], dtype=float)
+
+    def arr(key: str) -> np.ndarray:
+        return np.array([np.nan if v is None else v for v in reg[key]], dtype=float)
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.4), constrained_layout=True)
+    a1.plot(t, arr("hot_fraction_shadow"), color="tab:red", label="in the shadow")
+    a1.plot(t, arr("hot_fraction_lit"), color="tab:blue", label="in the light")
+    a1.set_ylim(-0.02, 1.02)
+    a1.set_xlabel("time (s)")
+    a1.set_ylabel("fraction of robots that are hot")
+    a1.legend(frameon=False, fontsize=8)
+    hot_region = "shadow" if metrics["mapping"] == "lit_cold" else "lit"
+    cold_region = "lit" if hot_region == "shadow" else "shadow"
+    a2.plot(t, arr(f"density_hot_{hot_region}"), color="tab:red",
+            label=f"hot (gas-like) robots in the {hot_region}")  # fmt: skip
+    a2.plot(t, arr(f"density_cold_{cold_region}"), color="tab:blue",
+            label=f"cold (liquid-like) robots in the {cold_region}")  # fmt: skip
+    a2.set_xlabel("time (s)")
+    a2.set_ylabel("density (robots per m²)")
+    a2.legend(frameon=False, fontsize=8)
+    return fig
+
+
+#: Phase-by-region means reported (the second half of each run).
+PHASE_KEYS = {
+    "hot_fraction_lit": "share of the lit region's robots that are hot",
+    "hot_fraction_shadow": "share of the shadow's robots that are hot",
+    "density_cold_lit": "cold robots in the light (per m²)",
+    "density_hot_shadow": "hot robots in the shadow (per m²)",
+}
+
+
 def _transport_free(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = False
                     ) -> dict[str, Any]:  # fmt: skip
     import matplotlib.pyplot as plt
@@ -465,67 +518,82 @@ def _transport_free(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | Non
     from thermoswarm.report.animate import animate, snapshot_strip
     from thermoswarm.scenarios import transport_free as F
 
-    base: dict[str, Any] = {"duration": plan.free_duration}
+    base: dict[str, Any] = {} if plan.free_duration is None else {"duration": plan.free_duration}
     if plan.free_n is not None:
         base["n"] = plan.free_n
     runs = [
         _run("transport-free", out / "transport-free" / f"seed{s}", base, seed + s, bars)
         for s in range(plan.free_seeds)
     ]
-    disp = np.array([m["displacement_toward_target"] for m, _, _ in runs])
-    se = float(disp.std(ddof=1) / math.sqrt(disp.size)) if disp.size > 1 else float("nan")
+    vbase = {k: v for k, v in base.items() if k != "duration"}
+    if plan.variant_duration is not None:
+        vbase["duration"] = plan.variant_duration
     variants = {v: _run("transport-free", out / f"transport-free-{v}",
-                        {**base, "variant": v, "duration": plan.variant_duration}, seed, bars)
+                        {**vbase, "variant": v}, seed, bars)
                 for v in ("obstacle", "zigzag")}  # fmt: skip
     m, tracks, info = runs[0]
+    disp = np.array([mm["displacement_toward_target"] for mm, _, _ in runs])
+    se = float(disp.std(ddof=1) / math.sqrt(disp.size)) if disp.size > 1 else float("nan")
+    times = [mm["time_to_target"] for mm, _, _ in runs]
+    reached = [t for t in times if t is not None]
+    phase = [mm["phase_by_region_mean"] for mm, _, _ in runs]
+
+    def mean_of(key: str) -> float | None:
+        v = [p[key] for p in phase if p.get(key) is not None]
+        return _num(float(np.mean(v))) if v else None
+
     res = {
-        "default": {"seeds": int(disp.size), "duration_s": plan.free_duration, "n": m.get("n"),
-                    "displacement_toward_target_mean": _num(float(disp.mean())),
-                    "displacement_toward_target_se": _num(se),
-                    "mean_over_se": _num(float(disp.mean()) / se) if se > 0 else None,
-                    "time_to_target": [mm["time_to_target"] for mm, _, _ in runs]},
-        **{v: {"duration_s": plan.variant_duration,
+        "default": {
+            "seeds": len(runs),
+            "n": m.get("n"),
+            "duration_s": m["duration"],
+            "target_distance_mm": m["target_distance"],
+            "reached": len(reached),
+            "time_to_target": times,
+            "time_to_target_median": _num(float(np.median(reached))) if reached else None,
+            "time_to_target_min": _num(min(reached)) if reached else None,
+            "time_to_target_max": _num(max(reached)) if reached else None,
+            "displacement_toward_target_mean": _num(float(disp.mean())),
+            "displacement_toward_target_se": _num(se),
+            "mean_over_se": _num(float(disp.mean()) / se) if se > 0 else None,
+            "phase_by_region_mean": {k: mean_of(k) for k in PHASE_KEYS},
+        },
+        **{v: {"duration_s": mm["duration"],
+               "target_distance_mm": mm["target_distance"],
                "displacement_toward_target": _num(mm["displacement_toward_target"]),
+               "max_displacement_toward_target": _num(mm["max_displacement_toward_target"]),
                "time_to_target": mm["time_to_target"]} for v, (mm, _, _) in variants.items()},
     }  # fmt: skip
+    d = res["default"]
     with rep.section("Transport without connection (Algorithm 5)"):
         rep.paragraph(
-            f"{m.get('n', plan.free_n)} robots around the 100 mm object in the centre, light "
-            "from the target side "
-            "(top); the object's shadow darkens the area behind it and each robot's "
-            "temperature switches with the light it sees: red robots are hot (gas-like), blue "
-            "ones cold (liquid-like). The default is the combination that the mechanism "
-            "study found to move the object toward the light (lit robots cold, persistent "
-            "headings; see below)."
+            f"{m['n']:,} robots around the 100 mm object in the centre of the arena, light "
+            "from the target side (top); the object's shadow darkens the strip behind it and "
+            "each robot's temperature switches with the light it sees: red robots are hot "
+            "(gas-like), blue ones cold (liquid-like). Defaults found by the drift-speed "
+            "search (below): the paper's equation (lit robots cold), hot robots 22 mm/s mean "
+            "and keeping their heading, cold robots 18 mm/s and turning fast, speeds cut at "
+            f"the robot's 33 mm/s. The object must travel {_text(d['target_distance_mm'], 'mm')}"
+            " to the dashed line."
         )
         rep.table(
-            [{"run": f"free, seed {seed + s}", "duration (s)": plan.free_duration,
-              "displacement toward the target (mm)": mm["displacement_toward_target"],
-              "time to target (s)": mm["time_to_target"]}
+            [{"run": f"free, seed {seed + s}", "duration (s)": mm["duration"],
+              "time to target (s)": mm["time_to_target"],
+              "max displacement toward the target (mm)": mm["max_displacement_toward_target"],
+              "final displacement (mm)": mm["displacement_toward_target"]}
              for s, (mm, _, _) in enumerate(runs)]
-            + [{"run": f"{v}, seed {seed}", "duration (s)": plan.variant_duration,
-                "displacement toward the target (mm)": res[v]["displacement_toward_target"],
-                "time to target (s)": res[v]["time_to_target"]} for v in variants],
-            caption=f"Free space: {_text(res['default']['displacement_toward_target_mean'], 'mm')}"
-            f" +- {_text(res['default']['displacement_toward_target_se'], 'mm')} (mean +- "
-            f"standard error over {disp.size} runs); time to target: - = not reached",
+            + [{"run": f"{v}, seed {seed}", "duration (s)": mm["duration"],
+                "time to target (s)": mm["time_to_target"],
+                "max displacement toward the target (mm)": mm["max_displacement_toward_target"],
+                "final displacement (mm)": mm["displacement_toward_target"]}
+               for v, (mm, _, _) in variants.items()],
+            caption=f"Free space: the target reached in {d['reached']} of {d['seeds']} runs"
+            + (f"; time to target median {_text(d['time_to_target_median'], 's')} (range "
+               f"{_text(d['time_to_target_min'], 's')} to "
+               f"{_text(d['time_to_target_max'], 's')})" if d["reached"] else "")
+            + "; time to target \u2013 = not reached within the run",
+            floatfmt=".4g",
         )  # fmt: skip
-        _fig(
-            rep,
-            snapshot_strip(tracks, F.plot_frame, info),
-            "Snapshots of the default run: "
-            "gas-like (red) and liquid-like (blue) robots around the object.",
-        )
-        fig, ax = plt.subplots(figsize=(6, 3.5))
-        for label, (_, tr, _) in [("free", runs[0]), *variants.items()]:
-            y = tr["object_position"].sel(space="y")
-            ax.plot(tr["time"], y - float(y[0]), label=label)
-        ax.set_xlabel("time (s)")
-        ax.set_ylabel("object displacement toward the light (mm)")
-        ax.legend()
-        _fig(rep, fig, "Object position over time (toward the light is up).")
-        for v, (_, tr, inf) in variants.items():
-            _fig(rep, snapshot_strip(tr, F.plot_frame, inf, panels=4), f"Variant {v}.")
         path = animate(
             tracks,
             F.plot_frame,
@@ -533,8 +601,91 @@ def _transport_free(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | Non
             out / "animations" / "transport-free",
             title="transport without connection",
         )
-        rep.animation(path, caption="Transport without connection (default).")
+        rep.animation(path, caption=f"The object carried toward the target line (default, "
+                                    f"seed {seed}).")  # fmt: skip
+        _fig(
+            rep,
+            snapshot_strip(tracks, F.plot_frame, info),
+            "Snapshots of the default run: "
+            "gas-like (red) and liquid-like (blue) robots around the object.",
+        )
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        for s, (mm, _, _) in enumerate(runs):
+            path_ = mm["object_path"]
+            ax.plot(path_["time"], path_["progress"], color="tab:green", alpha=0.7,
+                    label="free" if s == 0 else None)  # fmt: skip
+        for v, (mm, _, _) in variants.items():
+            ax.plot(mm["object_path"]["time"], mm["object_path"]["progress"], label=v)
+        ax.axhline(m["target_distance"], color="tab:green", ls="--", lw=0.8)
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("object displacement toward the light (mm)")
+        ax.legend(frameon=False)
+        zz = res["zigzag"]["target_distance_mm"]
+        _fig(rep, fig, "Object position over time (toward the light is up; dashed: the "
+                       f"free arena's target; the zig-zag's target is {_text(zz, 'mm')} up)."
+             )  # fmt: skip
+        _fig(rep, _phase_figure(m),
+             f"Phase separation (default, seed {seed}): left, the share of hot robots in the "
+             "shadow and in the light; right, the density of each phase in its own "
+             "region.")  # fmt: skip
+        since = phase[0].get("since") if phase else None
+        rep.table(
+            [{"quantity": label, "mean over runs": d["phase_by_region_mean"][k]}
+             for k, label in PHASE_KEYS.items()],
+            caption=f"Phase separation by region: time means from {_text(since, 's')} to the "
+            f"end of each run, averaged over {d['seeds']} runs",
+            floatfmt=".3g",
+        )  # fmt: skip
+        for v, (_, tr, inf) in variants.items():
+            _fig(rep, snapshot_strip(tr, F.plot_frame, inf, panels=4), f"Variant {v}.")
     return res
+
+
+def _regime(out: Path, plan: Plan, rep: Any, workers: int | None,
+            bars: bool | None = False, pool: Executor | None = None
+            ) -> dict[str, Any]:  # fmt: skip
+    from thermoswarm.studies import verdict
+    from thermoswarm.studies.regime import MAPS, TITLES, default_cell, plot_maps, run_regime
+
+    r = run_regime(
+        out / "regime", plan.study, maps=list(plan.regime_maps) if plan.regime_maps else None,
+        seeds=plan.study_seeds, max_workers=workers, executor=pool, progress=bars,
+        overrides=dict(plan.study_overrides), figure=False,
+    )  # fmt: skip
+    rows = r.summary.replace({np.nan: None}).to_dict(orient="records")
+    for row in rows:
+        lo, hi = row["drift_ci_low"], row["drift_ci_high"]
+        row["verdict"] = "no interval (one seed)" if lo is None or hi is None else verdict(lo, hi)
+        row["default"] = default_cell(row["map"]) == (row["x"], row["y"])
+        row.update(map_title=TITLES[row["map"]], x_name=MAPS[row["map"]]["x"][2],
+                   y_name=MAPS[row["map"]]["y"][2])  # fmt: skip
+    with rep.section("Where the object moves fastest: drift-speed maps"):
+        rep.paragraph(
+            "The object's drift toward the light (mm/s, mean ± standard error over seeds) "
+            "over the parameters Algorithm 5 leaves open, around the default (outlined): "
+            f"{', '.join(TITLES[k] for k in r.setting['maps'])} ({plan.study} setting: "
+            f"{r.setting['base'].get('n'):,} robots, "
+            f"{_text(r.setting['base'].get('duration'), 's')} runs, "
+            f"{len(r.setting['seeds'])} seeds per cell). A cell's verdict: toward or "
+            "away from the target when its whole 95 % interval is on one side of 0."
+        )
+        _fig(rep, plot_maps(r), "Drift speed toward the light (mm/s); in brackets, runs that "
+                                "reached the target within the run.")  # fmt: skip
+        for name in r.setting["maps"]:
+            mp = MAPS[name]
+            rep.table(
+                [{mp["y"][2]: row["y"], mp["x"][2]: row["x"],
+                  "drift (mm/s), mean": row["drift_mean"],
+                  "standard error (mm/s)": row["drift_se"],
+                  "reached the target": f"{row['reached']} of {row['seeds']}",
+                  "verdict": row["verdict"] + (" (default)" if row["default"] else "")}
+                 for row in rows if row["map"] == name],
+                caption=f"{TITLES[name]}: drift toward the light per cell",
+                floatfmt=".3g",
+            )  # fmt: skip
+    return {"setting": plan.study, "maps": list(r.setting["maps"]),
+            "seeds": len(r.setting["seeds"]), "n": r.setting["base"].get("n"),
+            "duration_s": r.setting["base"].get("duration"), "rows": rows}  # fmt: skip
 
 
 def _notes_href(out: Path) -> str | None:
@@ -561,7 +712,8 @@ def _mechanism(out: Path, plan: Plan, rep: Any, workers: int | None,
     from thermoswarm.studies.mechanism import run_mechanism
 
     r = run_mechanism(
-        out / "mechanism", plan.study, seeds=plan.study_seeds, max_workers=workers,
+        out / "mechanism", plan.study, seeds=plan.mechanism_seeds or plan.study_seeds,
+        max_workers=workers,
         overrides=dict(plan.study_overrides), progress=bars, executor=pool,
     )  # fmt: skip
     rows = r.summary.replace({np.nan: None}).to_dict(orient="records")
@@ -599,41 +751,74 @@ def _scaling(out: Path, plan: Plan, rep: Any, workers: int | None,
              bars: bool | None = False, pool: Executor | None = None
              ) -> dict[str, Any]:  # fmt: skip
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FixedLocator, NullFormatter, NullLocator
     from scipy import stats
 
     from thermoswarm.studies.scaling import plot_scaling, run_scaling
 
-    r = run_scaling(out / "scaling", plan.study, ns=plan.scaling_ns, seeds=plan.study_seeds,
-                    max_workers=workers, progress=bars, executor=pool, figure=False,
-                    overrides={k: v for k, v in plan.study_overrides.items() if k != "n"}
-                    )  # fmt: skip
-    rows = r.summary.replace({np.nan: None}).to_dict(orient="records")
-    runs = r.runs
-    trend: dict[str, Any] = {"test": "Spearman rank correlation of each run's maximum "
+    over = {k: v for k, v in plan.study_overrides.items() if k != "n"}
+    results = [run_scaling(out / f"scaling-{s}", s, ns=plan.scaling_ns, seeds=plan.study_seeds,
+                           max_workers=workers, progress=bars, executor=pool, figure=False,
+                           overrides=over) for s in plan.scaling_settings]  # fmt: skip
+    rows = [row for r in results for row in r.summary.replace({np.nan: None}).to_dict("records")]
+    trend: dict[str, Any] = {}
+    for r in results:  # per series: does each run's maximum displacement grow with N?
+        runs = r.runs
+        t: dict[str, Any] = {"test": "Spearman rank correlation of each run's maximum "
                              "displacement with N", "n_runs": len(runs)}  # fmt: skip
-    if len(runs) >= 3 and runs["n"].nunique() >= 2:
-        rho, pv = stats.spearmanr(runs["n"], runs["max_displacement"])
-        trend.update(spearman_rho=_num(float(rho)), spearman_p=_num(float(pv), 4))
+        # (undefined when every run moved the object the same distance, e.g. none at all)
+        if len(runs) >= 3 and runs["n"].nunique() >= 2 and runs["max_displacement"].nunique() > 1:
+            rho, pv = stats.spearmanr(runs["n"], runs["max_displacement"])
+            t.update(spearman_rho=_num(float(rho)), spearman_p=_num(float(pv), 4))
+        trend[r.setting["series"]] = t
+    first = results[0].setting
+    horizon, target = first["horizon"], first["target_distance"]
+    window = min(horizon, float(first["base"].get("duration") or horizon))  # runs may be shorter
+
+    def interval(lo: Any, hi: Any) -> str:
+        """An interval of a median: unbounded above when its end is a run that never
+        arrived; none with fewer than two runs."""
+        if lo is None and hi is None:
+            return "\u2013"
+        return f"{_text(lo)} to {_text(hi) if hi is not None else 'unbounded'}"
+
     reached = int(sum((row.get("reached") or 0) for row in rows))
+    names = {"fixed": "fixed arena", "density": "arena grows with N"}
     with rep.section("Scaling with swarm size (panels u and v)"):
+        rep.paragraph(
+            "transport-free at its defaults for each swarm size over seeds: "
+            + "; ".join(
+                f"{names.get(r.setting['series'], r.setting['series'])} "
+                f"({r.setting['name']} setting, {len(r.setting['seeds'])} seeds, "
+                f"{_text(r.setting['base'].get('duration'), 's')} runs)"
+                for r in results
+            )
+            + f". Capacity: the maximum displacement toward the target within the first "
+            f"{_text(window, 's')} (later the object meets the target and the wall, which "
+            f"cap it); time to the target line {_text(target, 'mm')} above the start. Medians "
+            "with distribution-free 95 % intervals (order statistics; with fewer than 6 runs "
+            "the range); a run that never arrived counts as slower than any that did."
+        )
         rep.table(
-            [{"robots": row["n"], "seeds": row["seeds"],
-              "max displacement (mm), mean": row["maxdisp_mean"],
-              "sd (mm)": row["maxdisp_sd"],
-              "95 % interval (mm)": f"{_text(row['maxdisp_ci_low'])} to "
-                                    f"{_text(row['maxdisp_ci_high'])}",
+            [{"series": names.get(row["series"], row["series"]), "robots": row["n"],
+              "arena side (mm)": row["arena"], "seeds": row["seeds"],
+              f"max displacement in {_text(window, 's')} (mm), median": row["maxdisp_median"],
+              "95 % interval (mm)": interval(row["maxdisp_ci_low"], row["maxdisp_ci_high"]),
+              "mean ± sd (mm)": f"{_text(row['maxdisp_mean'])} ± {_text(row['maxdisp_sd'])}",
               "reached the target": f"{int(row['reached'])} of {int(row['seeds'])}",
-              "median time to target (s)": row["time_median"]} for row in rows],
-            caption=f"Maximum displacement toward the target and time to the target line "
-            f"{_text(r.setting.get('target_distance'), 'mm')} above the start",
+              "time to target (s), median": row["time_median"],
+              "95 % interval (s)": interval(row["time_ci_low"], row["time_ci_high"]),
+              "fastest run (s)": row["time_min"]} for row in rows],
+            caption=f"Capacity and time to the target line {_text(target, 'mm')} above the "
+            "start (median time \u2013: fewer than half the runs arrived; an interval "
+            "unbounded: its end is a run that never arrived)",
             floatfmt=".4g",
         )  # fmt: skip
         fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), constrained_layout=True)
-        plot_scaling(r, axes=axes)
-        from matplotlib.ticker import FixedLocator, NullFormatter, NullLocator
-
+        plot_scaling(results, axes=axes)
+        ns = sorted({float(row["n"]) for row in rows})
         for ax in axes:  # the swarm sizes themselves as ticks (log minor labels overlap)
-            ax.xaxis.set_major_locator(FixedLocator([float(n) for n in r.summary["n"]]))
+            ax.xaxis.set_major_locator(FixedLocator(ns))
             ax.xaxis.set_major_formatter(lambda x, _: f"{x:,.0f}")
             ax.xaxis.set_minor_locator(NullLocator())
             ax.xaxis.set_minor_formatter(NullFormatter())
@@ -641,17 +826,21 @@ def _scaling(out: Path, plan: Plan, rep: Any, workers: int | None,
         if reached == 0:  # panel (v) would be an empty plot
             fig.delaxes(axes[1])
             fig.set_size_inches(4.8, 3.6)
-        _fig(rep, fig, "(u) Maximum displacement toward the target against the number of "
-             "robots (mean +- sd over seeds, dots: runs)"
-             + ("; (v) time to target (median, dots: runs that reached it)." if reached
+        _fig(rep, fig, f"(u) Maximum displacement toward the target within the first "
+             f"{_text(window, 's')} against the number of robots"
+             + (f"; (v) time to the target line {_text(target, 'mm')} above the start" if reached
+                else "")
+             + ": medians over seeds with 95 % intervals, dots the runs"
+             + ("; a median time is drawn only where at least half the runs arrived." if reached
                 else "."))  # fmt: skip
         if reached == 0:
             rep.empty(
                 "(v) Time to target: no run at any swarm size reached the target line "
-                f"within {_text(r.setting['base'].get('duration'), 's')}, so there is no "
+                f"within {_text(first['base'].get('duration'), 's')}, so there is no "
                 "time to plot."
             )
-    return {"setting": plan.study, "rows": rows, "trend": trend}
+    return {"setting": list(plan.scaling_settings), "horizon_s": horizon,
+            "target_distance_mm": target, "rows": rows, "trend": trend}  # fmt: skip
 
 
 # ------------------------------------------------------------------ one law, three systems
@@ -661,6 +850,7 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
     import xarray as xr
 
     from thermoswarm.analysis.study import run_study
+    from thermoswarm.maxent import kT_for_mean_speed
     from thermoswarm.report.analysis_figures import plot_density_fit
     from thermoswarm.tracking.synth import SynthConfig, generate
 
@@ -672,9 +862,16 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
                                             "engine": {"dt": 0.05},
                                             "record": {"interval": 0.05}}, seed, bars)  # fmt: skip
     gas = xr.open_dataset(work / "gas" / "tracks.nc").load()
+    # The scenario's defaults (hot 22, cold 18 mm/s mean, speeds cut at 33 mm/s) move the
+    # object fastest, but their two speed laws are close and the cut truncates both, so
+    # the energy histogram would hardly show two phases.  This panel is about the law
+    # itself: two well-separated temperatures (15 and 3 mm/s mean) and no cut, so each
+    # phase is an exact exponential in energy.
+    robot_kT = {"kT_hot": round(kT_for_mean_speed(15.0), 3),
+                "kT_cold": round(kT_for_mean_speed(3.0), 3)}  # fmt: skip
     _run("transport-free", work / "robots",
-                       {"n": plan.unified_robots, "duration": plan.unified_duration,
-                        "record": {"interval": 0.1}}, seed, bars)  # fmt: skip
+         {"n": plan.unified_robots, "duration": plan.unified_duration, **robot_kT,
+          "v_max": None, "record": {"interval": 0.1}}, seed, bars)  # fmt: skip
     robots = xr.open_dataset(work / "robots" / "tracks.nc").load()
     systems = [
         ("ants", "ants (synthetic, the paper's two-phase model)", ants),
@@ -705,18 +902,17 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
             "n_bootstrap": plan.n_bootstrap,
         }
     res["gas"]["mean_energy_per_particle"] = _num(gas_m["energy_final"] / 300)
-    from thermoswarm.scenarios.transport_free import TransportFreeParams
-
-    defaults = TransportFreeParams()
-    res["robots"]["kT_hot"] = _num(defaults.kT_hot)
-    res["robots"]["kT_cold"] = _num(defaults.kT_cold)
+    res["robots"]["kT_hot"] = _num(robot_kT["kT_hot"])
+    res["robots"]["kT_cold"] = _num(robot_kT["kT_cold"])
     with rep.section("One law, three systems"):
         rep.paragraph(
             "The paper's thesis in one panel: the same analysis (thermoswarm analyze) reads "
             "trajectories of ants, of particles and of robots. Ants: two exponential phases "
             "(liquid and gas); the elastic gas: one exponential at its mean energy "
             "(Maxwell-Boltzmann); robots of Algorithm 5: two phases, the hot and the cold "
-            "temperature their light switches between. Line: the maximum-likelihood fit of "
+            "temperature their light switches between (here 15 and 3 mm/s mean, no speed "
+            "cut: the transport's defaults are closer and cut, see below). Line: the "
+            "maximum-likelihood fit of "
             "the model the analysis prefers (bootstrap likelihood-ratio test of one against "
             "two phases at the 5 % level); the other model is not drawn."
         )
@@ -748,6 +944,7 @@ TITLES = {
     "compression": "Compression",
     "transport_connected": "Transport with connection",
     "transport_free": "Transport without connection",
+    "regime": "Where the object moves fastest",
     "mechanism": "The transport mechanism",
     "scaling": "Scaling with swarm size",
 }
@@ -808,6 +1005,7 @@ def reproduce(
         ("compression", lambda b: _compression(out, plan, rep, seed, b, pool)),
         ("transport_connected", lambda b: _transport_connected(out, plan, rep, seed, b)),
         ("transport_free", lambda b: _transport_free(out, plan, rep, seed, b)),
+        ("regime", lambda b: _regime(out, plan, rep, workers, b, pool)),
         ("mechanism", lambda b: _mechanism(out, plan, rep, workers, b, pool)),
         ("scaling", lambda b: _scaling(out, plan, rep, workers, b, pool)),
     ]

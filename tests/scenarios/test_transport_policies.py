@@ -102,6 +102,46 @@ def test_light_switched_persistent_heading_turns_by_the_steering_law():
     assert abs(np.mean(np.abs(turn)) - 0.8 * tau) < 4 * 0.8 * tau / math.sqrt(n)
 
 
+def test_light_switched_steering_temperature_per_phase():
+    """With kT_theta_cold, hot robots turn by Laplace(kT_theta tau) and cold robots by
+    Laplace(kT_theta_cold tau); which robots are hot follows the mapping (lit_cold:
+    the dark ones).  KS per phase, 10,000 robots each."""
+    n = 20_000
+    rng = np.random.default_rng(11)
+    prev = rng.uniform(-np.pi, np.pi, n)
+    light = np.where(np.arange(n) < n // 2, 0.0, 1.0)  # first half dark: hot
+    tau = 1.0
+    pol = LightSwitchedTransport(KT_HOT, KT_COLD, mapping="lit_cold", heading_law="persistent",
+                                 kT_theta=0.1, kT_theta_cold=2.0)  # fmt: skip
+    act = pol.act(_obs(n, light=light, heading=prev, tau=tau), rng)
+    turn = np.asarray(act.heading) - prev
+    hot = pol.phase(light) == PHASE_HOT
+    assert hot.sum() == n // 2 and hot[: n // 2].all()
+    assert stats.kstest(turn[hot], stats.laplace(scale=0.1 * tau).cdf).pvalue > 1e-3
+    assert stats.kstest(turn[~hot], stats.laplace(scale=2.0 * tau).cdf).pvalue > 1e-3
+    # the two laws differ: one sample against the other's law is rejected outright
+    assert stats.kstest(turn[hot], stats.laplace(scale=2.0 * tau).cdf).pvalue < 1e-10
+
+
+def test_light_switched_v_max_cuts_speeds_at_the_top_speed():
+    """Speeds are Rayleigh at the phase's temperature cut at v_max: none above it, the
+    share at the cap is P(V > c) = exp(-c^2 / (2 kT)) within 4 binomial standard errors,
+    and below the cap the law is untouched (KS of the uncut part against the Rayleigh
+    law conditioned on V < c)."""
+    n = 40_000
+    kT = kT_for_mean_speed(22.0)
+    c = 33.0
+    pol = LightSwitchedTransport(kT, KT_COLD, mapping="lit_hot", v_max=c)
+    v = np.asarray(pol.act(_obs(n, light=1.0), np.random.default_rng(5)).speed)
+    assert v.max() == c
+    p = math.exp(-(c**2) / (2 * kT))
+    share = np.mean(v == c)
+    assert abs(share - p) < 4 * math.sqrt(p * (1 - p) / n)
+    below = v[v < c]
+    law = stats.rayleigh(scale=math.sqrt(kT))
+    assert stats.kstest(below, lambda x: law.cdf(x) / law.cdf(c)).pvalue > 1e-3
+
+
 def test_light_switched_rejects_bad_values():
     with pytest.raises(ValueError, match="mapping"):
         LightSwitchedTransport(KT_HOT, KT_COLD, mapping="bright_hot")
@@ -111,6 +151,10 @@ def test_light_switched_rejects_bad_values():
         LightSwitchedTransport(KT_HOT, KT_COLD, threshold=1.5)
     with pytest.raises(ValueError, match="kT_theta"):
         LightSwitchedTransport(KT_HOT, KT_COLD, kT_theta=0.0)
+    with pytest.raises(ValueError, match="kT_theta_cold"):
+        LightSwitchedTransport(KT_HOT, KT_COLD, kT_theta_cold=-1.0)
+    with pytest.raises(ValueError, match="v_max"):
+        LightSwitchedTransport(KT_HOT, KT_COLD, v_max=0.0)
 
 
 class _Fixed:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -14,8 +15,16 @@ from scipy import stats
 from thermoswarm.errors import ConfigError, OutputError
 from thermoswarm.studies import effect, verdict
 from thermoswarm.studies.mechanism import markdown_table, run_mechanism, summarize
-from thermoswarm.studies.scaling import censored_median, run_scaling
+from thermoswarm.studies.regime import run_regime
+from thermoswarm.studies.scaling import arena_side, censored_median, median_interval, run_scaling
 from thermoswarm.studies.scaling import summarize as scaling_summary
+
+
+@pytest.fixture
+def ex():
+    """An in-process executor for tiny study runs (no worker start-up per study)."""
+    with ThreadPoolExecutor(1) as pool:
+        yield pool
 
 
 def test_effect_on_known_values():
@@ -122,21 +131,24 @@ def test_run_mechanism_end_to_end_tiny(tmp_path):
     pd.testing.assert_frame_equal(res.summary, res2.summary)
 
 
-def test_run_scaling_end_to_end_tiny(tmp_path):
-    target = 1.0  # mm: within reach of some of these short runs, not of all
+def test_run_scaling_end_to_end_tiny(tmp_path, ex):
+    # 20 mm in 20 s: within reach of some of these runs, not of all; the horizon (10 s)
+    # holds three of the frames recorded every 5 s
+    target, duration, horizon = 20.0, 20.0, 10.0
     res = run_scaling(
         tmp_path / "s",
         "quick",
         ns=[20, 60],
         seeds=2,
-        duration=20.0,
+        duration=duration,
         target_distance=target,
+        horizon=horizon,
         overrides={"width": 500.0, "height": 500.0},
-        max_workers=1,
+        executor=ex,
         progress=False,
     )
     assert list(res.summary["n"]) == [20, 60]
-    assert res.setting["base"]["target_y"] == 251.0
+    assert (res.runs["target_y"] == 270.0).all()  # the start (250 mm) + 20 mm
     runs = res.runs
     assert sorted(zip(runs["n"], runs["seed"], strict=True)) == [
         (20, 0),
@@ -147,16 +159,22 @@ def test_run_scaling_end_to_end_tiny(tmp_path):
     for _, r in runs.iterrows():
         # each row is what its own run wrote, for its own size and seed
         m = json.loads((Path(r["run_dir"]) / "metrics.json").read_text())
-        assert m["n"] == r["n"] and m["target_y"] == 251.0
-        assert r["max_displacement"] == m["max_displacement_toward_target"]
+        assert m["n"] == r["n"] and m["target_y"] == r["target_y"] == 270.0
+        assert r["max_displacement_run"] == m["max_displacement_toward_target"]
         assert r["displacement"] == m["displacement_toward_target"]
-        # the running maximum includes the start (0) and the end
-        assert r["max_displacement"] >= max(0.0, r["displacement"]) - 1e-9
-        # reached exactly when the maximum got to the target, within the run
-        t = r["time_to_target"]
-        reached = t is not None and not (isinstance(t, float) and math.isnan(t))
-        assert reached == (r["max_displacement"] >= target)
-        assert not reached or 0.0 < t <= 20.0
+        # the horizon's maximum is taken over the recorded path up to 10 s after warm-up
+        t, p = np.asarray(m["object_path"]["time"]), np.asarray(m["object_path"]["progress"])
+        within = t <= m["warmup"] + horizon + 1e-9
+        assert within.sum() >= 3 and r["max_displacement"] == p[within].max()
+        assert r["max_displacement"] <= r["max_displacement_run"]
+        # the whole run's maximum includes the start (0) and the end
+        assert r["max_displacement_run"] >= max(0.0, r["displacement"]) - 1e-9
+        # reached exactly when the whole run's maximum got to the target, within the run
+        tt = r["time_to_target"]
+        reached = tt is not None and not (isinstance(tt, float) and math.isnan(tt))
+        assert reached == (m["time_to_target"] is not None)
+        assert reached == (r["max_displacement_run"] >= target)
+        assert not reached or (0.0 < tt <= duration and tt == m["time_to_target"])
     # (these seeds exercise both branches: some runs reach the target, some do not)
     assert 0 < res.summary["reached"].sum() < len(runs)
     # the summary, recomputed here from the runs
@@ -166,7 +184,10 @@ def test_run_scaling_end_to_end_tiny(tmp_path):
         assert s["seeds"] == 2
         assert s["maxdisp_mean"] == pytest.approx(md.mean())
         assert s["maxdisp_sd"] == pytest.approx(md.std(ddof=1))
+        assert s["maxdisp_median"] == pytest.approx(np.median(md))
         assert (s["maxdisp_min"], s["maxdisp_max"]) == (md.min(), md.max())
+        # two values: the interval of the median is their range
+        assert (s["maxdisp_ci_low"], s["maxdisp_ci_high"]) == (md.min(), md.max())
         assert s["disp_mean"] == pytest.approx(g["displacement"].mean())
         times = sorted(float(x) for x in g["time_to_target"] if x is not None and x == x)
         assert s["reached"] == len(times)
@@ -183,8 +204,71 @@ def test_run_scaling_end_to_end_tiny(tmp_path):
     md_rows = (tmp_path / "s" / "scaling.md").read_text().splitlines()[2:]
     for line, (_, s) in zip(md_rows, res.summary.iterrows(), strict=True):
         cells = [c.strip() for c in line.strip("|").split("|")]
-        assert cells[0] == str(s["n"]) and cells[5] == f"{s['reached']}/2"
-        assert cells[2].startswith(f"{s['maxdisp_mean']:.1f} ± ")
+        assert cells[:2] == ["fixed", str(s["n"])] and cells[7] == f"{s['reached']}/2"
+        assert cells[5].startswith(f"{s['maxdisp_mean']:.0f} ± ")
+    # a later call with other sizes and the same setting adds them to the study
+    more = run_scaling(
+        tmp_path / "s", "quick", ns=[40], seeds=2, duration=duration, target_distance=target,
+        horizon=horizon, overrides={"width": 500.0, "height": 500.0}, executor=ex,
+        progress=False,
+    )  # fmt: skip
+    assert list(more.summary["n"]) == [20, 40, 60]
+    pd.testing.assert_frame_equal(
+        more.summary.set_index("n").loc[[20, 60]].reset_index()[res.summary.columns],
+        res.summary,
+        check_dtype=False,
+    )
+
+
+def test_run_scaling_density_series_scales_the_arena(tmp_path, ex):
+    res = run_scaling(
+        tmp_path / "d", "density", ns=[30, 120], seeds=1, duration=2.0, target_distance=1.0,
+        executor=ex, progress=False,
+    )  # fmt: skip
+    arenas = res.summary.set_index("n")["arena"]
+    # side ~ sqrt(n): 4 times the robots, twice the side (to the rounding of 1 mm)
+    assert abs(arenas[120] - 2 * arenas[30]) <= 2
+    assert arenas[120] == arena_side(120)
+    assert arena_side(1200) == 1800.0  # the default packing is that of 1,200 in 1800 mm
+
+
+def test_median_interval_order_statistics():
+    """Sign-test interval: for 10 values the 2nd and 9th order statistics (coverage
+    1 - 2 P(B <= 1) = 97.9 % for B ~ Binomial(10, 1/2)); unreached runs (None) are
+    longer than any reached and make an end unbounded."""
+    vals = [float(v) for v in range(1, 11)]
+    assert median_interval(vals) == (2.0, 9.0)
+    assert median_interval([*vals[:8], None, None]) == (2.0, None)
+    assert median_interval([None] * 9 + [1.0]) == (None, None)
+    assert median_interval([5.0]) == (None, None)
+    assert median_interval([3.0, 1.0, 2.0, 5.0, 4.0]) == (1.0, 5.0)  # 5 values: the range
+    # coverage of the median of a continuous law at least 95 % (20,000 samples of 10)
+    rng = np.random.default_rng(0)
+    hits = 0
+    for _ in range(2000):
+        lo, hi = median_interval(list(rng.exponential(1.0, 10)))
+        hits += lo <= math.log(2) <= hi
+    assert hits / 2000 > 0.979 - 4 * math.sqrt(0.979 * 0.021 / 2000)
+
+
+def test_run_regime_end_to_end_tiny(tmp_path, ex):
+    """Two maps on a tiny swarm (the quick setting's 3 x 3 corners): every cell has its
+    seeds, the drift is the run's displacement over its duration, the tables and the
+    figure are written; a later call with another map adds it to the study."""
+    over = {"n": 30, "width": 400.0, "height": 400.0, "duration": 2.0}
+    res = run_regime(tmp_path / "r", "quick", maps=["cold"], seeds=2, overrides=over,
+                     executor=ex, progress=False)  # fmt: skip
+    res = run_regime(tmp_path / "r", "quick", maps=["light"], seeds=2, overrides=over,
+                     executor=ex, progress=False)  # fmt: skip
+    s = res.summary
+    assert list(s["map"].unique()) == ["cold", "light"]
+    assert len(s[s["map"] == "cold"]) == 9 and len(s[s["map"] == "light"]) == 9
+    assert (s["seeds"] == 2).all()
+    np.testing.assert_allclose(res.runs["drift"], res.runs["displacement"] / 2.0)
+    assert set(res.runs[res.runs["map"] == "cold"]["y"]) == {15.0, 18.0, 20.0}  # mean speeds
+    md = (tmp_path / "r" / "regime.md").read_text()
+    assert "### cold" in md and "### light" in md
+    assert (tmp_path / "r" / "regime.png").stat().st_size > 1000
 
 
 def test_bad_setting_and_missing_parent(tmp_path):
@@ -207,7 +291,7 @@ def test_study_cli_bad_value_is_one_line_exit_2_and_writes_nothing(tmp_path):
 
     from thermoswarm.cli import cli
 
-    for verb in ("mechanism", "scaling"):
+    for verb in ("mechanism", "scaling", "regime"):
         out = tmp_path / verb
         r = CliRunner().invoke(cli, ["study", verb, "--out", str(out), "--set", "nope=1"])
         assert r.exit_code == 2, r.output

@@ -106,7 +106,7 @@ class TransportSensor:
 
 
 def make_light(
-    kind: str, *, x: float, top: float, distance: float
+    kind: str, *, x: float, top: float, distance: float, spread_deg: float = 0.0
 ) -> DirectionalLight | PointLight:
     """The light on the target side (+y).
 
@@ -114,10 +114,14 @@ def make_light(
     ``"point"``: a lamp at ``(x, top + distance)`` with no distance falloff (only its
     direction and the shadows it casts matter to the robots: the temperature switches on
     a threshold, and an inverse-square falloff would make every far robot "dark").
+    ``spread_deg`` > 0: the lamp is extended, with this angular radius (deg) seen from
+    the top wall's middle (a point lamp gets the radius ``distance * tan(spread)``), so
+    shadows have a penumbra whose light level ramps from 0 to 1.
     """
     if kind == "directional":
-        return DirectionalLight(direction=(0.0, -1.0))
-    return PointLight(position=(float(x), float(top + distance)), falloff="none")
+        return DirectionalLight(direction=(0.0, -1.0), angular_radius_deg=float(spread_deg))
+    radius = float(distance) * math.tan(math.radians(spread_deg))
+    return PointLight(position=(float(x), float(top + distance)), falloff="none", radius=radius)
 
 
 def light_info(light: DirectionalLight | PointLight) -> dict[str, Any]:

@@ -18,20 +18,21 @@ Modelling choices (see ``docs/scenarios_transport.md`` for the measurements):
 - **Mapping** (PAPER_NOTES 6.3): ``"lit_hot"`` (captions and text: lit robots gas-like)
   or ``"lit_cold"`` (the equation: T_liquid where l > threshold).
 - **Heading law**: ``"uniform"`` (fresh every period, Algorithm 5 as written) or
-  ``"persistent"`` (heading kept, steered by the exponential steering-rate law).  The
-  default is the combination that moves the object toward the light in the mechanism
-  study (``thermoswarm.studies.mechanism``): ``lit_cold`` with ``persistent`` headings.
-  Fresh uniform headings do not move it toward the light with either mapping, and the
-  captions' ``lit_hot`` pushes it away from the light with either heading law.
+  ``"persistent"`` (heading kept, steered by the exponential steering-rate law, with a
+  steering temperature per phase).  The default is ``lit_cold`` with ``persistent``
+  headings, hot robots steering little and cold robots much, at mean speeds 22 and 18
+  mm/s cut at the robot's 33 mm/s: the fastest regime of the drift-speed search
+  (``thermoswarm.studies.regime``).  Fresh uniform headings do not move the object
+  toward the light with either mapping, and the captions' ``lit_hot`` pushes it away
+  (``thermoswarm.studies.mechanism``).
 - **Light**: directional from +y by default (a lamp far beyond the target: rays across a
   100 mm object are parallel to a few percent when the lamp is 2 m away), or a point
   lamp ``light_distance`` mm beyond the top wall.  Arena walls cast no shadow (the lamp
   is above them); the object's disc does, and so does the obstacle.
-- **Object**: a movable disc (``Body``) of radius 50 mm with ground-friction drag
-  ``object_drag`` in units of one robot's drag (the paper gives no mass or friction).
-  The default 2 means that one robot alone pushes it at one third of its own speed,
-  and two robots pushing together at half; the object's speed under a given net force
-  scales as ``1 / object_drag``.
+- **Object**: a movable disc (``Body``) of radius 50 mm with viscous ground-friction
+  drag ``object_drag`` in units of one robot's drag (the paper gives no mass or
+  friction).  The default 2 means that one robot alone pushes it at one third of its
+  own speed; the object's speed under a given net force scales as ``1 / object_drag``.
 - **Phase**: each robot's phase (1 hot, 0 cold) is decided from its light reading at
   the start of each control period and held for the period; it is kept in the engine's
   ``group`` column and recorded per frame as ``phase``.
@@ -68,6 +69,7 @@ from thermoswarm.scenarios.registry import register
 from thermoswarm.sim import kernels as K
 from thermoswarm.sim.engine import Simulator, SwarmState, place_lattice
 from thermoswarm.sim.geometry import Shapes
+from thermoswarm.sim.light import light_level
 from thermoswarm.sim.world import Body, World, polygon_segments
 
 __all__ = [
@@ -78,6 +80,9 @@ __all__ = [
     "zigzag_centreline",
     "plot_frame",
     "transport_metrics",
+    "phase_by_region",
+    "summarize_phase_by_region",
+    "capped_temperature",
 ]
 
 #: Arena (width, height) in mm when not given: about packing fraction 0.32 for 1,200
@@ -88,6 +93,10 @@ DEFAULT_ARENA = {
     "obstacle": (1800.0, 1800.0),
     "zigzag": (2400.0, 2400.0),
 }
+#: Simulated seconds when ``duration`` is not given: every run of seeds 0-9 of the
+#: defaults reaches the target within it (free: at most 998 s, obstacle 1578 s, zigzag
+#: 1153 s; ``docs/scenarios_transport.md``).
+DEFAULT_DURATION = {"free": 1200.0, "obstacle": 1800.0, "zigzag": 1800.0}
 #: Batches of the time-averaged force (batch-means standard error).
 FORCE_BATCHES = 20
 
@@ -103,10 +112,10 @@ class TransportFreeParams:
         Number of robots (the paper: 1,200).
     width, height : float or None
         Arena size (mm); ``None``: 1800 x 1800 (free, obstacle), 2400 x 2400 (zigzag).
-    duration : float
-        Simulated seconds, warm-up included.  Default 1200: the object drifts at about
-        0.1 mm/s, and over 10 seeds its mean displacement is 3.9 standard errors above
-        zero after 1200 s (3.0 after 600 s; ``docs/scenarios_transport.md``).
+    duration : float or None
+        Simulated seconds, warm-up included; ``None``: :data:`DEFAULT_DURATION` of the
+        variant (free 1200 s; obstacle and zigzag 1800 s), within which every run of
+        seeds 0-9 of the defaults reached the target.
     warmup : float
         Seconds during which the object is held in place (its contact force measured:
         ``metrics["force_held"]``) before it is released; displacement, time to target
@@ -123,19 +132,36 @@ class TransportFreeParams:
     heading_law : {"persistent", "uniform"}
     kT_hot, kT_cold : float
         Temperatures of the gas-like and liquid-like phases; defaults give mean speeds
-        15 and 3 mm/s (the robot tops out near 33 mm/s).
+        22 and 18 mm/s (Rayleigh laws, cut at ``v_max``).  Chosen by the drift-speed
+        search (``thermoswarm study regime``): the push grows with the rate at which
+        cold robots enter the shadow, so a mobile cold phase moves the object fastest.
     kT_theta : float
-        Steering temperature (rad/s) of the persistent law (mean |turn rate|).  The
-        default 0.8 turns a heading by 0.8 rad per 1 s period on average: heading
-        correlation time ``tau / ln(1 + (kT_theta tau)^2)`` = 2.0 s.
+        Steering temperature (rad/s) of the persistent law (mean |turn rate|) of hot
+        robots (and of cold ones unless ``kT_theta_cold``).  The default 0.1 turns a
+        heading by 0.1 rad per 1 s period on average: heading correlation time ``tau /
+        ln(1 + (kT_theta tau)^2)`` = 100 s, so a hot robot runs straight for metres.
+    kT_theta_cold : float or None
+        Steering temperature (rad/s) of cold robots (``None``: ``kT_theta``).  Default 2:
+        a cold robot's heading is nearly random after one period (correlation time 0.6
+        s), so it presses on the object only briefly, while a hot one keeps pushing.  The
+        paper's steering law has a temperature that falls with speed (its Discussion
+        table), which this follows.
+    v_max : float or None
+        Top speed (mm/s): sampled speeds above it are cut to it (the paper's robot:
+        about 33 mm/s, the default; ``None``: no cut).
     threshold : float
         Light level above which a robot is lit, in [0, 1).
     speed_law : {"boltzmann", "half-normal"}
     object_radius : float
         The paper's object: 100 mm across.
     object_drag : float
-        Ground friction of the object in robot drags (> 0); ``inf`` holds the object in
-        place (its contact force is still measured: a force gauge).
+        Ground friction of the object in robot drags (> 0), viscous (the engine's
+        bodies have no Coulomb friction); ``inf`` holds the object in place (its contact
+        force is still measured: a force gauge).  Default 2: at the measured transport
+        speed (about 1.5 mm/s) the friction is 3 force units, 9 % of a robot's push at top
+        speed (33 units); for a robot whose push is traction-limited near 0.25 N that is
+        about 0.02 N, the Coulomb friction (mu = 0.3) of a light 100 mm object of about 8 g
+        (foam or card) -- ``docs/scenarios_transport.md``.
     object_x, object_y : float or None
         Start of the object's centre; ``None``: arena centre (zigzag: the channel mouth).
     target_y : float or None
@@ -144,6 +170,10 @@ class TransportFreeParams:
     light : {"directional", "point"}
     light_distance : float
         Point light: distance of the lamp beyond the top wall (mm).
+    light_spread_deg : float
+        Angular radius of the lamp (deg, in [0, 45)); > 0 gives shadows a penumbra in
+        which the light level ramps from 0 to 1 (``threshold`` then sets where the
+        phase switches).  Default 0: hard shadows.
     obstacle_radius, obstacle_dx, obstacle_dy : float
         ``obstacle``: pillar radius and centre relative to the object's start (default
         100 mm at (-130, +200): it overlaps the object's straight path by 20 mm, 50 mm
@@ -162,15 +192,17 @@ class TransportFreeParams:
     n: int = 1200
     width: float | None = None
     height: float | None = None
-    duration: float = 1200.0
+    duration: float | None = None
     warmup: float = 0.0
     diameter: float = 33.0
     tau: float = 1.0
     mapping: Literal["lit_cold", "lit_hot"] = "lit_cold"
     heading_law: Literal["persistent", "uniform"] = "persistent"
-    kT_hot: float = field(default_factory=lambda: round(kT_for_mean_speed(15.0), 6))
-    kT_cold: float = field(default_factory=lambda: round(kT_for_mean_speed(3.0), 6))
-    kT_theta: float = 0.8
+    kT_hot: float = field(default_factory=lambda: round(kT_for_mean_speed(22.0), 3))
+    kT_cold: float = field(default_factory=lambda: round(kT_for_mean_speed(18.0), 3))
+    kT_theta: float = 0.1
+    kT_theta_cold: float | None = 2.0
+    v_max: float | None = 33.0
     threshold: float = 0.5
     speed_law: Literal["boltzmann", "half-normal"] = "boltzmann"
     object_radius: float = 50.0
@@ -180,6 +212,7 @@ class TransportFreeParams:
     target_y: float | None = None
     light: Literal["directional", "point"] = "directional"
     light_distance: float = 1000.0
+    light_spread_deg: float = 0.0
     obstacle_radius: float = 100.0
     obstacle_dx: float = -130.0
     obstacle_dy: float = 200.0
@@ -206,6 +239,8 @@ class TransportFreeParams:
         for name in ("width", "height"):
             if getattr(self, name) is not None:
                 positive(name, "mm")
+        if self.duration is None:
+            object.__setattr__(self, "duration", DEFAULT_DURATION.get(self.variant, 1200.0))
         positive("duration", "s")
         check(
             math.isfinite(self.warmup) and 0 <= self.warmup < self.duration,
@@ -218,6 +253,10 @@ class TransportFreeParams:
         positive("kT_hot", "mm^2/s^2")
         positive("kT_cold", "mm^2/s^2")
         positive("kT_theta", "rad/s")
+        if self.kT_theta_cold is not None:
+            positive("kT_theta_cold", "rad/s")
+        if self.v_max is not None:
+            positive("v_max", "mm/s")
         check(
             math.isfinite(self.threshold) and 0 <= self.threshold < 1,
             "threshold",
@@ -232,6 +271,12 @@ class TransportFreeParams:
             self.object_drag,
         )
         positive("light_distance", "mm")
+        check(
+            math.isfinite(self.light_spread_deg) and 0 <= self.light_spread_deg < 45,
+            "light_spread_deg",
+            "in [0, 45) degrees (0: a point-like lamp, hard shadows)",
+            self.light_spread_deg,
+        )
         positive("obstacle_radius", "mm")
         positive("channel_width", "mm")
         check(
@@ -377,16 +422,16 @@ def geometry(p: TransportFreeParams) -> Geometry:
     )
 
 
-def _robot_region(p: TransportFreeParams, g: Geometry):
-    """``inside(points)`` for robot placement: clear of walls, object, obstacles."""
+def _robot_region(p: TransportFreeParams, g: Geometry, obj: tuple[float, float] | None = None):
+    """``inside(points)``: where a robot's centre may be, clear of walls, obstacles and
+    the object (at ``obj``, default its start)."""
     r = p.diameter / 2
     margin = 0.5
+    ox, oy = g.start if obj is None else obj
 
     def inside(pts: np.ndarray) -> np.ndarray:
         ok = segment_distance(pts, g.walls) >= r + margin
-        ok &= np.hypot(pts[:, 0] - g.start[0], pts[:, 1] - g.start[1]) >= (
-            p.object_radius + r + margin
-        )
+        ok &= np.hypot(pts[:, 0] - ox, pts[:, 1] - oy) >= (p.object_radius + r + margin)
         for x, y, ro in g.obstacles:
             ok &= np.hypot(pts[:, 0] - x, pts[:, 1] - y) >= ro + r + margin
         if g.channel is not None:
@@ -396,6 +441,93 @@ def _robot_region(p: TransportFreeParams, g: Geometry):
         return ok
 
     return inside
+
+
+#: Regions of :func:`phase_by_region`, and the keys of its per-frame series.
+REGIONS = ("lit", "shadow")
+
+
+def phase_by_region(
+    times: np.ndarray,
+    positions: np.ndarray,
+    phases: np.ndarray,
+    lit: Any,
+    grid_points: np.ndarray,
+    grid_cell_area: float,
+    grid_lit: Any,
+) -> dict[str, Any]:
+    """Phase separation over time: the robots of each phase in each light region.
+
+    Parameters
+    ----------
+    times : (k,) s
+    positions : (k, n, 2) mm
+        Robot centres per frame.
+    phases : (k, n)
+        1 hot (gas-like), 0 cold (liquid-like).
+    lit : callable ``(frame, points (m, 2)) -> bool (m,)``
+        Whether points are lit (light level above the threshold, no sensor noise) in
+        that frame (the object's shadow moves with it).
+    grid_points : (g, 2) mm
+        A regular grid over the region robots' centres can reach (at the start), of cell
+        area ``grid_cell_area`` (mm^2): the areas of the regions are counted on it.
+    grid_lit : callable ``(frame, grid_points) -> (lit bool (g,), reachable bool (g,))``
+        The grid's light and whether each cell is still reachable in that frame (the
+        object covers some).
+
+    Returns
+    -------
+    dict of lists (one value per frame): ``time``; for ``region`` in ``lit``/``shadow``:
+    ``n_<region>`` (robots), ``area_<region>`` (m^2), ``hot_fraction_<region>`` (the
+    share of that region's robots that are hot; None when it holds none) and
+    ``density_<phase>_<region>`` (robots of that phase per m^2 of the region).
+    """
+    k = len(times)
+    out: dict[str, Any] = {"time": [float(t) for t in times]}
+    for reg in REGIONS:
+        for key in ("n", "area", "hot_fraction", "density_hot", "density_cold"):
+            out[f"{key}_{reg}"] = []
+    for f in range(k):
+        pos = np.asarray(positions[f], dtype=np.float64)
+        hot = np.asarray(phases[f]) == PHASE_HOT
+        is_lit = np.asarray(lit(f, pos), dtype=bool)
+        g_lit, g_ok = grid_lit(f, grid_points)
+        for reg, sel, gsel in (
+            ("lit", is_lit, g_lit & g_ok),
+            ("shadow", ~is_lit, ~g_lit & g_ok),
+        ):
+            n_reg = int(np.count_nonzero(sel))
+            n_hot = int(np.count_nonzero(sel & hot))
+            area = float(np.count_nonzero(gsel)) * grid_cell_area / 1e6  # m^2
+            out[f"n_{reg}"].append(n_reg)
+            out[f"area_{reg}"].append(area)
+            out[f"hot_fraction_{reg}"].append(n_hot / n_reg if n_reg else None)
+            out[f"density_hot_{reg}"].append(n_hot / area if area > 0 else None)
+            out[f"density_cold_{reg}"].append((n_reg - n_hot) / area if area > 0 else None)
+    return out
+
+
+def summarize_phase_by_region(series: dict[str, Any], since: float) -> dict[str, Any]:
+    """Time means of :func:`phase_by_region`'s series over frames at ``time >= since``
+    (None entries skipped; None when there are none)."""
+    t = np.asarray(series["time"], dtype=np.float64)
+    keep = t >= since
+    out: dict[str, Any] = {"since": float(since), "frames": int(np.count_nonzero(keep))}
+    for key, vals in series.items():
+        if key == "time":
+            continue
+        v = [x for x, ok in zip(vals, keep, strict=True) if ok and x is not None]
+        out[key] = float(np.mean(v)) if v else None
+    return out
+
+
+def capped_temperature(kT: float, v_max: float | None) -> float:
+    """``<v^2> / 2`` (mm^2/s^2) of Rayleigh speeds at temperature ``kT`` cut at ``v_max``:
+    ``kT (1 - exp(-v_max^2 / (2 kT)))`` (``kT`` without a cut), what ``speed_by_phase``
+    should measure."""
+    if v_max is None:
+        return float(kT)
+    return float(kT * -math.expm1(-(v_max**2) / (2 * kT)))
 
 
 def transport_metrics(
@@ -450,6 +582,8 @@ class TransportFree(Scenario):
             heading_law=p.heading_law,
             kT_theta=p.kT_theta,
             speed_law=p.speed_law,
+            kT_theta_cold=p.kT_theta_cold,
+            v_max=p.v_max,
         )
 
     def build(self, rng: np.random.Generator) -> Setup:
@@ -462,7 +596,9 @@ class TransportFree(Scenario):
                     drag=math.inf if held else p.object_drag)  # fmt: skip
         obstacles = g.obstacles
         world = World(g.bounds, g.walls, obstacles, bodies=(body,))
-        light = make_light(p.light, x=W / 2, top=H, distance=p.light_distance)
+        light = make_light(
+            p.light, x=W / 2, top=H, distance=p.light_distance, spread_deg=p.light_spread_deg
+        )
         shadowing = obstacles if p.obstacle_shadow else np.zeros((0, 3))
         inner = self.policy()
         sensing = TransportSensing(
@@ -555,6 +691,28 @@ class TransportFree(Scenario):
         acc["force_sum"][max(b, 0)] += state.body_force[0]
         acc["force_count"][max(b, 0)] += 1
 
+    def _phase_regions(self, setup: Setup, tracks: xr.Dataset) -> dict[str, Any]:
+        """:func:`phase_by_region` of the recorded frames (light without sensor noise)."""
+        p: TransportFreeParams = self.params
+        g = geometry(p)
+        sensing: TransportSensing = setup.sensing  # type: ignore[assignment]
+        obj = np.asarray(tracks["object_position"].values, dtype=np.float64)
+        pos = np.moveaxis(tracks["position"].values[:, :, 0, :], 1, 2)  # (k, n, 2)
+        grid, cell = _grid(p, g)
+        reach = p.object_radius + p.diameter / 2 + 0.5
+
+        def lit(f: int, pts: np.ndarray) -> np.ndarray:
+            occ = sensing.occluders_at(obj[f][None, :])
+            return light_level(pts, sensing.light, occ) > p.threshold
+
+        def grid_lit(f: int, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            ok = np.hypot(pts[:, 0] - obj[f, 0], pts[:, 1] - obj[f, 1]) >= reach
+            return lit(f, pts), ok
+
+        return phase_by_region(
+            tracks["time"].values, pos, tracks["phase"].values, lit, grid, cell, grid_lit
+        )
+
     @property
     def _target_y(self) -> float:
         tg = getattr(self, "_ty", None)
@@ -587,14 +745,19 @@ class TransportFree(Scenario):
         for name, code in (("hot", 1), ("cold", 0)):
             sel = phase == code
             v = speed[sel]
+            kT_set = p.kT_hot if code == 1 else p.kT_cold
             by_phase[name] = {
-                "kT_set": p.kT_hot if code == 1 else p.kT_cold,
+                "kT_set": kT_set,
+                "kT_expected": capped_temperature(kT_set, p.v_max)
+                if p.speed_law == "boltzmann"
+                else None,
                 "kT_measured": float(np.mean(v**2) / 2) if v.size else None,
                 "mean_speed": float(v.mean()) if v.size else None,
                 "samples": int(v.size),
             }
         t_target = float(acc["t_target"])
         held = batch_mean_se(acc["held_sum"][:, 1], acc["held_count"])
+        regions = self._phase_regions(setup, tracks)
         out: dict[str, Any] = {
             "variant": p.variant,
             "n": p.n,
@@ -621,6 +784,8 @@ class TransportFree(Scenario):
             "hot_fraction_mean": float(acc["hot_sum"]) / max(float(acc["hot_count"]), 1.0),
             "hot_fraction_final": float(np.mean(state.group == PHASE_HOT)),
             "speed_by_phase": by_phase,
+            "phase_by_region": regions,
+            "phase_by_region_mean": summarize_phase_by_region(regions, since=p.duration / 2),
             "object_path": {
                 "time": t.tolist(),
                 "x": obj[:, 0].tolist(),
@@ -630,6 +795,18 @@ class TransportFree(Scenario):
             "max_overlap_fraction": float(state.counters[1]) / 1e6 / p.diameter,
         }
         return out
+
+
+def _grid(p: TransportFreeParams, g: Geometry) -> tuple[np.ndarray, float]:
+    """Cell centres of a regular grid over the arena where robots' centres can be (the
+    object at its start), and the cell area (mm^2); about 40,000 cells at most."""
+    x0, y0, x1, y1 = g.bounds
+    step = max(10.0, math.sqrt((x1 - x0) * (y1 - y0) / 40000.0))
+    xs = np.arange(x0 + step / 2, x1, step)
+    ys = np.arange(y0 + step / 2, y1, step)
+    pts = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    far = _robot_region(p, g, obj=(math.inf, math.inf))  # the object excluded per frame
+    return np.ascontiguousarray(pts[far(pts)]), step * step
 
 
 def plot_frame(ax: Any, tracks: xr.Dataset, t: float, setup_info: dict[str, Any]) -> Any:

@@ -3,26 +3,31 @@
 The paper reports that the maximum distance the object is moved grows, and the time
 to move it to the target shrinks, with the number of robots (PAPER_NOTES 5); its real
 robots showed displacements "very high in variance and around 0" for few robots.  This
-study runs ``transport-free`` (defaults: the mapping and heading law that move the
-object toward the light) for a list of swarm sizes in a fixed arena -- so density
-grows with ``n``, as when robots are added to one arena -- over several seeds, and
-reports per size:
+study runs ``transport-free`` (its defaults) for a list of swarm sizes over seeds, in
+one of two series:
 
-- the maximum displacement toward the target (mm): mean, sd, se, 95 % t interval,
-  min and max over seeds;
+- ``fixed``: robots are added to the default 1800 mm arena, so the density grows with
+  ``n`` (packing 0.013 at 50 robots, 0.66 at 2,500);
+- ``density``: the arena's side grows as ``sqrt(n)`` so that the packing stays that of
+  1,200 robots in 1800 mm (0.32): 3674 mm for 5,000 robots, 16.4 m for 100,000.
+
+Per size it reports
+
+- the maximum displacement toward the target within the first ``horizon`` seconds
+  (mm; mean, sd, se, 95 % t interval, min and max over seeds): the paper's
+  "capacity".  A horizon, not the whole run, because later the object meets the
+  target and then the wall, which caps the distance whatever the swarm;
 - the time to target (s), a censored quantity (runs that never reach it): the fraction
-  of runs that reached the target, the median time over all runs (unreached runs
-  count as slower than any reached one, so the median is finite only when at least
-  half reached), and the mean over the runs that reached it.
+  of runs that reached the target ``target_distance`` mm above the start, the median
+  time over all runs (unreached runs count as slower than any reached one, so the
+  median is finite only when at least half reached) with a distribution-free 95 %
+  interval for it (order statistics of the binomial), and min and max.
 
-The target is ``target_distance`` mm toward the light from the object's start (the
-top of the arena is too far for a 10-minute run at the drift speeds measured, see
-``docs/scenarios_transport.md``).
-
-Settings: ``quick`` (n = 50, 200, 600, 1200; 5 seeds; 300 s) and ``full`` (n = 50,
-100, 200, 400, 800, 1200, 1600, 2000; 10 seeds; 600 s).  Run:
-``thermoswarm study scaling --setting quick --out DIR`` writes
-``DIR/scaling.json``, ``DIR/scaling.md`` and ``DIR/scaling.png``.
+Settings: ``quick`` (fixed arena, n = 50, 200, 600, 1200; 5 seeds; 300 s; target 150
+mm), ``fixed`` (n = 50 ... 2,500; 10 seeds; 1200 s; target 750 mm), ``density``
+(n = 1,200, 2,500, 5,000; 10 seeds; 1200 s; target 750 mm) and ``huge`` (n = 100,000 at
+the same density, one seed, 900 s).  Run: ``thermoswarm study scaling --setting fixed --out
+DIR`` writes ``DIR/scaling.json``, ``DIR/scaling.md`` and ``DIR/scaling.png``.
 """
 
 from __future__ import annotations
@@ -47,12 +52,58 @@ __all__ = [
     "summarize",
     "censored_median",
     "plot_scaling",
+    "median_interval",
+    "arena_side",
+    "load_scaling",
 ]
 
+#: Packing fraction of the default swarm (1,200 robots of 33 mm in 1800 x 1800 mm).
+DEFAULT_PACKING = 1200 * math.pi * 16.5**2 / 1800.0**2
+
 SETTINGS: dict[str, dict[str, Any]] = {
-    "quick": {"ns": [50, 200, 600, 1200], "seeds": 5, "duration": 300.0},
-    "full": {"ns": [50, 100, 200, 400, 800, 1200, 1600, 2000], "seeds": 10, "duration": 600.0},
-}
+    "quick": {"series": "fixed", "ns": [50, 200, 600, 1200], "seeds": 5, "duration": 300.0,
+              "target_distance": 150.0, "horizon": 300.0},
+    "fixed": {"series": "fixed", "ns": [50, 100, 200, 400, 800, 1200, 1600, 2000, 2500],
+              "seeds": 10, "duration": 1200.0, "target_distance": 750.0, "horizon": 300.0},
+    "density": {"series": "density", "ns": [1200, 2500, 5000], "seeds": 10,
+                "duration": 1200.0, "target_distance": 750.0, "horizon": 300.0},
+    "huge": {"series": "density", "ns": [100000], "seeds": 1, "duration": 900.0,
+             "target_distance": 750.0, "horizon": 300.0, "record.interval": 30.0},
+}  # fmt: skip
+
+
+def arena_side(n: int, packing: float = DEFAULT_PACKING, diameter: float = 33.0) -> float:
+    """Side (mm) of the square arena in which ``n`` robots have packing ``packing``,
+    rounded to 1 mm."""
+    return float(round(math.sqrt(n * math.pi * (diameter / 2) ** 2 / packing)))
+
+
+def median_interval(times: Sequence[float | None], confidence: float = 0.95) -> tuple:
+    """Distribution-free interval for the median of first-passage times with
+    censoring (``None`` = never reached, longer than any reached time).
+
+    With ``k`` values sorted, the interval is ``[x_(l), x_(u)]`` with the order
+    statistics that cover the median with probability >= ``confidence`` under the
+    Binomial(k, 1/2) law (the usual sign-test interval); an end that falls on an
+    unreached run is ``None`` (unbounded).  ``(None, None)`` for fewer than 2 values.
+    Below 6 values no pair of order statistics reaches 95 %: the interval is then the
+    range, whose coverage is ``1 - 2^(1-k)`` (93.8 % for 5 values).
+    """
+    from scipy import stats
+
+    vals = sorted((math.inf if t is None else float(t)) for t in times)
+    k = len(vals)
+    if k < 2:
+        return (None, None)
+    # largest l with P(B <= l - 1) <= alpha / 2, B ~ Binomial(k, 1/2)
+    alpha = 1 - confidence
+    lo = int(stats.binom.ppf(alpha / 2, k, 0.5))
+    if stats.binom.cdf(lo, k, 0.5) > alpha / 2:
+        lo -= 1
+    lo = max(lo, 0)  # index of the lower order statistic (0-based)
+    hi = k - 1 - lo
+    a, b = vals[lo], vals[hi]
+    return (None if math.isinf(a) else a, None if math.isinf(b) else b)
 
 
 def censored_median(times: Sequence[float | None]) -> float | None:
@@ -85,13 +136,16 @@ class ScalingResult:
         }
 
     def table(self) -> str:
-        head = ["n", "seeds", "max displacement (mm) mean ± sd", "95 % CI", "min..max",
-                "reached", "median time to target (s)", "mean time if reached (s)"]  # fmt: skip
+        h = self.setting.get("horizon", math.nan)
+        head = ["series", "n", "arena (mm)", "seeds",
+                f"max displacement in {h:g} s (mm): median [95 % CI]",
+                "mean ± sd", "min..max", "reached", "time to target (s): median [95 % CI]",
+                "min..max (reached)"]  # fmt: skip
         lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
 
-        def f(x: Any, fmt: str = ".1f") -> str:
+        def f(x: Any, fmt: str = ".0f") -> str:
             return (
-                "-"
+                "–"
                 if x is None or (isinstance(x, float) and not math.isfinite(x))
                 else (format(x, fmt))
             )
@@ -101,14 +155,17 @@ class ScalingResult:
                 "| "
                 + " | ".join(
                     [
+                        str(r["series"]),
                         str(int(r["n"])),
+                        f(r["arena"]),
                         str(int(r["seeds"])),
+                        f"{f(r['maxdisp_median'])} [{f(r['maxdisp_ci_low'])}, "
+                        f"{f(r['maxdisp_ci_high'])}]",
                         f"{f(r['maxdisp_mean'])} ± {f(r['maxdisp_sd'])}",
-                        f"[{f(r['maxdisp_ci_low'])}, {f(r['maxdisp_ci_high'])}]",
                         f"{f(r['maxdisp_min'])}..{f(r['maxdisp_max'])}",
                         f"{int(r['reached'])}/{int(r['seeds'])}",
-                        f(r["time_median"]),
-                        f(r["time_mean_reached"]),
+                        f"{f(r['time_median'])} [{f(r['time_ci_low'])}, {f(r['time_ci_high'])}]",
+                        f"{f(r['time_min'])}..{f(r['time_max'])}",
                     ]
                 )
                 + " |"
@@ -116,25 +173,42 @@ class ScalingResult:
         return "\n".join(lines) + "\n"
 
 
+def _median_ci(values: Sequence[float]) -> tuple[float, float | None, float | None]:
+    x = [float(v) for v in values]
+    lo, hi = median_interval(x)
+    return float(np.median(x)), lo, hi
+
+
 def summarize(runs: pd.DataFrame) -> pd.DataFrame:
-    """Per-``n`` statistics of a runs table with columns ``n``, ``max_displacement``
-    (mm), ``displacement`` (mm) and ``time_to_target`` (s or None/NaN)."""
+    """Per (``series``, ``n``) statistics of a runs table with columns ``n``,
+    ``max_displacement`` (mm, within the horizon), ``displacement`` (mm) and
+    ``time_to_target`` (s or None/NaN); ``series`` and ``arena`` are optional."""
+    runs = runs.copy()
+    if "series" not in runs:
+        runs["series"] = "fixed"
+    if "arena" not in runs:
+        runs["arena"] = math.nan
     rows = []
-    for n, g in runs.groupby("n", sort=True):
+    for (series, n), g in runs.groupby(["series", "n"], sort=False):
         e = effect(g["max_displacement"].tolist())
+        med, lo, hi = _median_ci(g["max_displacement"].tolist())
         d = effect(g["displacement"].tolist())
         times = [None if t is None or (isinstance(t, float) and math.isnan(t)) else float(t)
                  for t in g["time_to_target"].tolist()]  # fmt: skip
         reached = [t for t in times if t is not None]
+        tlo, thi = median_interval(times)
         rows.append(
             {
+                "series": series,
                 "n": int(n),
+                "arena": float(g["arena"].iloc[0]),
                 "seeds": e["n"],
+                "maxdisp_median": med,
+                "maxdisp_ci_low": lo,
+                "maxdisp_ci_high": hi,
                 "maxdisp_mean": e["mean"],
                 "maxdisp_sd": e["sd"],
                 "maxdisp_se": e["se"],
-                "maxdisp_ci_low": e["ci_low"],
-                "maxdisp_ci_high": e["ci_high"],
                 "maxdisp_min": float(g["max_displacement"].min()),
                 "maxdisp_max": float(g["max_displacement"].max()),
                 "disp_mean": d["mean"],
@@ -142,61 +216,111 @@ def summarize(runs: pd.DataFrame) -> pd.DataFrame:
                 "reached": len(reached),
                 "reached_fraction": len(reached) / max(len(times), 1),
                 "time_median": censored_median(times),
+                "time_ci_low": tlo,
+                "time_ci_high": thi,
                 "time_mean_reached": float(np.mean(reached)) if reached else None,
                 "time_min": float(min(reached)) if reached else None,
+                "time_max": float(max(reached)) if reached else None,
             }
         )
     return pd.DataFrame(rows)
 
 
-def plot_scaling(result: ScalingResult | pd.DataFrame, axes: Sequence[Any] | None = None):
-    """Panels (u) maximum displacement and (v) time to target versus ``n``.
+def _err(center: pd.Series, lo: pd.Series, hi: pd.Series, top: float) -> np.ndarray:
+    """Asymmetric error bars from interval ends (an unbounded upper end drawn to ``top``;
+    none where the interval is undefined)."""
+    c = center.astype(float).to_numpy()
+    low = lo.astype(float).to_numpy()
+    high = hi.astype(float).to_numpy()
+    none = np.isnan(low)  # fewer than two runs: no interval, no bar
+    high = np.where(np.isnan(high), np.where(none, c, top), high)
+    low = np.where(none, c, low)
+    return np.vstack([np.clip(c - low, 0, None), np.clip(high - c, 0, None)])
 
-    Error bars: sd over seeds (u); dots: individual runs.  In (v) the line is the
-    censored median (missing where fewer than half reached the target) and each reached
-    run is a dot; the fraction reached is written above each size.  Returns the figure.
+
+def plot_scaling(
+    result: ScalingResult | pd.DataFrame | Sequence[ScalingResult],
+    axes: Sequence[Any] | None = None,
+):
+    """Panels (u) capacity and (v) time to target versus ``n``, one line per series.
+
+    Points: medians over seeds (the density series drawn 7 % to the right, so that
+    sizes both series ran stand side by side); error bars: the distribution-free 95 %
+    intervals of the medians (an upper end that is an unreached run is drawn to the top
+    of the panel); small dots: individual runs.  In (v) a size where fewer than half the
+    runs reached the target has no median (nothing drawn); the fraction reached is
+    written beside each point.  Returns the figure.
     """
     import matplotlib.pyplot as plt
 
-    if isinstance(result, ScalingResult):
-        summary, runs = result.summary, result.runs
-    else:
-        summary, runs = result, None
+    results = [result] if isinstance(result, ScalingResult | pd.DataFrame) else list(result)
+    summaries = [r.summary if isinstance(r, ScalingResult) else r for r in results]
+    runs_all = [r.runs for r in results if isinstance(r, ScalingResult)]
+    summary_all = pd.concat(summaries, ignore_index=True).sort_values("n", kind="stable")
+    # one line per series, whichever studies its sizes came from
+    parts = [(summary_all, pd.concat(runs_all, ignore_index=True) if runs_all else None)]
     if axes is None:
-        fig, axes = plt.subplots(1, 2, figsize=(9, 3.6), constrained_layout=True)
+        fig, axes = plt.subplots(1, 2, figsize=(10, 3.9), constrained_layout=True)
     else:
         fig = axes[0].figure
     ax_u, ax_v = axes
-    ns = summary["n"].astype(float)
-    xlim = (float(ns.min()) / 1.4, float(ns.max()) * 1.4)
-    ax_u.errorbar(summary["n"], summary["maxdisp_mean"], yerr=summary["maxdisp_sd"],
-                  fmt="o-", capsize=3, color="k", label="mean ± sd")  # fmt: skip
-    if runs is not None:
-        ax_u.plot(runs["n"], runs["max_displacement"], ".", color="tab:blue", alpha=0.5,
-                  label="runs")  # fmt: skip
+    allns = np.concatenate([p[0]["n"].to_numpy(dtype=float) for p in parts])
+    xlim = (float(allns.min()) / 1.5, float(allns.max()) * 2.5)
+    tmax = max(
+        [float(np.nanmax(p[1]["time_to_target"].astype(float))) for p in parts
+         if p[1] is not None and p[1]["time_to_target"].notna().any()] or [1.0]
+    ) * 1.15  # fmt: skip
+    colors = {"fixed": "tab:blue", "density": "tab:orange"}
+    labels = {"fixed": "fixed 1800 mm arena (density grows)",
+              "density": "arena grows (packing 0.32)"}  # fmt: skip
+    shift = {"density": 1.07}  # side by side where both series have a size
+    for summary, runs in parts:
+        for series, sm in summary.groupby("series", sort=False):
+            col = colors.get(series, "k")
+            lab = labels.get(series, series)
+            sm = sm.assign(n=sm["n"] * shift.get(series, 1.0))
+            if runs is not None and "series" in runs:
+                runs = runs.assign(n=runs["n"] * runs["series"].map(shift).fillna(1.0))
+            ax_u.errorbar(sm["n"], sm["maxdisp_median"],
+                          yerr=_err(sm["maxdisp_median"], sm["maxdisp_ci_low"],
+                                    sm["maxdisp_ci_high"], float(sm["maxdisp_max"].max())),
+                          fmt="o-", capsize=3, color=col, label=lab)  # fmt: skip
+            med = sm["time_median"].astype(float)
+            ok = med.notna()
+            if ok.any():
+                ax_v.errorbar(sm["n"][ok], med[ok],
+                              yerr=_err(med[ok], sm["time_ci_low"][ok], sm["time_ci_high"][ok],
+                                        tmax),
+                              fmt="o-", capsize=3, color=col, label=lab)  # fmt: skip
+            for _, r in sm.iterrows():
+                y = (
+                    r["time_median"]
+                    if r["time_median"] is not None
+                    and np.isfinite(
+                        float(r["time_median"] if r["time_median"] is not None else np.nan)
+                    )
+                    else tmax / 1.15
+                )
+                ax_v.annotate(f"{int(r['reached'])}/{int(r['seeds'])}", (r["n"], y),
+                              textcoords="offset points", xytext=(4, 4), fontsize=7,
+                              color=col)  # fmt: skip
+            if runs is not None:
+                rs = runs[runs["series"] == series] if "series" in runs else runs
+                ax_u.plot(rs["n"], rs["max_displacement"], ".", color=col, alpha=0.35)
+                rr = rs[rs["time_to_target"].notna()]
+                ax_v.plot(rr["n"], rr["time_to_target"], ".", color=col, alpha=0.35)
     ax_u.axhline(0, color="0.6", lw=0.8)
-    ax_u.set_xscale("log")
-    ax_u.set_xlim(xlim)
-    ax_u.set_xlabel("number of robots")
+    for ax in (ax_u, ax_v):
+        ax.set_xscale("log")
+        ax.set_xlim(xlim)
+        ax.set_xlabel("number of robots")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(frameon=False, fontsize=7)
     ax_u.set_ylabel("max displacement toward target (mm)")
-    ax_u.set_title("(u) capacity")
-    ax_u.legend(frameon=False, fontsize=8)
-    med = summary["time_median"].astype(float)
-    ax_v.plot(summary["n"], med, "o-", color="k", label="median")
-    if runs is not None:
-        rr = runs[runs["time_to_target"].notna()]
-        ax_v.plot(rr["n"], rr["time_to_target"], ".", color="tab:red", alpha=0.6,
-                  label="reached runs")  # fmt: skip
-    ymax = ax_v.get_ylim()[1]
-    for _, r in summary.iterrows():
-        ax_v.annotate(f"{int(r['reached'])}/{int(r['seeds'])}", (r["n"], ymax),
-                      ha="center", va="bottom", fontsize=7)  # fmt: skip
-    ax_v.set_xscale("log")
-    ax_v.set_xlim(xlim)
-    ax_v.set_xlabel("number of robots")
+    ax_u.set_title("(u) capacity: median, 95 % CI, runs")
+    ax_v.set_ylim(0, tmax)
     ax_v.set_ylabel("time to target (s)")
-    ax_v.set_title("(v) speed", pad=14)
-    ax_v.legend(frameon=False, fontsize=8)
+    ax_v.set_title("(v) time to target: median, 95 % CI, runs")
     return fig
 
 
@@ -206,8 +330,10 @@ def run_scaling(
     *,
     ns: Sequence[int] | None = None,
     seeds: int | Sequence[int] | None = None,
-    target_distance: float = 150.0,
+    target_distance: float | None = None,
     duration: float | None = None,
+    horizon: float | None = None,
+    series: str | None = None,
     variant: str = "free",
     executor: Executor | None = None,
     max_workers: int | None = None,
@@ -218,48 +344,113 @@ def run_scaling(
     """Run ``transport-free`` for each swarm size in ``ns`` over seeds into ``out``.
 
     ``target_distance`` (mm) sets ``target_y`` to the object's start plus this;
-    ``overrides`` are further base parameters (dotted keys).  Writes
-    ``out/scaling.json``, ``out/scaling.md`` and (``figure``) ``out/scaling.png``.
+    ``horizon`` (s) is the window of the maximum displacement; ``series`` is
+    ``"fixed"`` (the arena of ``overrides`` or the default) or ``"density"`` (the side
+    scaled with ``sqrt(n)``); unset arguments come from the setting.  ``overrides``
+    are further base parameters (dotted keys).  Writes ``out/scaling.json``,
+    ``out/scaling.md`` and (``figure``) ``out/scaling.png``.
     """
     from thermoswarm.config import from_mapping
     from thermoswarm.errors import ConfigError
-    from thermoswarm.scenarios.transport_free import TransportFreeParams, geometry
+    from thermoswarm.scenarios.transport_free import (
+        DEFAULT_ARENA,
+        TransportFreeParams,
+        geometry,
+    )
+    from thermoswarm.sweep import SweepSpec, expand
 
     if setting not in SETTINGS:
         raise ConfigError(f"setting must be one of {sorted(SETTINGS)}, got {setting!r}")
     cfg = SETTINGS[setting]
     ns = list(cfg["ns"] if ns is None else ns)
+    series = cfg["series"] if series is None else series
+    if series not in ("fixed", "density"):
+        raise ConfigError(f"series must be 'fixed' or 'density', got {series!r}")
+    target_distance = cfg["target_distance"] if target_distance is None else target_distance
+    horizon = cfg["horizon"] if horizon is None else horizon
     seed_list = list(range(cfg["seeds"])) if seeds is None else seeds
     if isinstance(seed_list, int):
         seed_list = list(range(seed_list))
     base: dict[str, Any] = {"variant": variant, "duration": duration or cfg["duration"],
-                            "record.interval": 10.0, "record.netcdf": False,
-                            **(overrides or {})}  # fmt: skip
-    if "target_y" not in base:
-        probe = {k: v for k, v in base.items() if "." not in k and not isinstance(v, dict)}
-        start_y = geometry(from_mapping(TransportFreeParams, probe)).start[1]
-        base["target_y"] = start_y + float(target_distance)
-    out = Path(out)
-    records = run_grid("transport-free", out, base=base, grid={"n": ns},
-                       seeds=seed_list, executor=executor, max_workers=max_workers,
-                       progress=progress)  # fmt: skip
-    runs = pd.DataFrame(
-        [
-            {
-                "n": r.params["n"],
-                "seed": r.seed,
-                "max_displacement": r.metrics["max_displacement_toward_target"],
-                "displacement": r.metrics["displacement_toward_target"],
-                "time_to_target": r.metrics["time_to_target"],
-                "run_dir": r.out,
-            }
-            for r in records
-        ]
-    )
+                            "record.interval": cfg.get("record.interval", 5.0),
+                            "record.netcdf": False, **(overrides or {})}  # fmt: skip
+    from thermoswarm.fsutil import check_output_dir
+
+    out = check_output_dir(out)  # missing parents are created with it
+    bases = []
+    for n in ns:
+        b = dict(base)
+        if series == "density":
+            side = arena_side(int(n))
+            b.update(width=side, height=side)
+        if "target_y" not in base:
+            probe = {k: v for k, v in b.items() if "." not in k and not isinstance(v, dict)}
+            # the highest valid target, so that the probe itself is valid in any arena
+            height = b.get("height") or DEFAULT_ARENA[str(b.get("variant", "free"))][1]
+            probe["target_y"] = float(height) - float(b.get("object_radius", 50.0))
+            start_y = geometry(from_mapping(TransportFreeParams, {**probe, "n": n})).start[1]
+            b["target_y"] = start_y + float(target_distance)
+        expand(SweepSpec("transport-free", out / "runs", b, {"n": [n]}, seed_list))
+        bases.append((n, b))
+
+    def _collect() -> list[dict[str, Any]]:
+        rows: list[dict[str, Any]] = []
+        for n, b in bases:
+            records = run_grid("transport-free", out, base=b, grid={"n": [n]}, seeds=seed_list,
+                               executor=executor, max_workers=max_workers,
+                               progress=progress)  # fmt: skip
+            for r in records:
+                m = r.metrics
+                path = m["object_path"]
+                t = np.asarray(path["time"], dtype=float)
+                prog = np.asarray(path["progress"], dtype=float)
+                within = prog[t <= m["warmup"] + horizon + 1e-9]
+                rows.append(
+                    {
+                        "series": series,
+                        "n": r.params["n"],
+                        "arena": float(b.get("width") or 1800.0),
+                        "seed": r.seed,
+                        "max_displacement": float(within.max()) if within.size else math.nan,
+                        "max_displacement_run": m["max_displacement_toward_target"],
+                        "displacement": m["displacement_toward_target"],
+                        "time_to_target": m["time_to_target"],
+                        "target_y": m["target_y"],
+                        "run_dir": r.out,
+                    }
+                )
+        return rows
+
+    own = executor is None
+    if own:  # one pool for every grid of the study (a pool per grid respawns workers)
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        ctx = multiprocessing.get_context("spawn")  # forking after OpenMP threads can hang
+        executor = ProcessPoolExecutor(max_workers, mp_context=ctx)
+    try:
+        rows = _collect()
+    finally:
+        if own:
+            executor.shutdown(wait=True, cancel_futures=True)
+    runs = pd.DataFrame(rows)
+    setting_info = {"name": setting, "series": series, "seeds": list(seed_list), "base": base,
+                    "target_distance": target_distance, "horizon": horizon}  # fmt: skip
+    old = out / "scaling.json"
+    if old.is_file():  # sizes run earlier into this directory with the same setting stay
+        prev = load_scaling(out)
+        same = {k: prev.setting.get(k) for k in setting_info} == json_roundtrip(setting_info)
+        if same and len(prev.runs):
+            keep = prev.runs[~prev.runs["n"].isin(ns)]
+            runs = pd.concat([keep, runs], ignore_index=True).sort_values(["n", "seed"])
+            runs = runs.reset_index(drop=True)
+    ns = sorted(int(n) for n in runs["n"].unique())
     summary = summarize(runs)
     res = ScalingResult(runs=runs, summary=summary,
-                        setting={"name": setting, "ns": ns, "seeds": list(seed_list),
-                                 "base": base, "target_distance": target_distance})  # fmt: skip
+                        setting={"name": setting, "series": series, "ns": ns,
+                                 "seeds": list(seed_list), "base": base,
+                                 "target_distance": target_distance,
+                                 "horizon": horizon})  # fmt: skip
     atomic_write_json(out / "scaling.json", res.to_dict())
     atomic_write_text(out / "scaling.md", res.table())
     if figure:
@@ -273,3 +464,19 @@ def run_scaling(
             fig.savefig(tmp, dpi=120, format="png")
         plt.close(fig)
     return res
+
+
+def json_roundtrip(value: Any) -> Any:
+    """``value`` as it reads back from JSON (tuples become lists, keys strings)."""
+    import json
+
+    return json.loads(json.dumps(value))
+
+
+def load_scaling(path: str | Path) -> ScalingResult:
+    """A :class:`ScalingResult` from a study directory's ``scaling.json``."""
+    import json
+
+    data = json.loads((Path(path) / "scaling.json").read_text())
+    return ScalingResult(runs=pd.DataFrame(data["runs"]), summary=pd.DataFrame(data["summary"]),
+                         setting=data["setting"])  # fmt: skip
