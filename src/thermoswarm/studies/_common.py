@@ -5,8 +5,9 @@ from __future__ import annotations
 import math
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from concurrent.futures import Executor
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -14,13 +15,28 @@ import numpy as np
 from scipy import stats
 
 from thermoswarm.errors import ConfigError
-from thermoswarm.sweep import RunRecord, SweepSpec, expand, run_sweep
+from thermoswarm.sweep import RunRecord, SweepSpec, expand, local_pool, run_sweep
 
-__all__ = ["Record", "run_grid", "effect", "verdict", "dotted_overrides"]
+__all__ = ["Record", "run_grid", "study_pool", "effect", "verdict", "dotted_overrides"]
 
 
 #: One run of a study (the sweep's record: run_id, params, seed, out, status, metrics).
 Record = RunRecord
+
+
+@contextmanager
+def study_pool(executor: Executor | None, max_workers: int | None) -> Iterator[Executor]:
+    """``executor`` if given, else one local pool (:func:`thermoswarm.sweep.local_pool`:
+    one Numba thread a run, a dead worker retried) for every grid of a study, shut down
+    at the end (a pool per grid would start its workers again for each)."""
+    if executor is not None:
+        yield executor
+        return
+    pool = local_pool(max_workers)
+    try:
+        yield pool
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def dotted_overrides(overrides: Sequence[str]) -> dict[str, Any]:

@@ -41,7 +41,7 @@ import pandas as pd
 
 from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
 from thermoswarm.maxent import kT_for_mean_speed
-from thermoswarm.studies._common import effect, run_grid
+from thermoswarm.studies._common import effect, run_grid, study_pool
 
 __all__ = [
     "SETTINGS",
@@ -339,18 +339,8 @@ def run_regime(
                     )
         return rows
 
-    own = executor is None
-    if own:  # one pool for every grid of the study (a pool per grid respawns workers)
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        ctx = multiprocessing.get_context("spawn")  # forking after OpenMP threads can hang
-        executor = ProcessPoolExecutor(max_workers, mp_context=ctx)
-    try:
+    with study_pool(executor, max_workers) as executor:
         rows = _collect()
-    finally:
-        if own:
-            executor.shutdown(wait=True, cancel_futures=True)
     runs = pd.DataFrame(rows)
     info = {"name": setting, "seeds": list(seed_list), "base": base}
     if (out / "regime.json").is_file():  # maps run earlier into this directory stay

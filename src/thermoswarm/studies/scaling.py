@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 
 from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
-from thermoswarm.studies._common import effect, run_grid
+from thermoswarm.studies._common import effect, run_grid, study_pool
 
 __all__ = [
     "SETTINGS",
@@ -421,18 +421,8 @@ def run_scaling(
                 )
         return rows
 
-    own = executor is None
-    if own:  # one pool for every grid of the study (a pool per grid respawns workers)
-        import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
-
-        ctx = multiprocessing.get_context("spawn")  # forking after OpenMP threads can hang
-        executor = ProcessPoolExecutor(max_workers, mp_context=ctx)
-    try:
+    with study_pool(executor, max_workers) as executor:
         rows = _collect()
-    finally:
-        if own:
-            executor.shutdown(wait=True, cancel_futures=True)
     runs = pd.DataFrame(rows)
     setting_info = {"name": setting, "series": series, "seeds": list(seed_list), "base": base,
                     "target_distance": target_distance, "horizon": horizon}  # fmt: skip
