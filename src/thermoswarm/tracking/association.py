@@ -1,0 +1,217 @@
+"""Association of one frame's detections with the live tracks (paper, Methods).
+
+Pure functions on arrays, used by :class:`~thermoswarm.tracking.tracker.Tracker`:
+
+- :func:`pair_costs`: the cost of every (track, detection) pair inside the gate, for
+  all live tracks at once (one compiled pass over the pairs);
+- :func:`assign`: the Hungarian assignment of one group of tracks
+  (:func:`scipy.optimize.linear_sum_assignment`), pairs above ``max_cost`` dropped;
+- :func:`orient_matched` and :func:`orient_new`: the head-tail order of matched and of
+  new detections.
+
+Units: px and frames; weights as in
+:class:`~thermoswarm.tracking.tracker.TrackerConfig`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numba import njit
+from scipy.optimize import linear_sum_assignment
+
+__all__ = ["BIG", "pair_costs", "assign", "orient_matched", "orient_new"]
+
+#: Cost of a pair outside the gate (never matched; larger than any sum of real costs).
+BIG = 1e6
+
+
+def pair_costs(
+    c: Any,
+    *,
+    S: np.ndarray,
+    pred: np.ndarray,
+    track_boxes: np.ndarray,
+    axes: np.ndarray,
+    reach: np.ndarray,
+    any_axis: bool,
+    pts: np.ndarray,
+    boxes: np.ndarray,
+    length_px: float,
+    hint_other: np.ndarray | None = None,
+) -> np.ndarray:
+    """Costs ``(n, m)`` of tracks and detections, :data:`BIG` outside the gate.
+
+    Cost ``iou_weight (1 - IoU) + distance_weight d / L + angle_weight |sin(da)|
+    [+ hint_weight]`` (``d`` the distance of the body points, ``da`` the angle between
+    the body axes when both are known, the hint term where the detection was split off
+    another track's prediction: ``hint_other`` ``(n, m)``).  Gate: Mahalanobis distance
+    of the innovation within ``gate_sigmas`` and ``d`` within ``reach``.
+
+    Tracks: innovation covariances ``S`` ``(n, 2, 2)``, predicted body points ``pred``
+    ``(n, 2)``, boxes ``track_boxes`` ``(n, 4)`` and axes (head - tail) ``axes``
+    ``(n, 2)``, ``any_axis`` whether any is known
+    (:func:`~thermoswarm.tracking.track_bank.prepare_costs`).  Detections: ``pts``
+    ``(m, 3, 2)``, ``boxes`` ``(m, 4)``.  Each entry depends on its own track and
+    detection only, so any subset of rows equals the costs of that subset of tracks.
+    """
+    Sinv = np.linalg.inv(S)
+    body = np.ascontiguousarray(pts[:, 1])
+    ta = da = _NO_AXES
+    if c.angle_weight > 0 and any_axis:
+        da_ = pts[:, 0] - pts[:, 2]
+        if np.isfinite(da_).any():
+            ta, da = axes, da_
+    cost = np.empty((pred.shape[0], body.shape[0]))
+    _gated_costs(
+        pred,
+        Sinv,
+        reach,
+        track_boxes,
+        body,
+        np.ascontiguousarray(boxes),
+        ta,
+        da,
+        _NO_HINTS if hint_other is None else hint_other,
+        float(c.gate_sigmas**2),
+        float(c.iou_weight),
+        float(c.distance_weight),
+        float(c.angle_weight),
+        float(c.hint_weight),
+        float(length_px),
+        cost,
+    )
+    return cost
+
+
+_NO_AXES = np.zeros((0, 2))
+_NO_HINTS = np.zeros((0, 0), bool)
+_EPS = float(np.finfo(np.float64).eps)
+
+
+@njit(cache=True, inline="always")
+def _minimum(a: float, b: float) -> float:  # np.minimum: NaN wins
+    if a != a or b != b:
+        return a + b
+    return a if a <= b else b
+
+
+@njit(cache=True, inline="always")
+def _maximum(a: float, b: float) -> float:  # np.maximum: NaN wins
+    if a != a or b != b:
+        return a + b
+    return a if a >= b else b
+
+
+@njit(cache=True, error_model="numpy")
+def _gated_costs(
+    pred, Sinv, reach, pboxes, body, dboxes, ta, da, hint_other,
+    gate2, w_iou, w_dist, w_angle, w_hint, length_px, out,
+):  # fmt: skip
+    """The loop of :func:`pair_costs` (one pass over the pairs instead of some forty
+    array operations, each of which costs more than its arithmetic at tens of
+    objects).  The arithmetic is that of the array expressions it replaces, in the
+    same order (``np.einsum("nmi,nij,nmj->nm")`` for the Mahalanobis distance,
+    ``np.hypot``, :func:`~thermoswarm.tracking.anatomy.box_iou`), so the costs are the
+    same numbers (tests/tracking/test_tracker_kernels.py compares them)."""
+    n, m = out.shape
+    use_angle = ta.shape[0] > 0
+    use_hint = hint_other.shape[0] > 0
+    for i in range(n):
+        p0, p1 = pred[i, 0], pred[i, 1]
+        s00, s01, s10, s11 = Sinv[i, 0, 0], Sinv[i, 0, 1], Sinv[i, 1, 0], Sinv[i, 1, 1]
+        a0, a1, a2, a3 = pboxes[i, 0], pboxes[i, 1], pboxes[i, 2], pboxes[i, 3]
+        ax1, ay1 = a0 + a2, a1 + a3
+        area_a = a2 * a3
+        for j in range(m):
+            d0 = body[j, 0] - p0
+            d1 = body[j, 1] - p1
+            maha = (((d0 * s00) * d0 + (d0 * s01) * d1) + (d1 * s10) * d0) + (d1 * s11) * d1
+            dist = np.hypot(d0, d1)
+            if not (maha <= gate2 and dist <= reach[i]):
+                out[i, j] = BIG
+                continue
+            b0, b1, b2, b3 = dboxes[j, 0], dboxes[j, 1], dboxes[j, 2], dboxes[j, 3]
+            iw = _minimum(ax1, b0 + b2) - _maximum(a0, b0)
+            ih = _minimum(ay1, b1 + b3) - _maximum(a1, b1)
+            if iw < 0:
+                iw = 0.0
+            if ih < 0:
+                ih = 0.0
+            inter = iw * ih
+            area_b = b2 * b3
+            union = area_a + area_b - inter
+            iou = 0.0
+            if union > _EPS and area_a > _EPS and area_b > _EPS:
+                iou = inter / union
+            total = w_iou * (1 - iou) + w_dist * dist / length_px
+            if use_angle:
+                cross = ta[i, 0] * da[j, 1] - ta[i, 1] * da[j, 0]
+                norm = np.hypot(ta[i, 0], ta[i, 1]) * np.hypot(da[j, 0], da[j, 1])
+                sin = abs(cross) / norm
+                total = total + w_angle * (sin if np.isfinite(sin) else 0.0)
+            if use_hint:
+                total = total + w_hint * (1.0 if hint_other[i, j] else 0.0)
+            out[i, j] = total
+
+
+def assign(cost: np.ndarray, max_cost: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the minimum-cost assignment of ``cost`` (``BIG`` outside the
+    gate), pairs costing more than ``max_cost`` left out."""
+    r, j = linear_sum_assignment(cost)
+    keep = cost[r, j] <= max_cost
+    return r[keep], j[keep]
+
+
+def orient_matched(
+    c: Any,
+    p: np.ndarray,
+    hc: np.ndarray,
+    heading: np.ndarray,
+    vel: np.ndarray,
+    vel_sd: np.ndarray,
+    motion_px: float,
+) -> np.ndarray:
+    """Head-tail order of matched detections ``p`` ``(n, 3, 2)``: a copy with head and
+    tail swapped where the evidence says so.
+
+    Evidence: ``shape_weight (2 hc - 1)`` (the detector's head confidence), plus
+    ``continuity_weight`` times the agreement with the track's ``heading`` (NaN: none
+    yet), plus ``motion_weight`` times the agreement with the predicted velocity
+    ``vel``, scaled by how well it is known (``vel_sd``) and by ``|vel| / motion_px``
+    up to 1.
+    """
+    p = p.copy()
+    a = p[:, 0] - p[:, 2]
+    na = np.linalg.norm(a, axis=1)
+    ok = np.isfinite(na) & (na > 1e-9)
+    a = a / np.where(ok, na, 1.0)[:, None]
+    score = c.shape_weight * (2 * hc - 1)
+    cont = (a * heading).sum(1)
+    score = score + c.continuity_weight * np.where(np.isfinite(cont), cont, 0.0)
+    sp = np.linalg.norm(vel, axis=1)
+    moving = sp > 1e-9
+    spv = np.where(moving, sp, 1.0)
+    certainty = spv / (spv + 2 * vel_sd) * np.minimum(1.0, spv / motion_px)
+    mot = (a * vel).sum(1) / spv * certainty
+    score = score + c.motion_weight * np.where(moving, mot, 0.0)
+    flip = ok & (score < 0)
+    p[flip] = p[flip][:, [2, 1, 0]]
+    return p
+
+
+def orient_new(c: Any, p: np.ndarray, hc: np.ndarray) -> np.ndarray:
+    """Head-tail order of detections that start tracks (no heading or motion yet): a
+    copy of ``p`` ``(n, 3, 2)`` with head and tail swapped where the detector's head
+    confidence says so (``shape_weight (2 hc - 1) < 0``)."""
+    p = p.copy()
+    posed = np.isfinite(p[:, [0, 2]]).all(axis=(1, 2))
+    if not posed.any():
+        return p
+    a = p[:, 0] - p[:, 2]
+    with np.errstate(invalid="ignore"):
+        na = np.hypot(a[:, 0], a[:, 1])
+        flip = posed & ~(na < 1e-9) & (c.shape_weight * (2 * hc - 1) < 0)
+    p[flip] = p[flip][:, [2, 1, 0]]
+    return p
