@@ -69,6 +69,10 @@ def warm_kernels(*, verbose: bool = False) -> C.JitTime:
         compare_phases(x, n_bootstrap=19, random_state=0)
         if verbose:
             print(f"  {'analysis':20s} {time.perf_counter() - t:6.1f} s", flush=True)
+        t = time.perf_counter()
+        _warm_tracker(rng)
+        if verbose:
+            print(f"  {'tracker':20s} {time.perf_counter() - t:6.1f} s", flush=True)
     total.seconds, total.compile_seconds = jit.seconds, jit.compile_seconds
     from thermoswarm.scenarios.schema import all_params
 
@@ -81,6 +85,29 @@ def warm_kernels(*, verbose: bool = False) -> C.JitTime:
             flush=True,
         )
     return total
+
+
+def _warm_tracker(rng) -> None:
+    """Track a few frames of boxes and of posed detections (head, centre, tail): the
+    tracker's compiled kernels for both kinds of input."""
+    import numpy as np
+
+    from thermoswarm.tracking.detection import FrameDetections
+    from thermoswarm.tracking.tracker import track_detections
+
+    centres = rng.uniform(50.0, 450.0, (6, 2))
+    step = np.array([2.0, 1.0])
+    boxes, posed = [], []
+    for f in range(8):
+        c = centres + f * step
+        pts = np.stack([c + [8.0, 0.0], c, c - [8.0, 0.0]], axis=1)
+        b = np.column_stack([c - [10.0, 4.0], np.full((6, 2), [20.0, 8.0])])
+        no_pose = np.full_like(pts, np.nan)
+        no_pose[:, 1] = c
+        boxes.append(FrameDetections(no_pose, np.ones(6), boxes=b))
+        posed.append(FrameDetections(pts, np.ones(6)))
+    track_detections(boxes, fps=30.0, frame_size=(500, 500))
+    track_detections(posed, fps=30.0, px_per_mm=3.0, frame_size=(500, 500))
 
 
 @click.command()
