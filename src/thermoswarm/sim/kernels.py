@@ -283,6 +283,28 @@ def check_action(heading, speed):
     return 0, big
 
 
+@njit(cache=True)
+def due_robots(timer, tau_steps):
+    """The robots whose control period is over (``timer <= 0``), in row order, their
+    timers refilled with ``tau_steps``.  Returns ``(rows, everyone)``; when every robot
+    is due, ``everyone`` is true and ``rows`` empty (no index of n is made)."""
+    n = timer.shape[0]
+    m = 0
+    for i in range(n):
+        m += timer[i] <= 0
+    if m == n:
+        timer[:] = tau_steps
+        return np.empty(0, np.int64), True
+    rows = np.empty(m, np.int64)
+    k = 0
+    for i in range(n):
+        if timer[i] <= 0:
+            rows[k] = i
+            k += 1
+            timer[i] = tau_steps
+    return rows, False
+
+
 # -------------------------------------------------- phase 1: the commanded motion
 @njit(cache=True, parallel=True)
 def _move(pos, udir, speed, timer, ref, dt):
