@@ -278,16 +278,25 @@ class BoltzmannUniform:
             kind, scale = 0, 2.0 * law.kT / law.mass
         rng.random(out=heading)  # uniform(low, high) is low + (high - low) * random()
         low = -self.half_width
-        _finish_draws(speed, heading, kind, scale, low, self.half_width - low, zero_heading)
+        if not _finish_draws(
+            speed, heading, kind, scale, low, self.half_width - low, zero_heading
+        ):
+            # act's speeds would be infinite too, which the engine refuses
+            raise ValueError(f"kT = {law.kT!r} is too large: speeds overflow")
 
 
 @njit(cache=True)
 def _finish_draws(speed, heading, kind, scale, low, width, zero):
     """Raw draws to speeds and headings, rounding as NumPy does in :meth:`act`
-    (``sqrt(e * scale)`` or ``|z| * scale``; ``(low + width u) + zero``)."""
+    (``sqrt(e * scale)`` or ``|z| * scale``; ``(low + width u) + zero``).  Returns
+    whether every speed is finite."""
+    finite = True
     for i in range(speed.shape[0]):
-        speed[i] = math.sqrt(speed[i] * scale) if kind == 0 else abs(speed[i]) * scale
+        v = math.sqrt(speed[i] * scale) if kind == 0 else abs(speed[i]) * scale
+        speed[i] = v
+        finite &= v < math.inf  # false for inf and nan
         heading[i] = (low + width * heading[i]) + zero
+    return finite
 
 
 # --------------------------------------------------------------------------------------

@@ -140,3 +140,13 @@ def test_subclass_choice_of_path():
     sim._decide(state, None)
     rel = state.heading - LIGHT_DIRECTION
     assert np.abs(rel).max() <= 0.1
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")  # the general path
+@pytest.mark.parametrize("kT", [1e308, 8e307])  # 2 kT overflows; 2 kT E overflows for E > 1.13
+@pytest.mark.parametrize("cls", [BoltzmannUniform, _General])
+def test_an_overflowing_temperature_is_refused_on_both_paths(cls, kT):
+    # act's speeds are infinite and the engine's check refuses them; the fast path skips
+    # that check, so it must refuse them itself (400 robots: P(no E > 1.13) = e^-452)
+    with pytest.raises(ValueError, match="too large|non-finite"):
+        _run(cls(kT), 0.1, steps=1, n=400)
