@@ -23,8 +23,9 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+from numba import njit
 
-from thermoswarm.maxent import DecayingTemperature, SteeringLaw, speed_law
+from thermoswarm.maxent import DecayingTemperature, HalfNormalSpeed, SteeringLaw, speed_law
 
 __all__ = ["Observation", "Action", "Policy", "BoltzmannUniform"]
 
@@ -254,6 +255,48 @@ class BoltzmannUniform:
         theta += obs.zero_heading  # in place: millions of robots, no extra temporaries
         # headings need not be wrapped: the engine uses cos/sin, recordings wrap
         return Action(heading=theta, speed=v)
+
+    def act_into(
+        self, rng: np.random.Generator, zero_heading: float, heading: np.ndarray,
+        speed: np.ndarray,
+    ) -> None:  # fmt: skip
+        """:meth:`act` for ``len(heading)`` robots that share one ``zero_heading``,
+        written into ``heading`` and ``speed`` (contiguous float64, views allowed).
+
+        The same draws in the same order as :meth:`act` and the same arithmetic, so the
+        results are bit-identical (``tests/sim/test_decide.py``); the engine's fast path
+        when every robot has the default sensing: two NumPy draws into the outputs and
+        one compiled pass instead of a dozen small array operations and their
+        temporaries.  Headings lie within ``zero_heading +- half_width``.
+        """
+        law = self._law
+        if isinstance(law, HalfNormalSpeed):
+            rng.standard_normal(out=speed)
+            kind, scale = 1, law.sigma
+        else:  # Boltzmann: v = sqrt(2 E / m), E ~ Exponential(kT)
+            rng.standard_exponential(out=speed)
+            kind, scale = 0, 2.0 * law.kT / law.mass
+        rng.random(out=heading)  # uniform(low, high) is low + (high - low) * random()
+        low = -self.half_width
+        if not _finish_draws(
+            speed, heading, kind, scale, low, self.half_width - low, zero_heading
+        ):
+            # act's speeds would be infinite too, which the engine refuses
+            raise ValueError(f"kT = {law.kT!r} is too large: speeds overflow")
+
+
+@njit(cache=True)
+def _finish_draws(speed, heading, kind, scale, low, width, zero):
+    """Raw draws to speeds and headings, rounding as NumPy does in :meth:`act`
+    (``sqrt(e * scale)`` or ``|z| * scale``; ``(low + width u) + zero``).  Returns
+    whether every speed is finite."""
+    finite = True
+    for i in range(speed.shape[0]):
+        v = math.sqrt(speed[i] * scale) if kind == 0 else abs(speed[i]) * scale
+        speed[i] = v
+        finite &= v < math.inf  # false for inf and nan
+        heading[i] = (low + width * heading[i]) + zero
+    return finite
 
 
 # --------------------------------------------------------------------------------------

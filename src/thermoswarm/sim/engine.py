@@ -362,6 +362,19 @@ def _unit_directions(
     return out
 
 
+def _has_fast_path(policy: Policy | None) -> bool:
+    """Whether ``policy.act_into`` (see :meth:`BoltzmannUniform.act_into`) stands for its
+    ``act``: both defined by the same class (a subclass that overrides ``act`` alone
+    takes the general path)."""
+
+    def owner(name: str) -> type | None:
+        return next((c for c in type(policy).__mro__ if name in vars(c)), None)
+
+    return (
+        policy is not None and owner("act_into") is not None and owner("act_into") is owner("act")
+    )
+
+
 _BROADCAST: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
 
@@ -586,6 +599,8 @@ class Simulator:
         self.params = params
         self.policy = policy
         self.sensing = sensing or _default_sensing
+        # the policy whose act_into() is the fast path (see _decide)
+        self._fast_policy = policy if _has_fast_path(policy) else None
         self._ws: _Workspace | None = None
         #: neighbour-list builds so far (statistics: at step starts and within steps)
         self.list_builds = 0
@@ -648,8 +663,16 @@ class Simulator:
         return self._ws
 
     # ------------------------------------------------------------------ step
-    def _decide(self, state: SwarmState, index: np.ndarray) -> None:
-        everyone = index.size == state.n  # then index is arange(n): use views, not copies
+    def _decide(self, state: SwarmState, index: np.ndarray | None) -> None:
+        """New headings and speeds for the robots at rows ``index`` (``arange(n)``, or
+        ``None``: every robot)."""
+        everyone = index is None or index.size == state.n  # then use views, not copies
+        fast = self._fast_policy
+        if fast is not None and self.policy is fast and self.sensing is _default_sensing:
+            self._decide_fast(state, None if everyone else index)
+            return
+        if index is None:
+            index = np.arange(state.n)
         sel = slice(None) if everyone else index
         zero, light = self.sensing(state, index)
         obs = Observation(
@@ -681,19 +704,39 @@ class Simulator:
         else:
             state.udir[:, sel] = _unit_directions(h, max_abs=max_abs)
 
+    def _decide_fast(self, state: SwarmState, index: np.ndarray | None) -> None:
+        """:meth:`_decide` for a policy with ``act_into`` and the default sensing: the
+        same draws and the same results, without the observation, the checks (the
+        policy's own outputs are finite, speeds >= 0, headings within pi/2 +- pi) and
+        the temporaries."""
+        pol = self.policy
+        if index is None:
+            h = state.heading
+            pol.act_into(state.rng, LIGHT_DIRECTION, h, state.speed)  # type: ignore[union-attr]
+            # float32 cos/sin of the heading rounded to float32, as _unit_directions
+            np.cos(h, out=state.udir[0], dtype=np.float32)
+            np.sin(h, out=state.udir[1], dtype=np.float32)
+            return
+        m = index.size
+        h = np.empty(m)
+        v = np.empty(m)
+        pol.act_into(state.rng, LIGHT_DIRECTION, h, v)  # type: ignore[union-attr]
+        state.heading[index] = h
+        state.speed[index] = v
+        state.udir[:, index] = _unit_directions(h, max_abs=0.0)  # |h| < 2 pi: no wrapping
+
     def step(self, state: SwarmState) -> SwarmState:
         """Advance ``state`` by one time step ``dt``."""
         ws = self._ensure_ws(state)
         p = self.params
         w = self.world
         if p.mode == "overdamped":
-            due = np.flatnonzero(state.timer <= 0)  # arange(n) when everyone is due
-            if due.size == state.n:
-                self._decide(state, due)
-                state.timer.fill(p.tau_steps)
+            # the robots whose period is over (their timers refilled), then their decisions
+            due, everyone = K.due_robots(state.timer, p.tau_steps)
+            if everyone:
+                self._decide(state, None)
             elif due.size:
                 self._decide(state, due)
-                state.timer[due] = p.tau_steps
             restore = _auto_threads(state.n)
             try:
                 sweeps, overlap, builds, in_scratch = K.overdamped_step(

@@ -283,6 +283,28 @@ def check_action(heading, speed):
     return 0, big
 
 
+@njit(cache=True)
+def due_robots(timer, tau_steps):
+    """The robots whose control period is over (``timer <= 0``), in row order, their
+    timers refilled with ``tau_steps``.  Returns ``(rows, everyone)``; when every robot
+    is due, ``everyone`` is true and ``rows`` empty (no index of n is made)."""
+    n = timer.shape[0]
+    m = 0
+    for i in range(n):
+        m += timer[i] <= 0
+    if m == n:
+        timer[:] = tau_steps
+        return np.empty(0, np.int64), True
+    rows = np.empty(m, np.int64)
+    k = 0
+    for i in range(n):
+        if timer[i] <= 0:
+            rows[k] = i
+            k += 1
+            timer[i] = tau_steps
+    return rows, False
+
+
 # -------------------------------------------------- phase 1: the commanded motion
 @njit(cache=True, parallel=True)
 def _move(pos, udir, speed, timer, ref, dt):
@@ -599,14 +621,19 @@ def _sweep(
 
 
 @njit(cache=True)
-def _next_active(active, count, everyone, result, nbr, nnb, near, use_near, mark, out):
+def _next_active(
+    active, count, everyone, result, pos, contact2, nbr, nnb, near, use_near, mark, out
+):  # fmt: skip
     """The robots the next sweep must visit, into ``out``; returns how many.
 
-    Those that moved in the last sweep and every robot on their lists (anything they
-    may now touch), those that still overlap something, and (``use_near``) those near a
-    body or piston that moved.  Any other robot has no overlap: neither it nor anything
-    within reach moved since a sweep found it free.  Serial, over the robots visited last
-    (a few per cent of the swarm after the first sweep); ``mark`` (all zero) is scratch.
+    Those that moved in the last sweep, those that still overlap something, every robot
+    on a mover's list that the mover now overlaps (squared distance below ``contact2`` at
+    ``pos``, the configuration the next sweep starts from), and (``use_near``) those near
+    a body or piston that moved.  Any other robot has no overlap: nothing it overlaps
+    moved (its pairs with robots that did not move, and with static walls, are as the
+    last sweep that visited it found them: free), so the next sweep would leave it where
+    it is and measure nothing.  Serial, over the robots visited last (a few per cent of
+    the swarm after the first sweep); ``mark`` (all zero) is scratch.
     """
     k = 0
     for q in range(count):
@@ -619,12 +646,18 @@ def _next_active(active, count, everyone, result, nbr, nnb, near, use_near, mark
             out[k] = i
             k += 1
         if fl & MOVED:
+            px = pos[i, 0]
+            py = pos[i, 1]
             for kk in range(nnb[i]):  # lists never overflow here (see the caller)
                 j = nbr[i, kk]
                 if mark[j] == 0:
-                    mark[j] = 1
-                    out[k] = j
-                    k += 1
+                    # the sweep's own test, from j's side (the same rounding)
+                    dx = pos[j, 0] - px
+                    dy = pos[j, 1] - py
+                    if dx * dx + dy * dy < contact2:
+                        mark[j] = 1
+                        out[k] = j
+                        k += 1
     if use_near:
         for i in range(near.shape[0]):
             if near[i] and mark[i] == 0:
@@ -827,6 +860,7 @@ def overdamped_step(
     """
     n = pos.shape[0]
     r = num.radius
+    contact2 = (2.0 * r - SLOP) * (2.0 * r - SLOP)  # as in _sweep
     far = _move(pos, udir, fcols[SPEED], icols[TIMER], ref, num.dt)
     _move_bodies(bodies, pistons, seg, sdisc, num.dt)
 
@@ -878,8 +912,9 @@ def overdamped_step(
             if any_moved:
                 _near_moved(src, bodies, moved_b, pistons, moved_p, r, grid.cell_size, near)
             count = _next_active(
-                visit, count, everyone, result, nbr, nnb, near, any_moved, mark, visit_next
-            )
+                visit, count, everyone, result, src, contact2, nbr, nnb, near, any_moved,
+                mark, visit_next,
+            )  # fmt: skip
             visit, visit_next = visit_next, visit
             everyone = False
     return sweeps, overlap, builds, sweeps % 2 == 0
