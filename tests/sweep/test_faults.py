@@ -191,8 +191,10 @@ def test_dask_reports_a_bad_run_once(tmp_path, dask_cluster_client):
 
 
 def test_every_worker_runs_on_the_sweeps_thread_count(tmp_path, pool, dask_executor):
-    """Above 8,000 robots the engine would pick every thread; each worker keeps one."""
-    base = {"n": 8000, "duration": 0.3, "packing_fraction": 0.1,
+    """Above SERIAL_BELOW robots the engine would pick every thread; each worker keeps one."""
+    from thermoswarm.sim.engine import SERIAL_BELOW
+
+    base = {"n": SERIAL_BELOW, "duration": 0.3, "packing_fraction": 0.1,
             "record": {"interval": 0.1, "netcdf": False}}  # fmt: skip
     for name, ex in (("pool", pool), ("dask", dask_executor)):
         spec = SweepSpec("box", tmp_path / name, base, {}, seeds=[0])

@@ -41,7 +41,7 @@ import click
     type=click.IntRange(min=1),
     default=None,
     help="Numba threads, kept for the whole run (default: the engine's automatic choice: "
-    "one thread below 8,000 robots, all cores above).",
+    "one thread below 60,000 robots, all cores above).",
 )
 @click.option(
     "--backend",

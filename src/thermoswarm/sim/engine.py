@@ -392,8 +392,10 @@ def _default_sensing(state: SwarmState, index: np.ndarray) -> tuple[np.ndarray, 
 
 #: When no thread count was given, swarms smaller than this are stepped on one thread:
 #: below it, waking a second thread for each of a step's parallel loops costs more than
-#: it saves (measured with ``benchmarks/bench_engine.py``).
-SERIAL_BELOW = 8000
+#: it saves.  Measured on an idle 2-core machine (``benchmarks/bench_engine.py --tools
+#: ours1,ours2 --settle 5``, packing 0.18 and 0.5): two threads over one 0.51-0.60x at
+#: 10,000 robots, 0.86-0.77x at 20,000, 0.97-0.94x at 40,000, 1.05-1.17x at 70,000.
+SERIAL_BELOW = 60_000
 
 _EXPLICIT_THREADS: int | None = None
 
