@@ -352,22 +352,7 @@ def store_matched(F, I, rows, x, P, q, nis, p, box, det_box, scores, hc, frame):
         F[r, _Q] = q[i]
         F[r, _NIS] = nis[i]
         hits = I[r, _HITS]
-        posed = True
-        for a in range(2):
-            for kp in (0, 2):
-                if not np.isfinite(p[i, kp, a]):
-                    posed = False
-        if posed:
-            for a in range(2):
-                F[r, _SHAPE + a] = p[i, 0, a] - p[i, 1, a]
-                F[r, _SHAPE + 2 + a] = p[i, 2, a] - p[i, 1, a]
-            a0 = p[i, 0, 0] - p[i, 2, 0]
-            a1 = p[i, 0, 1] - p[i, 2, 1]
-            na = np.hypot(a0, a1)
-            if na > 1e-9:
-                F[r, _HEAD] = a0 / na
-                F[r, _HEAD + 1] = a1 / na
-        else:
+        if not _store_pose(F, r, p[i]):
             for a in range(2):
                 bh = det_box[i, 2 + a] / 2
                 if hits > 1:
@@ -384,6 +369,27 @@ def store_matched(F, I, rows, x, P, q, nis, p, box, det_box, scores, hc, frame):
                 F[r, _LP + 2 * a + b] = p[i, a, b]
         for a in range(4):
             F[r, _LB + a] = box[i, a]
+
+
+@njit(cache=True, inline="always")
+def _store_pose(F, r, p):
+    """For a posed detection ``p`` (3, 2) (head and tail finite): its shape (head and
+    tail relative to the body point) and unit heading (tail to head) into row ``r``;
+    returns whether it was posed (nothing is written otherwise)."""
+    for a in range(2):
+        for kp in (0, 2):
+            if not np.isfinite(p[kp, a]):
+                return False
+    for a in range(2):
+        F[r, _SHAPE + a] = p[0, a] - p[1, a]
+        F[r, _SHAPE + 2 + a] = p[2, a] - p[1, a]
+    a0 = p[0, 0] - p[2, 0]
+    a1 = p[0, 1] - p[2, 1]
+    na = np.hypot(a0, a1)
+    if na > 1e-9:
+        F[r, _HEAD] = a0 / na
+        F[r, _HEAD + 1] = a1 / na
+    return True
 
 
 @njit(cache=True, inline="always")
@@ -445,21 +451,7 @@ def init_rows(F, I, start, p, box, scores, hc, frame, r2, v02, q0, first_key):
         F[r, _HEAD + 1] = np.nan
         F[r, _HALF] = box[i, 2] / 2
         F[r, _HALF + 1] = box[i, 3] / 2
-        posed = True
-        for a in range(2):
-            for kp in (0, 2):
-                if not np.isfinite(p[i, kp, a]):
-                    posed = False
-        if posed:
-            for a in range(2):
-                F[r, _SHAPE + a] = p[i, 0, a] - p[i, 1, a]
-                F[r, _SHAPE + 2 + a] = p[i, 2, a] - p[i, 1, a]
-            a0 = p[i, 0, 0] - p[i, 2, 0]
-            a1 = p[i, 0, 1] - p[i, 2, 1]
-            na = np.hypot(a0, a1)
-            if na > 1e-9:
-                F[r, _HEAD] = a0 / na
-                F[r, _HEAD + 1] = a1 / na
+        _store_pose(F, r, p[i])
         I[r, _LAST] = frame
         I[r, _HITS] = 1
         I[r, _KEY] = first_key + i
