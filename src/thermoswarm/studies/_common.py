@@ -8,8 +8,9 @@ import time
 from collections.abc import Iterator, Mapping, Sequence
 from concurrent.futures import Executor
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy import stats
@@ -17,11 +18,39 @@ from scipy import stats
 from thermoswarm.errors import ConfigError
 from thermoswarm.sweep import RunRecord, SweepSpec, expand, local_pool, run_sweep
 
-__all__ = ["Record", "run_grid", "study_pool", "effect", "verdict", "dotted_overrides"]
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = [
+    "Record",
+    "StudyResult",
+    "run_grid",
+    "study_pool",
+    "effect",
+    "verdict",
+    "dotted_overrides",
+]
 
 
 #: One run of a study (the sweep's record: run_id, params, seed, out, status, metrics).
 Record = RunRecord
+
+
+@dataclass
+class StudyResult:
+    """What a study returns: one row per run (``runs``), its statistics (``summary``)
+    and the setting it ran; each study adds its own ``table()``."""
+
+    runs: pd.DataFrame
+    summary: pd.DataFrame
+    setting: dict[str, Any]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "setting": self.setting,
+            "summary": self.summary.to_dict(orient="records"),
+            "runs": self.runs.to_dict(orient="records"),
+        }
 
 
 @contextmanager

@@ -39,14 +39,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
 from thermoswarm.fsutil import atomic_write_json, atomic_write_text
-from thermoswarm.studies._common import effect, run_grid, verdict
+from thermoswarm.studies._common import StudyResult, effect, run_grid, verdict
 
 __all__ = ["SETTINGS", "MechanismResult", "run_mechanism", "summarize", "markdown_table"]
 
@@ -86,23 +85,11 @@ SETTINGS: dict[str, dict[str, Any]] = {
 DEFAULT = {"mapping": "lit_cold", "heading_law": "persistent", "sensor.mode": "ideal"}
 
 
-@dataclass
-class MechanismResult:
+class MechanismResult(StudyResult):
     """Per-run rows (``runs``), per-combination statistics (``summary``), the setting."""
-
-    runs: pd.DataFrame
-    summary: pd.DataFrame
-    setting: dict[str, Any]
 
     def table(self) -> str:
         return markdown_table(self.summary)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "setting": self.setting,
-            "summary": self.summary.to_dict(orient="records"),
-            "runs": self.runs.to_dict(orient="records"),
-        }
 
 
 def _rows(records: Sequence[Any], factors: Sequence[str]) -> pd.DataFrame:

@@ -32,7 +32,6 @@ import json
 import math
 from collections.abc import Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -41,7 +40,7 @@ import pandas as pd
 
 from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
 from thermoswarm.maxent import kT_for_mean_speed
-from thermoswarm.studies._common import effect, run_grid, study_pool
+from thermoswarm.studies._common import StudyResult, effect, run_grid, study_pool
 
 __all__ = [
     "SETTINGS",
@@ -102,19 +101,7 @@ SETTINGS: dict[str, dict[str, Any]] = {
 }
 
 
-@dataclass
-class RegimeResult:
-    runs: pd.DataFrame
-    summary: pd.DataFrame
-    setting: dict[str, Any]
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "setting": self.setting,
-            "summary": self.summary.to_dict(orient="records"),
-            "runs": self.runs.to_dict(orient="records"),
-        }
-
+class RegimeResult(StudyResult):
     def table(self) -> str:
         """One Markdown table per map: drift speed mean ± se (mm/s), rows y, columns x."""
         parts = []

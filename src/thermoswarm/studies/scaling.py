@@ -35,7 +35,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -43,7 +42,7 @@ import numpy as np
 import pandas as pd
 
 from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
-from thermoswarm.studies._common import effect, run_grid, study_pool
+from thermoswarm.studies._common import StudyResult, effect, run_grid, study_pool
 
 __all__ = [
     "SETTINGS",
@@ -122,19 +121,7 @@ def censored_median(times: Sequence[float | None]) -> float | None:
     return None if math.isinf(mid) else float(mid)
 
 
-@dataclass
-class ScalingResult:
-    runs: pd.DataFrame
-    summary: pd.DataFrame
-    setting: dict[str, Any]
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "setting": self.setting,
-            "summary": self.summary.to_dict(orient="records"),
-            "runs": self.runs.to_dict(orient="records"),
-        }
-
+class ScalingResult(StudyResult):
     def table(self) -> str:
         h = self.setting.get("horizon", math.nan)
         head = ["series", "n", "arena (mm)", "seeds",
