@@ -581,6 +581,38 @@ def place_lattice(
     return pts
 
 
+def policy_action(
+    policy: Policy, state: SwarmState, index: np.ndarray, sel: slice | np.ndarray,
+    zero: np.ndarray | float, light: np.ndarray | float, tau: float,
+) -> tuple[np.ndarray, np.ndarray, float]:  # fmt: skip
+    """Ask ``policy`` for new headings and speeds of the robots at rows ``index``
+    (``sel``: the same rows, ``slice(None)`` when every robot decides), given their
+    ``zero`` heading and ``light``; the observation reads the state lazily.  Returns
+    float64 ``(heading, speed, max |heading|)``, checked: one value per robot, finite,
+    speeds >= 0 (a ``ValueError`` otherwise)."""
+    obs = Observation(
+        time=state.time,
+        index=index,
+        tau=tau,
+        ids=lambda: state.ids[sel],
+        position=lambda: state.pos[sel],
+        heading=lambda: state.heading[sel],
+        speed=lambda: state.speed[sel],
+        group=lambda: state.group[sel],
+        zero_heading=np.asarray(zero, dtype=np.float64),
+        light=np.asarray(light, dtype=np.float64),
+    )
+    act: Action = policy.act(obs, state.rng)
+    h = np.asarray(act.heading, dtype=np.float64)
+    v = np.asarray(act.speed, dtype=np.float64)
+    if h.shape != (index.size,) or v.shape != (index.size,):
+        raise ValueError(f"policy returned shapes {h.shape}, {v.shape} for {index.size} robots")
+    bad, max_abs = K.check_action(h, v)  # one pass: finite headings, speeds >= 0
+    if bad:
+        raise ValueError("policy returned a non-finite heading or a negative speed")
+    return h, v, max_abs
+
+
 class Simulator:
     """``init`` and ``step`` for one world, parameter set, policy and sensing model.
 
@@ -677,28 +709,8 @@ class Simulator:
             index = np.arange(state.n)
         sel = slice(None) if everyone else index
         zero, light = self.sensing(state, index)
-        obs = Observation(
-            time=state.time,
-            index=index,
-            tau=self.params.tau,
-            ids=lambda: state.ids[sel],
-            position=lambda: state.pos[sel],
-            heading=lambda: state.heading[sel],
-            speed=lambda: state.speed[sel],
-            group=lambda: state.group[sel],
-            zero_heading=np.asarray(zero, dtype=np.float64),
-            light=np.asarray(light, dtype=np.float64),
-        )
-        act: Action = self.policy.act(obs, state.rng)  # type: ignore[union-attr]
-        h = np.asarray(act.heading, dtype=np.float64)
-        v = np.asarray(act.speed, dtype=np.float64)
-        if h.shape != (index.size,) or v.shape != (index.size,):
-            raise ValueError(
-                f"policy returned shapes {h.shape}, {v.shape} for {index.size} robots"
-            )
-        bad, max_abs = K.check_action(h, v)  # one pass: finite headings, speeds >= 0
-        if bad:
-            raise ValueError("policy returned a non-finite heading or a negative speed")
+        h, v, max_abs = policy_action(self.policy, state, index, sel, zero, light,
+                                      self.params.tau)  # fmt: skip
         state.heading[sel] = h
         state.speed[sel] = v
         if everyone:

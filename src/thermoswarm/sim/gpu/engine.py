@@ -46,14 +46,18 @@ import warp as wp
 
 from thermoswarm.errors import ConfigError
 from thermoswarm.policy import (
-    Action,
     BoltzmannUniform,
     ConnectedTransport,
-    Observation,
     Policy,
 )
 from thermoswarm.sim import kernels as K
-from thermoswarm.sim.engine import LIGHT_DIRECTION, EngineParams, Sensing, SwarmState
+from thermoswarm.sim.engine import (
+    LIGHT_DIRECTION,
+    EngineParams,
+    Sensing,
+    SwarmState,
+    policy_action,
+)
 from thermoswarm.sim.gpu import kernels as G
 from thermoswarm.sim.world import World
 
@@ -552,27 +556,8 @@ class GpuSimulator:
             light = np.ones(index.size)
         else:
             zero, light = self.sensing(state, index)
-        obs = Observation(
-            time=state.time,
-            index=index,
-            tau=self.params.tau,
-            ids=lambda: state.ids[sel],
-            position=lambda: state.pos[sel],
-            heading=lambda: state.heading[sel],
-            speed=lambda: state.speed[sel],
-            group=lambda: state.group[sel],
-            zero_heading=np.asarray(zero, dtype=np.float64),
-            light=np.asarray(light, dtype=np.float64),
-        )
-        act: Action = self.policy.act(obs, state.rng)  # type: ignore[union-attr]
-        h = np.asarray(act.heading, dtype=np.float64)
-        v = np.asarray(act.speed, dtype=np.float64)
-        if h.shape != (index.size,) or v.shape != (index.size,):
-            raise ValueError(
-                f"policy returned shapes {h.shape}, {v.shape} for {index.size} robots"
-            )
-        if not np.all(np.isfinite(h)) or not np.all(np.isfinite(v) & (v >= 0)):
-            raise ValueError("policy returned a non-finite heading or a negative speed")
+        h, v, _ = policy_action(self.policy, state, index, sel, zero, light,  # type: ignore[arg-type]
+                                self.params.tau)  # fmt: skip
         state.fcols[0, sel] = h
         state.fcols[1, sel] = v
 
