@@ -521,6 +521,27 @@ def _walls_and_bodies(px, py, r, near_static, seg, sdisc, bodies, pistons):
     return mx, my, w
 
 
+@njit(cache=True, inline="always")
+def _pair_push(px, py, src, i, j, c2, d_rr, half, mx, my, w):
+    """Robot ``i`` at ``(px, py)`` against robot ``j`` of ``src``: if they overlap, ``i``'s
+    share of the separation added to ``(mx, my)`` and the overlap to the running maximum
+    ``w``; returns the three."""
+    dx = px - src[j, 0]
+    dy = py - src[j, 1]
+    d2 = dx * dx + dy * dy
+    if d2 < c2:
+        d = math.sqrt(d2)
+        if d_rr - d > w:
+            w = d_rr - d
+        if d > 1e-12:
+            f = half * (d_rr - d) / d
+            mx += f * dx
+            my += f * dy
+        else:  # coincident centres: separate along x by row order
+            mx += half * d_rr * (1.0 if i < j else -1.0)
+    return mx, my, w
+
+
 @njit(cache=True, parallel=True)
 def _sweep(
     src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg, sdisc,
@@ -566,20 +587,7 @@ def _sweep(
         m = nnb[i]
         if m <= cap:
             for kk in range(m):
-                j = nbr[i, kk]
-                dx = px - src[j, 0]
-                dy = py - src[j, 1]
-                d2 = dx * dx + dy * dy
-                if d2 < c2:
-                    d = math.sqrt(d2)
-                    if d_rr - d > w:
-                        w = d_rr - d
-                    if d > 1e-12:
-                        f = half * (d_rr - d) / d
-                        mx += f * dx
-                        my += f * dy
-                    else:  # coincident centres: separate along x by row order
-                        mx += half * d_rr * (1.0 if i < j else -1.0)
+                mx, my, w = _pair_push(px, py, src, i, nbr[i, kk], c2, d_rr, half, mx, my, w)
         else:  # overflowing list: the 3 x 3 cells around the cell it was listed in
             cy = c // nx
             cx = c - cy * nx
@@ -588,21 +596,8 @@ def _sweep(
                     cc = ccy * nx + ccx
                     for kj in range(cell_start[cc], cell_start[cc + 1]):
                         j = perm[kj]
-                        if j == i:
-                            continue
-                        dx = px - src[j, 0]
-                        dy = py - src[j, 1]
-                        d2 = dx * dx + dy * dy
-                        if d2 < c2:
-                            d = math.sqrt(d2)
-                            if d_rr - d > w:
-                                w = d_rr - d
-                            if d > 1e-12:
-                                f = half * (d_rr - d) / d
-                                mx += f * dx
-                                my += f * dy
-                            else:
-                                mx += half * d_rr * (1.0 if i < j else -1.0)
+                        if j != i:
+                            mx, my, w = _pair_push(px, py, src, i, j, c2, d_rr, half, mx, my, w)
         x = px + mx
         y = py + my
         dst[i, 0] = x
