@@ -8,14 +8,14 @@ OUT    ?= out
 # directory (`thermoswarm cache` prints it; NUMBA_CACHE_DIR overrides it), the same for
 # make, the thermoswarm command and Python; `make install` compiles them.
 
-.PHONY: install lock run test test-latest test-slow test-all bench lint clean
+.PHONY: install lock run test test-latest test-slow test-all bench lint docs clean
 
 # Installs are reproducible: `make install` (and so CI) installs the exact versions in
 # requirements/lock.txt; pyproject.toml keeps the ranges that library users need.
 # `make lock` refreshes the lock from the newest versions the ranges allow, and
 # `make test-latest` runs the suite on those newest versions without touching the lock.
 LOCK   := requirements/lock.txt
-EXTRAS := io,track,video,bench,dev,dask,gpu
+EXTRAS := io,track,video,bench,dev,dask,gpu,docs
 # The CPU build of PyTorch: pip takes torch==2.13.0 from this machine's local wheels; an
 # unpinned torch would pull several GB of CUDA packages.  The lock pins the same version.
 TORCH  := torch==2.13.0
@@ -70,9 +70,13 @@ test-all: install
 bench: install
 	$(PY) benchmarks/run_all.py
 
+# The documentation site from docs/ and the docstrings, into site/ (warnings are errors).
+docs: install
+	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict --quiet
+
 lint: install
 	$(PY) -m ruff check src tests benchmarks
 	$(PY) -m ruff format --check src tests benchmarks
 
 clean:
-	rm -rf $(VENV) .venv-lock .venv-latest .numba-cache .pytest_cache out
+	rm -rf $(VENV) .venv-lock .venv-latest .numba-cache .pytest_cache out site

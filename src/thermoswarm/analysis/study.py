@@ -234,8 +234,11 @@ def run_study(
         (``smooth``, ``min_speed``, ``max_speed``, ``gap_factor``, ``max_gap``,
         ``duplicates``, ``resting_speed``, ``body_length``, ...).
 
-    Raises :class:`InputError` when no step is left to fit (every step missing, a
-    gap, resting or implausible): the message gives the counts.
+    Raises
+    ------
+    InputError
+        When no step is left to fit (every step missing, a gap, resting or
+        implausible): the message gives the counts.
     """
     unknown = [k for k in kinematics_options if k not in KINEMATICS_KEYS]
     if unknown:

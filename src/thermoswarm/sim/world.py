@@ -47,6 +47,8 @@ class Body:
         A constant external force (e.g. robots attached to it); a scenario may change it
         every step through ``SwarmState.body_ext_force``.
 
+    Notes
+    -----
     Bodies collide with robots (sharing each overlap by mobility) and with static walls
     and obstacles (which do not yield); they do not rotate.
     """
