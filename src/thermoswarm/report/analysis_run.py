@@ -69,9 +69,11 @@ def read_inputs(paths: Sequence[Path], opts: AnalysisOptions) -> xr.Dataset:
 
 def write_results(out: Path, result: StudyResult, opts: AnalysisOptions) -> None:
     """The report stage: ``kinematics.nc``, ``fits.json`` and (with ``opts.report.html``)
-    ``report.html`` into directory ``out``, each written atomically."""
+    ``report.html`` into directory ``out`` (created with its parents), each written
+    atomically."""
     from thermoswarm.fsutil import atomic_write_json, atomic_write_text
 
+    out.mkdir(parents=True, exist_ok=True)
     write_kinematics(result.kinematics, out / "kinematics.nc")
     atomic_write_json(out / "fits.json", result.fits)
     if opts.report.html:
