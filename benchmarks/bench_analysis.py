@@ -176,6 +176,8 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
+    if args.bootstrap < 1 or args.n_tracks < 1 or args.n_frames < 2:
+        ap.error("--bootstrap and --n-tracks must be at least 1, --n-frames at least 2")
 
     t0 = time.perf_counter()
     ds, _ = synthetic_tracks(
