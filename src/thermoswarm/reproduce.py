@@ -914,7 +914,10 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
             "cut: the transport's defaults are closer and cut, see below). Line: the "
             "maximum-likelihood fit of "
             "the model the analysis prefers (bootstrap likelihood-ratio test of one against "
-            "two phases at the 5 % level); the other model is not drawn."
+            "two phases at the 5 % level); the other model is not drawn. The ant row is "
+            "synthetic, the control of the analysis: no real ant trajectories whose licence "
+            "allows shipping them have been found (licences checked in docs/real_data.md, "
+            "which also fits real ants, locusts and flies with thermoswarm analyze)."
         )
         _fig(rep, fig, "Energy distributions (log density) with the preferred fit.")
         floor = 1 / (plan.n_bootstrap + 1)
