@@ -10,12 +10,15 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 from click.core import ParameterSource
 
 from thermoswarm.errors import ConfigError
+
+if TYPE_CHECKING:  # the options load on use, after the input files are checked
+    from thermoswarm.analysis.options import AnalysisOptions
 
 #: Flags whose keyword name (:data:`thermoswarm.analysis.options.KEYWORD_SECTIONS`)
 #: differs from the click parameter's name.
@@ -300,7 +303,9 @@ def analyze(
     click.echo("wrote " + ", ".join(str(out / f) for f in files))
 
 
-def cli_options(ctx: click.Context, config_file: Path | None, flags: dict[str, Any]) -> Any:
+def cli_options(
+    ctx: click.Context, config_file: Path | None, flags: dict[str, Any]
+) -> AnalysisOptions:
     """The options of ``--config`` (default: the defaults) with the flags given on the
     command line applied over them (a flag left at its default does not override)."""
     from thermoswarm.analysis.options import AnalysisOptions
