@@ -61,8 +61,9 @@ run: install
 test: install
 	$(PY) -m pytest -q -m "not slow" -n 2 --dist loadfile
 
+# The slow suite: spread test by test over both cores; the slowest are listed.
 test-slow: install
-	$(PY) -m pytest -q -m slow
+	$(PY) -m pytest -q -m slow -n 2 --dist load --durations=10
 
 test-all: install
 	$(PY) -m pytest -q

@@ -8,20 +8,28 @@ bootstrap replicates, test samples of at most 10,000): kinematics, one- and two-
 fits of all energies, bootstrap KS and likelihood-ratio tests on the test sample,
 eight steering bins, the trend.  Its wall time is reported as a whole.
 
-Then each statistic that SciPy can compute is timed both ways on the *same* samples:
+Then each statistic that SciPy can compute is timed both ways on the *same* samples,
+with the *same* procedure and on the *same* number of threads (one: our analysis
+kernels are serial Numba, NumPy's element-wise work is serial, and the bootstrap runs
+with ``n_jobs=1``; BLAS is held to one thread), and both must reach the same optimum:
 
 ``one phase``
     exponential ML fit of all energies + bootstrap KS (200 replicates) of the test
     sample: ours calls ``scipy.stats.goodness_of_fit`` itself, so the ratio is about 1
     by construction (kept as a check);
 ``two-phase fit``
-    the mixture's ML fit of all energies from the same 7 starts: our Newton ascent
-    (grouped starts, exact finish) against ``scipy.optimize.minimize`` (L-BFGS-B on the
-    same log-likelihood with its exact gradient, unconstrained parameters);
+    the mixture's ML fit of all energies from the same 7 starts, the procedure ours
+    uses, with SciPy's optimiser in place of ours at each stage: the starts explored
+    on the same 50,000-sample subsample grouped into the same 512 sorted groups (mean
+    and count), the best finished on all samples.  Ours: EM warm-up and Newton ascent;
+    SciPy: ``scipy.optimize.minimize`` (L-BFGS-B on the same log-likelihood with its
+    exact gradient, unconstrained parameters).  Checked: both final log-likelihoods on
+    all samples agree to ``--loglik-tol`` per sample (``same_optimum``);
 ``LR test``
-    the bootstrap likelihood-ratio test on the same test sample, 5 starts per fit:
-    ours against the same procedure with SciPy's optimiser, timed for
-    ``--baseline-replicates`` replicates and extrapolated to 200 (both printed).
+    the bootstrap likelihood-ratio test on the same test sample, 5 starts per fit, the
+    same grouped-then-exact procedure, every one of the ``--bootstrap`` replicates run
+    both ways (no extrapolation); checked: the observed statistic agrees to
+    ``--loglik-tol`` per sample, and the two p-values to within their Monte Carlo error.
 
 Ratios are baseline / ours (> 1: ours faster).  Peak memory is the process's peak
 resident set size (``resource.getrusage``), which includes drawing the tracks.
@@ -29,27 +37,34 @@ resident set size (``resource.getrusage``), which includes drawing the tracks.
 Usage::
 
     PYTHONPATH=src python benchmarks/bench_analysis.py [--n-tracks N] [--n-frames T]
-        [--bootstrap B] [--baseline-replicates R] [--json]
+        [--bootstrap B] [--loglik-tol TOL] [--json]
 """
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-import resource
-import sys
-import time
 
-import numpy as np
-from scipy import optimize, stats
+# Same threads for both sides: BLAS (SciPy's optimiser, NumPy's linear algebra) on one
+# thread, as our serial kernels; set before NumPy loads.
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
-from thermoswarm.analysis.fit import ExponentialFit, ExponentialMixtureFit
-from thermoswarm.analysis.phase_tests import goodness_of_fit, likelihood_ratio_test
-from thermoswarm.analysis.sampling import draw_test_sample
-from thermoswarm.analysis.study import run_study
-from thermoswarm.analysis.synthetic import synthetic_tracks
-from thermoswarm.maxent import DecayingTemperature, EnergyMixture, SteeringLaw
+import argparse  # noqa: E402
+import json  # noqa: E402
+import math  # noqa: E402
+import resource  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+from scipy import optimize, stats  # noqa: E402
+
+from thermoswarm.analysis.fit import ExponentialFit, ExponentialMixtureFit  # noqa: E402
+from thermoswarm.analysis.phase_tests import goodness_of_fit, likelihood_ratio_test  # noqa: E402
+from thermoswarm.analysis.sampling import draw_test_sample  # noqa: E402
+from thermoswarm.analysis.study import run_study  # noqa: E402
+from thermoswarm.analysis.synthetic import synthetic_tracks  # noqa: E402
+from thermoswarm.maxent import DecayingTemperature, EnergyMixture, SteeringLaw  # noqa: E402
 
 
 def rss_mb() -> float:
@@ -69,35 +84,69 @@ def peak_rss_mb() -> float:
     return kb / 1024.0 if sys.platform != "darwin" else kb / 2**20
 
 
-def _negloglik(theta: np.ndarray, x: np.ndarray) -> tuple[float, np.ndarray]:
-    """Mixture negative log-likelihood and its exact gradient in unconstrained
-    parameters (logit phi, log kT1, log kT2): SciPy's optimiser at its best."""
-    a, u, w = theta
+def _negloglik(
+    theta: np.ndarray, x: np.ndarray, w: np.ndarray | None = None
+) -> tuple[float, np.ndarray]:
+    """Mixture negative log-likelihood of samples ``x`` counted ``w`` times (None: once)
+    and its exact gradient in unconstrained parameters (logit phi, log kT1, log kT2):
+    SciPy's optimiser at its best."""
+    a, u, w_ = theta
     log_phi, log_1m = -np.logaddexp(0.0, -a), -np.logaddexp(0.0, a)
     l1 = log_phi - u - x * np.exp(-u)
-    l2 = log_1m - w - x * np.exp(-w)
+    l2 = log_1m - w_ - x * np.exp(-w_)
     lse = np.logaddexp(l1, l2)
     r1 = np.exp(l1 - lse)
     r2 = 1.0 - r1
     phi = np.exp(log_phi)
-    grad = np.array(
-        [
-            (r1 - phi).sum(),
-            (r1 * (x * np.exp(-u) - 1.0)).sum(),
-            (r2 * (x * np.exp(-w) - 1.0)).sum(),
-        ]
-    )
-    return -float(lse.sum()), -grad
+    terms = (lse, r1 - phi, r1 * (x * np.exp(-u) - 1.0), r2 * (x * np.exp(-w_) - 1.0))
+    if w is not None:
+        terms = tuple(t * w for t in terms)
+    grad = np.array([t.sum() for t in terms[1:]])
+    return -float(terms[0].sum()), -grad
 
 
-def scipy_mixture(x: np.ndarray, starts: list[tuple[float, float, float]]) -> float:
-    """Best log-likelihood of ``phi Exp(k1) + (1-phi) Exp(k2)`` by L-BFGS-B from ``starts``."""
-    best = -np.inf
-    for phi, k1, k2 in starts:
-        th0 = np.array([np.log(phi / (1 - phi)), np.log(k1), np.log(k2)])
-        res = optimize.minimize(_negloglik, th0, args=(x,), method="L-BFGS-B", jac=True)
-        best = max(best, -res.fun)
-    return best
+def _lbfgsb(th0: np.ndarray, x: np.ndarray, w: np.ndarray | None) -> tuple[float, np.ndarray]:
+    res = optimize.minimize(_negloglik, th0, args=(x, w), method="L-BFGS-B", jac=True)
+    return -float(res.fun), res.x
+
+
+def grouped(x: np.ndarray, n_groups: int = 512) -> tuple[np.ndarray, np.ndarray]:
+    """Sorted ``x`` in ``n_groups`` runs of equal count: ``(means, counts)`` (as ours)."""
+    xs = np.sort(x)
+    edges = np.linspace(0, xs.size, n_groups + 1).astype(np.int64)
+    counts = np.diff(edges).astype(np.float64)
+    return np.add.reduceat(xs, edges[:-1]) / counts, counts
+
+
+def scipy_mixture(
+    x: np.ndarray,
+    starts: list[tuple[float, float, float]],
+    explore: tuple[np.ndarray, np.ndarray | None] | None = None,
+) -> float:
+    """Best log-likelihood on all of ``x`` of ``phi Exp(k1) + (1-phi) Exp(k2)`` by L-BFGS-B.
+
+    With ``explore`` (samples, counts), every start runs on it first and only the best
+    is finished on ``x`` (our procedure); without, every start runs on ``x``.
+    """
+    th0s = [np.array([np.log(p / (1 - p)), np.log(k1), np.log(k2)]) for p, k1, k2 in starts]
+    if explore is not None:
+        found = [_lbfgsb(th, *explore) for th in th0s]
+        th0s = [max(found, key=lambda f: f[0])[1]]
+    return max(_lbfgsb(th, x, None)[0] for th in th0s)
+
+
+def _explore_set(x: np.ndarray, rng: np.random.Generator, start_sample: int = 50_000):
+    """Our fit's exploration data: a random subsample above ``start_sample`` samples
+    (drawn from ``rng`` as ours draws it), grouped above 1,024 samples."""
+    work = x if x.size <= start_sample else x[rng.choice(x.size, start_sample, replace=False)]
+    return work, (grouped(work) if work.size > 1024 else (work, None))
+
+
+def _lr_scipy(row: np.ndarray, g: np.random.Generator) -> float:
+    """The LR statistic of ``row`` by our procedure with SciPy's optimiser (5 starts)."""
+    work, explore = _explore_set(row, g)
+    l2 = scipy_mixture(row, quantile_starts(work, 5, g), explore)
+    return max(0.0, 2.0 * (l2 + row.size * (np.log(row.mean()) + 1)))
 
 
 def quantile_starts(x: np.ndarray, n: int, rng: np.random.Generator) -> list:
@@ -118,10 +167,17 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--n-tracks", type=int, default=1000)
     ap.add_argument("--n-frames", type=int, default=10_000)
     ap.add_argument("--bootstrap", type=int, default=200)
-    ap.add_argument("--baseline-replicates", type=int, default=5)
+    ap.add_argument(
+        "--loglik-tol",
+        type=float,
+        default=1e-6,
+        help="largest difference of the two optima's log-likelihoods per sample",
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args(argv)
+    if args.bootstrap < 1 or args.n_tracks < 1 or args.n_frames < 2:
+        ap.error("--bootstrap and --n-tracks must be at least 1, --n-frames at least 2")
 
     t0 = time.perf_counter()
     ds, _ = synthetic_tracks(
@@ -172,28 +228,38 @@ def main(argv: list[str] | None = None) -> dict:
     goodness_of_fit("one_phase", test, n_bootstrap=B, random_state=1)
     ours_one = time.perf_counter() - t0
 
-    # two-phase ML fit of all energies, same 7 starts
-    t0 = time.perf_counter()
-    ExponentialMixtureFit(n_starts=7, random_state=2).fit(energy)
-    ours_mix = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    scipy_mixture(energy, quantile_starts(energy, 7, np.random.default_rng(2)))
-    base_mix = time.perf_counter() - t0
+    # two-phase ML fit of all energies, same 7 starts, same procedure (explore on the
+    # same grouped subsample, finish the best on all samples), same optimum checked
+    t0, c0 = time.perf_counter(), time.process_time()
+    mix = ExponentialMixtureFit(n_starts=7, random_state=2).fit(energy)
+    ours_mix, ours_mix_cpu = time.perf_counter() - t0, time.process_time() - c0
+    g = np.random.default_rng(2)
+    t0, c0 = time.perf_counter(), time.process_time()
+    work, explore = _explore_set(energy, g)
+    ll_scipy = scipy_mixture(energy, quantile_starts(work, 7, g), explore)
+    base_mix, base_mix_cpu = time.perf_counter() - t0, time.process_time() - c0
+    mix_gap = abs(mix.loglik_ - ll_scipy) / energy.size
 
-    # bootstrap LR test on the test sample: ours (B replicates) against the same
-    # procedure with SciPy's optimiser (R replicates, extrapolated)
-    t0 = time.perf_counter()
-    likelihood_ratio_test(test, n_bootstrap=B, random_state=3, n_jobs=1)
-    ours_lr = time.perf_counter() - t0
+    # bootstrap LR test on the test sample: ours against the same procedure with
+    # SciPy's optimiser, every replicate run both ways
+    t0, c0 = time.perf_counter(), time.process_time()
+    lr = likelihood_ratio_test(test, n_bootstrap=B, random_state=3, n_jobs=1)
+    ours_lr, ours_lr_cpu = time.perf_counter() - t0, time.process_time() - c0
     g = np.random.default_rng(3)
-    t0 = time.perf_counter()
-    for _ in range(args.baseline_replicates + 1):  # the data and R replicates
-        row = g.exponential(test.mean(), test.size)
-        2.0 * (
-            scipy_mixture(row, quantile_starts(row, 5, g)) + row.size * (np.log(row.mean()) + 1)
-        )
-    per_fit = (time.perf_counter() - t0) / (args.baseline_replicates + 1)
-    base_lr = per_fit * (B + 1)
+    t0, c0 = time.perf_counter(), time.process_time()
+    lr_scipy = _lr_scipy(test, g)
+    null = [_lr_scipy(g.exponential(test.mean(), test.size), g) for _ in range(B)]
+    base_lr, base_lr_cpu = time.perf_counter() - t0, time.process_time() - c0
+    p_scipy = (1 + sum(v >= lr_scipy for v in null)) / (B + 1)
+    lr_gap = abs(lr.statistic - lr_scipy) / test.size
+    # the two p-values are Monte Carlo estimates from independent replicates
+    p_mid = 0.5 * (lr.p_value + p_scipy)
+    p_tol = 4.0 * math.sqrt(2.0 * max(p_mid * (1 - p_mid), 1.0 / B) / B)
+    same = {
+        "two_phase_fit": bool(mix_gap <= args.loglik_tol),
+        "lr_statistic": bool(lr_gap <= args.loglik_tol),
+        "lr_p_value": bool(abs(lr.p_value - p_scipy) <= p_tol),
+    }
     e = fits["energy"]
     out = {
         "benchmark": "analysis",
@@ -210,6 +276,7 @@ def main(argv: list[str] | None = None) -> dict:
         "samples_per_s": round(n_samples / wall),
         "peak_rss_mb": round(peak, 1),
         "rss_before_analysis_mb": round(rss_before, 1),
+        "threads": 1,
         "same_work": {
             "one_phase_fit_and_bootstrap_ks": {
                 "n_fit": int(energy.size),
@@ -222,21 +289,35 @@ def main(argv: list[str] | None = None) -> dict:
             "two_phase_fit_all_energies": {
                 "n": int(energy.size),
                 "starts": 7,
+                "explored_on": "the same 50,000-sample subsample in 512 sorted groups",
                 "ours_s": round(ours_mix, 3),
                 "scipy_lbfgsb_s": round(base_mix, 3),
+                "ours_cpu_over_wall": round(ours_mix_cpu / ours_mix, 2),
+                "scipy_cpu_over_wall": round(base_mix_cpu / base_mix, 2),
                 "ratio": round(base_mix / ours_mix, 2),
+                "loglik_ours": mix.loglik_,
+                "loglik_scipy": ll_scipy,
+                "loglik_gap_per_sample": mix_gap,
             },
             "lr_test_bootstrap": {
                 "n_test": int(test.size),
                 "replicates": B,
                 "starts": 5,
                 "ours_s": round(ours_lr, 3),
-                "scipy_per_fit_s": round(per_fit, 4),
-                "scipy_replicates_timed": args.baseline_replicates,
-                "scipy_extrapolated_s": round(base_lr, 3),
+                "scipy_s": round(base_lr, 3),
+                "ours_cpu_over_wall": round(ours_lr_cpu / ours_lr, 2),
+                "scipy_cpu_over_wall": round(base_lr_cpu / base_lr, 2),
                 "ratio": round(base_lr / ours_lr, 2),
+                "statistic_ours": lr.statistic,
+                "statistic_scipy": lr_scipy,
+                "statistic_gap_per_sample": lr_gap,
+                "p_ours": lr.p_value,
+                "p_scipy": p_scipy,
+                "p_tolerance": p_tol,
             },
         },
+        "same_optimum": same,
+        "loglik_tol_per_sample": args.loglik_tol,
         "result": {
             "preferred": e.get("preferred"),
             "phi": e.get("two_phase", {}).get("phi"),
@@ -256,9 +337,14 @@ def main(argv: list[str] | None = None) -> dict:
         print(f"stages (s): {stages}")
         print(f"{'same work, same samples':<44} {'ours (s)':>9} {'scipy (s)':>10} {'ratio':>7}")
         for name, r in out["same_work"].items():
-            base = r.get("scipy_s", r.get("scipy_lbfgsb_s", r.get("scipy_extrapolated_s")))
+            base = r.get("scipy_s", r.get("scipy_lbfgsb_s"))
             print(f"{name:<44} {r['ours_s']:>9.3f} {base:>10.3f} {r['ratio']:>7.2f}")
+        print(f"same optimum (log-likelihood within {args.loglik_tol:g} per sample; "
+              f"p-values within their Monte Carlo error): {same}")  # fmt: skip
         print(f"result: {out['result']}")
+    if not all(same.values()):
+        print(f"error: ours and SciPy reach different optima: {same}", file=sys.stderr)
+        raise SystemExit(1)
     return out
 
 

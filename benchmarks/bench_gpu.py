@@ -9,8 +9,9 @@ speed re-drawn every 0.1 s, ``dt = 0.1 s``; compilation and the first step exclu
 
 Columns: robot-steps per second of the Warp engine (``gpu``), its exact largest overlap as
 a fraction of the diameter (SciPy k-d tree on the host up to ``--kdtree-max`` robots, the
-device's exhaustive pair search above), device bytes per robot, the CPU engine (Numba,
-all cores) on the same workload and its overlap, JAX-MD (Brownian dynamics of soft
+device's exhaustive pair search above), device bytes per robot, the CPU engine (Numba;
+one thread below 60,000 robots, all cores above: the engine's own choice) on the same
+workload and its overlap, JAX-MD (Brownian dynamics of soft
 discs with a cell-list neighbour list on the same device: a throughput peer, not the same
 contact model) and its largest overlap, and the speed-up of the Warp engine over each.
 A baseline that cannot run says why in its column.  The goal on one H100 is at least

@@ -11,9 +11,15 @@ points:
 - ``numpy_shadow``: the same hard-shadow test written as plain vectorised NumPy (one
   pass over all points per occluder), which also checks ``light_level``'s answer.
 
+Same threads on both sides: NumPy's element-wise work runs on one thread, so our
+kernels do too by default (``--threads 1``, Numba's thread count); ``--threads N``
+times ours on N threads against the same single-threaded NumPy (the JSON's
+``numba_threads`` says which).
+
 Usage::
 
-    python benchmarks/bench_light.py [--sizes 100000 1000000] [--repeat 3] [--json]
+    python benchmarks/bench_light.py [--sizes 100000 1000000] [--repeat 3] [--threads 1]
+        [--json]
 """
 
 from __future__ import annotations
@@ -133,8 +139,12 @@ def bench_size(n: int, occ: Shapes, rng: np.random.Generator, repeat: int, seed:
     return row
 
 
-def run(sizes: tuple[int, ...] = (100_000, 1_000_000), repeat: int = 3, seed: int = 0) -> dict:
-    """Run the benchmark; returns the JSON-able result (keys in docs/light.md)."""
+def run(
+    sizes: tuple[int, ...] = (100_000, 1_000_000), repeat: int = 3, seed: int = 0, threads: int = 1
+) -> dict:
+    """Run the benchmark on ``threads`` Numba threads; returns the JSON-able result (keys in
+    docs/light.md)."""
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     occ = scene()
     rng = np.random.default_rng(seed)
     # Warm-up (Numba loads its cache or compiles): timed once, reported separately.
@@ -164,16 +174,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sizes", type=int, nargs="+", default=[100_000, 1_000_000])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument(
+        "--threads", type=int, default=1, help="Numba threads for ours (NumPy uses one)"
+    )
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     args = ap.parse_args(argv)
-    res = run(tuple(args.sizes), args.repeat, args.seed)
+    if args.threads < 1:
+        print(f"error: --threads {args.threads}: expected 1 or more", file=sys.stderr)
+        return 2
+    res = run(tuple(args.sizes), args.repeat, args.seed, args.threads)
     if args.json:
         json.dump(res, sys.stdout, indent=2)
         print()
         return 0
     print(
         f"warm-up {res['warmup_s']:.2f} s; scene {res['scene']}; "
-        f"{res['numba_threads']} Numba threads of {res['cpu_count']} CPUs"
+        f"ours on {res['numba_threads']} Numba thread(s) of {res['cpu_count']} CPUs, "
+        f"NumPy on one"
     )
     for row in res["sizes"]:
         print(

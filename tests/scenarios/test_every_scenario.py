@@ -84,3 +84,14 @@ def test_scenario_builds_and_steps_soundly(name, tmp_path):
     pos = tracks["position"].isel(keypoints=0).transpose("time", "individuals", "space").values
     assert pos.shape == (STEPS // 10 + 1, state.n, 2) and np.isfinite(pos).all()
     np.testing.assert_allclose(pos[-1], state.by_id(state.pos), rtol=0, atol=1e-9)
+
+    # the overlap figures the README promises for every scenario, from one definition:
+    # the final one equals the engine's independent measure of the final configuration
+    for key in ("max_overlap_fraction", "final_max_overlap_fraction", "mean_sweeps_per_step"):
+        assert key in m, f"{name} does not report {key}"
+    final = runner.build(cfg)[2].max_overlap(state) / (2 * r)
+    assert m["final_max_overlap_fraction"] == pytest.approx(final, abs=1e-12)
+    assert 0 <= m["final_max_overlap_fraction"] <= sim.params.overlap_tol
+    if sim.params.mode != "inertial":
+        assert 0 <= m["max_overlap_fraction"] <= 2 * sim.params.overlap_tol
+        assert m["mean_sweeps_per_step"] >= 0

@@ -80,7 +80,7 @@ segments are interpolated onto a regular grid, filtered and interpolated back.
 from __future__ import annotations
 
 import json
-import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -93,6 +93,13 @@ from thermoswarm.analysis.exclusions import (
     excluded_summary,
     implausible_thresholds,
 )
+from thermoswarm.analysis.options import (
+    KEYWORD_SECTIONS,
+    AnalysisOptions,
+    CleanOptions,
+    ExcludeOptions,
+    StepOptions,
+)
 from thermoswarm.analysis.samples import (
     clean_columns,
     interpolate_gaps,
@@ -101,7 +108,6 @@ from thermoswarm.analysis.samples import (
 )
 from thermoswarm.errors import ConfigError, InputError
 from thermoswarm.tracks import (
-    DUPLICATE_RULES,
     centroid,
     individual_times,
     per_individual,
@@ -110,6 +116,12 @@ from thermoswarm.tracks import (
 
 __all__ = [
     "compute_kinematics",
+    "clean_samples",
+    "step_clock",
+    "fill_and_smooth",
+    "classify_steps",
+    "steering",
+    "steps_dataset",
     "data_quality",
     "implausible_thresholds",
     "excluded_summary",
@@ -167,174 +179,102 @@ DATA_QUALITY_KEYS = (
 )
 
 
-def _check_param(name: str, value: Any, *, positive: bool = False, allow_none: bool = True):
-    if value is None:
-        if allow_none:
-            return None
-        raise ConfigError(f"{name} must be a number, got None")
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ConfigError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(v) or v < 0 or (positive and v == 0):
-        kind = "a positive number" if positive else "a non-negative number"
-        raise ConfigError(f"{name} must be {kind}, got {value!r}")
-    return v
+def _options(options: AnalysisOptions | None, keywords: dict[str, Any]) -> AnalysisOptions:
+    """``options`` with the keyword API's flat names applied (``smooth=0.1``, ...)."""
+    sections = ("clean", "steps", "exclude")  # and read.fps
+    wrong = [k for k in keywords if k != "fps" and KEYWORD_SECTIONS.get(k) not in sections]
+    if wrong:
+        raise ConfigError(f"compute_kinematics takes no option {wrong[0]!r}")
+    return AnalysisOptions.from_keywords(options, **keywords)
 
 
-# --------------------------------------------------------------------------------------
-# Samples: each individual's own, sorted, duplicates resolved
+@dataclass(frozen=True)
+class Samples:
+    """The clean stage's output: each individual's samples on rows ``(samples, individuals)``.
+
+    ``T`` holds the times (s, NaN: no sample), ``X`` and ``Y`` the positions (mm, NaN:
+    missing), ``input_row`` the input row of each sample (-1: none); ``one_axis`` is
+    true when every column of ``T`` is the same clean clock.
+    """
+
+    T: np.ndarray
+    X: np.ndarray
+    Y: np.ndarray
+    input_row: np.ndarray
+    sample: np.ndarray
+    one_axis: bool
+    src: str
 
 
-# --------------------------------------------------------------------------------------
-# Implausible motion
+@dataclass(frozen=True)
+class Clock:
+    """The steps' durations: ``dt`` (s), each individual's median step ``med`` (s), and
+    which steps exist, are regular and are gaps (``(samples - 1, individuals)``)."""
+
+    dt: np.ndarray
+    med: np.ndarray
+    exists: np.ndarray
+    regular: np.ndarray
+    gap: np.ndarray
 
 
-# --------------------------------------------------------------------------------------
-# The kinematics
+@dataclass(frozen=True)
+class Classes:
+    """The classify stage's output: the step's bucket ``cls`` (codes of
+    :data:`STEP_CLASSES`), its speed (mm/s), the used, stationary and measured-moving
+    masks, the implausible-speed threshold per individual (mm/s) and its rule."""
+
+    cls: np.ndarray
+    speed: np.ndarray
+    used: np.ndarray
+    stationary: np.ndarray
+    thr: np.ndarray
+    rule: dict[str, Any]
+    stationary_speed: float
 
 
-def compute_kinematics(
-    ds: xr.Dataset,
-    *,
-    fps: float | None = None,
-    keypoint: str | None = None,
-    smooth: float | None = None,
-    polyorder: int = 2,
-    mass: float | None = None,
-    min_speed: float = 0.0,
-    max_speed: float | None = None,
-    gap_factor: float = 1.5,
-    regular_tolerance: float = 0.1,
-    max_gap: float = 0.0,
-    stationary_speed: float | None = None,
-    stationary_duration: float = 1.0,
-    drop_stationary: bool = False,
-    min_confidence: float | None = None,
-    duplicates: str = "error",
-    held_positions: str = "resting",
-    resting_speed: float = 0.0,
-    keep_resting: bool = False,
-    implausible_factor: float = 5.0,
-    body_length: float | None = None,
-    max_body_lengths_per_s: float = 50.0,
-    keep_implausible: bool = False,
-    min_track_extent: float | None = None,
-) -> xr.Dataset:
-    """Kinematics of every step of every track.
+def _positions(ds: xr.Dataset, opts: CleanOptions, counts: dict[str, Any]) -> xr.DataArray:
+    """Positions of the followed keypoint (or the centroid), low-confidence ones missing."""
+    position = ds["position"]
+    if opts.min_confidence is not None and "confidence" in ds:
+        low = (ds["confidence"] < opts.min_confidence).values
+        counts["n_low_confidence"] = int((low & np.isfinite(position.values).all(axis=1)).sum())
+        position = position.where(~(ds["confidence"] < opts.min_confidence))
+    if opts.keypoint is not None:
+        kps = [str(k) for k in ds["keypoints"].values]
+        if opts.keypoint not in kps:
+            raise InputError(f"keypoint {opts.keypoint!r} not in the data; it has {kps}")
+        pos = position.sel(keypoints=opts.keypoint, drop=True)
+    else:
+        pos = centroid(ds.assign(position=position))
+    return pos.transpose("time", "space", "individuals")
 
-    Parameters
-    ----------
-    ds
-        Trajectories (positions in mm), on a shared clock or per-individual clocks.
-    fps
-        Frame rate, needed when the time coordinate holds frame numbers.
-    keypoint
-        Keypoint to follow; default the centroid (:func:`thermoswarm.tracks.centroid`).
-    smooth, polyorder
-        Savitzky-Golay window in seconds (``None``: no smoothing) and order.
-    mass
-        Mass in kg: energies ``m v^2 / 2`` in joules.  Default: per unit mass,
-        ``v^2 / 2`` in mm^2/s^2.
-    min_speed
-        Heading is undefined for steps with ``speed <= min_speed`` (mm/s).
-    max_speed
-        Steps faster than this (mm/s) are not used.
-    gap_factor
-        Steps longer than ``gap_factor`` times the individual's median step are gaps
-        (default 1.5: one missed sample makes a gap).
-    regular_tolerance
-        A step is regular within this fraction of the individual's median step
-        (default 0.1: time stamps rounded to the millisecond at 10 Hz are regular).
-    max_gap
-        Missing-position gaps up to this long (s) are linearly interpolated.
-    stationary_speed, stationary_duration, drop_stationary
-        A long stationary period: at least ``stationary_duration`` s of steps with
-        ``speed <= stationary_speed`` (mm/s; default ``min_speed``); flagged, and
-        left out of the energies with ``drop_stationary``.
-    min_confidence
-        Positions whose ``confidence`` is below this are treated as missing.
-    duplicates
-        Two different samples of one individual at one time: ``"error"`` (default),
-        ``"first"`` or ``"mean"``.  Exact duplicates are dropped and counted.
-    held_positions
-        ``"resting"`` (default): a repeated position is a step at zero speed;
-        ``"missing"``: it was held by the tracker, the sample is missing.
-    resting_speed, keep_resting
-        Steps at or below ``resting_speed`` (mm/s) are resting: left out of the fits
-        (counted, ``resting_fraction``) unless ``keep_resting``.
-    implausible_factor, body_length, max_body_lengths_per_s, keep_implausible
-        The implausible-motion rule (:func:`implausible_thresholds`); implausible
-        steps are left out unless ``keep_implausible``.  ``body_length`` in mm.
-    min_track_extent
-        Individuals whose positions stay within this many mm (bounding-box diagonal)
-        are static objects, not animals: their steps are left out (``static_track``).
 
-    Returns
-    -------
-    xarray.Dataset
-        See the module docstring; the counts are in ``attrs``.
+def _check_size(src: str, T0: np.ndarray, n_i: int) -> None:
+    """Refuse tables above :data:`MAX_CELLS` before they exhaust memory."""
+    if T0.shape[0] * n_i > MAX_CELLS:
+        n_samples = int(np.isfinite(T0).sum())
+        raise InputError(
+            f"{src}: {n_i} individuals x {T0.shape[0]} samples (the longest track) is "
+            f"{T0.shape[0] * n_i:.3g} cells, above the {MAX_CELLS:.0e} the analysis works "
+            f"on ({100 * n_samples / (T0.shape[0] * n_i):.1f} % of them hold samples); "
+            "merge fragmented track ids or analyse the recording in parts"
+        )
+
+
+def clean_samples(ds: xr.Dataset, opts: AnalysisOptions, counts: dict[str, Any]) -> Samples:
+    """The clean stage: each individual's own samples, sorted, duplicates resolved,
+    non-finite and (with ``held_positions = "missing"``) held positions missing.
+
+    ``ds`` is validated first; ``counts`` (the :data:`DATA_QUALITY_KEYS`) is filled in.
     """
     ds = validate_tracks(ds, source=ds.attrs.get("source_file"))
     src = str(ds.attrs.get("source_file") or "the input")
-    smooth = _check_param("smooth", smooth, positive=True)
-    mass = _check_param("mass", mass, positive=True)
-    min_speed = _check_param("min_speed", min_speed, allow_none=False)
-    max_speed = _check_param("max_speed", max_speed, positive=True)
-    gap_factor = _check_param("gap_factor", gap_factor, positive=True, allow_none=False)
-    regular_tolerance = _check_param(
-        "regular_tolerance", regular_tolerance, positive=True, allow_none=False
-    )
-    max_gap = _check_param("max_gap", max_gap, allow_none=False)
-    stationary_speed = _check_param("stationary_speed", stationary_speed)
-    stationary_duration = _check_param(
-        "stationary_duration", stationary_duration, allow_none=False
-    )
-    min_confidence = _check_param("min_confidence", min_confidence)
-    min_track_extent = _check_param("min_track_extent", min_track_extent, positive=True)
-    resting_speed = _check_param("resting_speed", resting_speed, allow_none=False)
-    implausible_factor = _check_param(
-        "implausible_factor", implausible_factor, positive=True, allow_none=False
-    )
-    body_length = _check_param("body_length", body_length, positive=True)
-    max_body_lengths_per_s = _check_param(
-        "max_body_lengths_per_s", max_body_lengths_per_s, positive=True, allow_none=False
-    )
-    if int(polyorder) != polyorder or polyorder < 1:
-        raise ConfigError(f"polyorder must be an integer >= 1, got {polyorder!r}")
-    if gap_factor < 1:
-        raise ConfigError(f"gap_factor must be at least 1, got {gap_factor!r}")
-    if regular_tolerance >= 1:
-        raise ConfigError(f"regular_tolerance must be below 1, got {regular_tolerance!r}")
-    if implausible_factor <= 1:
-        raise ConfigError(f"implausible_factor must exceed 1, got {implausible_factor!r}")
-    if duplicates not in DUPLICATE_RULES:
-        raise ConfigError(
-            f"duplicates must be one of {', '.join(DUPLICATE_RULES)}, got {duplicates!r}"
-        )
-    if held_positions not in ("resting", "missing"):
-        raise ConfigError(f"held_positions must be 'resting' or 'missing', got {held_positions!r}")
-    if stationary_speed is None:
-        stationary_speed = min_speed
-
-    counts: dict[str, Any] = dict.fromkeys(DATA_QUALITY_KEYS, 0)
     for k in ("n_duplicate_rows", "n_conflicting_duplicates", "n_decreasing_timestamps"):
         counts[k] = int(ds.attrs.get(k, 0) or 0)  # what the reader sorted and resolved
-    position = ds["position"]
-    if min_confidence is not None and "confidence" in ds:
-        low = (ds["confidence"] < min_confidence).values
-        counts["n_low_confidence"] = int((low & np.isfinite(position.values).all(axis=1)).sum())
-        position = position.where(~(ds["confidence"] < min_confidence))
-    if keypoint is not None:
-        kps = [str(k) for k in ds["keypoints"].values]
-        if keypoint not in kps:
-            raise InputError(f"keypoint {keypoint!r} not in the data; it has {kps}")
-        pos = position.sel(keypoints=keypoint, drop=True)
-    else:
-        pos = centroid(ds.assign(position=position))
-    pos = pos.transpose("time", "space", "individuals")
+    pos = _positions(ds, opts.clean, counts)
     names = [str(v) for v in ds["individuals"].values]
-    T0 = individual_times(ds, fps)
+    T0 = individual_times(ds, opts.read.fps)
     X = np.asarray(pos.sel(space="x").values, dtype=np.float64)
     Y = np.asarray(pos.sel(space="y").values, dtype=np.float64)
     n_i = X.shape[1]
@@ -346,16 +286,9 @@ def compute_kinematics(
     if nonfinite.any():
         X = np.where(nonfinite, np.nan, X)
         Y = np.where(nonfinite, np.nan, Y)
-    if T0.shape[0] * n_i > MAX_CELLS:
-        n_samples = int(np.isfinite(T0).sum())
-        raise InputError(
-            f"{src}: {n_i} individuals x {T0.shape[0]} samples (the longest track) is "
-            f"{T0.shape[0] * n_i:.3g} cells, above the {MAX_CELLS:.0e} the analysis works "
-            f"on ({100 * n_samples / (T0.shape[0] * n_i):.1f} % of them hold samples); "
-            "merge fragmented track ids or analyse the recording in parts"
-        )
+    _check_size(src, T0, n_i)
     T, X, Y, input_row = clean_columns(
-        T0, X, Y, duplicates, names, src, counts, per_individual(ds)
+        T0, X, Y, opts.clean.duplicates, names, src, counts, per_individual(ds)
     )
     # One shared, clean time axis (the common case: a video's frames): every column of T
     # is the same view, so the steps and the median step are computed once.
@@ -369,24 +302,28 @@ def compute_kinematics(
             f"{src}: need at least 2 samples of one individual to form a step; the most "
             f"any individual has is {int(n_per.max(initial=0))}"
         )
-    if held_positions == "missing":
+    if opts.clean.held_positions == "missing":
         held = np.zeros_like(sample)
         held[1:] = sample[1:] & (X[1:] == X[:-1]) & (Y[1:] == Y[:-1])
         counts["n_held_positions"] = int(held.sum())
         X = np.where(held, np.nan, X)
         Y = np.where(held, np.nan, Y)
+    return Samples(T, X, Y, input_row, sample, one_axis, src)
 
-    # Steps and each individual's own median step
-    exists = sample[1:] & sample[:-1]
+
+def step_clock(s: Samples, opts: StepOptions, counts: dict[str, Any]) -> Clock:
+    """The step stage's clock: each step's duration and each individual's median step;
+    regular steps (within ``regular_tolerance`` of it) and gaps (over ``gap_factor``)."""
+    exists = s.sample[1:] & s.sample[:-1]
     has = exists.any(axis=0)
-    med = np.full(n_i, np.nan)
-    if one_axis:
-        dt1 = np.diff(T[:, 0])
+    med = np.full(s.T.shape[1], np.nan)
+    if s.one_axis:
+        dt1 = np.diff(s.T[:, 0])
         dt = np.broadcast_to(dt1[:, None], exists.shape)
         med[:] = float(np.median(dt1))
     else:
         with np.errstate(invalid="ignore"):
-            dt = np.diff(T, axis=0)
+            dt = np.diff(s.T, axis=0)
         if has.any():
             med[has] = np.nanmedian(np.where(exists[:, has], dt[:, has], np.nan), axis=0)
     meds = med[has]
@@ -394,11 +331,21 @@ def compute_kinematics(
     counts["median_dt_min"] = float(meds.min())
     counts["median_dt_max"] = float(meds.max())
     with np.errstate(invalid="ignore"):
-        regular = exists & (np.abs(dt - med) <= regular_tolerance * med)
-        gap = exists & (dt > gap_factor * med)
+        regular = exists & (np.abs(dt - med) <= opts.regular_tolerance * med)
+        gap = exists & (dt > opts.gap_factor * med)
     counts["n_irregular_steps"] = int((exists & ~regular).sum())
     counts["n_steps_total"] = int(exists.sum())
+    return Clock(dt, med, exists, regular, gap)
 
+
+def fill_and_smooth(
+    s: Samples, clock: Clock, opts: CleanOptions, counts: dict[str, Any]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The clean stage's second half, which needs the steps' clock: missing positions
+    counted, short gaps interpolated, positions smoothed per contiguous segment.
+
+    Returns ``X``, ``Y`` (mm) and the mask of samples with a position."""
+    T, X, Y, sample = s.T, s.X, s.Y, s.sample
     present = sample & np.isfinite(X) & np.isfinite(Y)
     idx = np.arange(T.shape[0])[:, None]
     seen_before = np.maximum.accumulate(np.where(present, idx, -1), axis=0) >= 0
@@ -408,84 +355,132 @@ def compute_kinematics(
     holes = sample & ~present
     counts["n_missing_positions"] = int(holes.sum())
     counts["n_gaps"] = int(runs(holes & seen_before & seen_after)[0].size)
-    if max_gap > 0:
-        X, Y = interpolate_gaps(T, X, Y, sample, max_gap, counts)
+    if opts.max_gap > 0:
+        X, Y = interpolate_gaps(T, X, Y, sample, opts.max_gap, counts)
         present = sample & np.isfinite(X) & np.isfinite(Y)
-    if smooth is not None:
-        link = present[:-1] & present[1:] & exists & ~gap
-        X, Y = smooth_positions(
-            T, X, Y, link, med, smooth, int(polyorder), exists & ~regular, counts
-        )
+    if opts.smooth is not None:
+        link = present[:-1] & present[1:] & clock.exists & ~clock.gap
+        order = int(_polyorder(opts))
+        irregular = clock.exists & ~clock.regular
+        X, Y = smooth_positions(T, X, Y, link, clock.med, opts.smooth, order, irregular, counts)
     else:
         si, _, _ = runs(present)
-        counts["n_segments"] = int(si.size + (present[:-1] & present[1:] & gap).sum())
+        counts["n_segments"] = int(si.size + (present[:-1] & present[1:] & clock.gap).sum())
+    return X, Y, present
 
-    # Buckets, in order
-    both = exists & present[:-1] & present[1:]
-    dx = np.diff(X, axis=0)
-    dy = np.diff(Y, axis=0)
-    cls = np.full(dt.shape, -1, dtype=np.int8)
-    cls[exists & ~both] = CODE["missing_position"]
-    cls[both & gap] = CODE["time_gap"]
-    measured = both & ~gap
-    if min_track_extent is not None:
-        with np.errstate(invalid="ignore"):
-            xs, ys = np.where(present, X, np.nan), np.where(present, Y, np.nan)
-        ok_cols = present.any(axis=0)
-        extent = np.zeros(n_i)
-        if ok_cols.any():
-            px, py = xs[:, ok_cols], ys[:, ok_cols]
-            extent[ok_cols] = np.hypot(
-                np.nanmax(px, axis=0) - np.nanmin(px, axis=0),
-                np.nanmax(py, axis=0) - np.nanmin(py, axis=0),
-            )
-        static = ok_cols & (extent < min_track_extent)
-        counts["n_static_tracks"] = int(static.sum())
-        cls[measured & static[None, :]] = CODE["static_track"]
-        measured &= ~static[None, :]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        speed_s = np.where(measured, np.hypot(dx, dy) / np.where(measured, dt, 1.0), np.nan)
-    cand = measured.copy()
-    if max_speed is not None:
-        fast = cand & (speed_s > max_speed)
-        cls[fast] = CODE["over_max_speed"]
-        cand &= ~fast
-    resting = cand & (speed_s <= resting_speed)
-    thr, rule = implausible_thresholds(
-        speed_s, cand & ~resting, factor=implausible_factor, body_length=body_length,
-        max_body_lengths_per_s=max_body_lengths_per_s,
-    )  # fmt: skip
-    implausible = cand & (speed_s > thr[None, :])
-    moving_cand = (cand & ~resting).sum(axis=0)
-    all_bad = (moving_cand > 0) & (implausible.sum(axis=0) == moving_cand)
-    counts["n_individuals_all_implausible"] = int(all_bad.sum())
-    if keep_implausible:
-        counts["n_implausible_kept"] = int(implausible.sum())
-    else:
-        cls[implausible] = CODE["implausible"]
-        cand &= ~implausible
-    resting &= cand
-    n_rest = int(resting.sum())
-    if keep_resting:
-        counts["n_resting_kept"] = n_rest
-    else:
-        cls[resting] = CODE["resting"]
-        cand &= ~resting
 
-    # Long stationary periods (among measured, plausible steps)
-    still = (cand | resting) & (speed_s <= stationary_speed)
+def _polyorder(opts: CleanOptions) -> int:
+    return 2 if opts.polyorder is None else int(opts.polyorder)
+
+
+def _static_tracks(
+    X: np.ndarray, Y: np.ndarray, present: np.ndarray, min_extent: float, counts: dict[str, Any]
+) -> np.ndarray:
+    """Individuals whose positions stay within ``min_extent`` mm (bounding-box diagonal)."""
+    n_i = X.shape[1]
+    with np.errstate(invalid="ignore"):
+        xs, ys = np.where(present, X, np.nan), np.where(present, Y, np.nan)
+    ok_cols = present.any(axis=0)
+    extent = np.zeros(n_i)
+    if ok_cols.any():
+        px, py = xs[:, ok_cols], ys[:, ok_cols]
+        extent[ok_cols] = np.hypot(
+            np.nanmax(px, axis=0) - np.nanmin(px, axis=0),
+            np.nanmax(py, axis=0) - np.nanmin(py, axis=0),
+        )
+    static = ok_cols & (extent < min_extent)
+    counts["n_static_tracks"] = int(static.sum())
+    return static
+
+
+def _stationary(
+    T: np.ndarray, still: np.ndarray, duration: float, counts: dict[str, Any]
+) -> np.ndarray:
+    """Steps in runs of ``still`` steps lasting at least ``duration`` s."""
     stationary = np.zeros_like(still)
     si, st, en = runs(still)
     if si.size:
         dur = T[en, si] - T[st, si]  # a run of steps st..en-1 spans samples st..en
-        long_ = dur >= stationary_duration
+        long_ = dur >= duration
         counts["n_stationary_periods"] = int(long_.sum())
         counts["stationary_seconds"] = float(dur[long_].sum())
         for i, a, b in zip(si[long_].tolist(), st[long_].tolist(), en[long_].tolist(),
                            strict=True):  # fmt: skip
             stationary[a:b, i] = True
     counts["n_stationary_steps"] = int(stationary.sum())
-    if drop_stationary:
+    return stationary
+
+
+def _moving_buckets(
+    cls: np.ndarray,
+    cand: np.ndarray,
+    speed: np.ndarray,
+    opts: ExcludeOptions,
+    counts: dict[str, Any],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    """Over-max-speed, implausible and resting steps among the measured ones ``cand``.
+
+    Marks their buckets in ``cls`` (unless kept) and returns the steps still
+    candidates, the resting ones among them, and the implausible threshold and rule."""
+    if opts.max_speed is not None:
+        fast = cand & (speed > opts.max_speed)
+        cls[fast] = CODE["over_max_speed"]
+        cand = cand & ~fast
+    resting = cand & (speed <= opts.resting_speed)
+    thr, rule = implausible_thresholds(
+        speed, cand & ~resting, factor=opts.implausible_factor, body_length=opts.body_length,
+        max_body_lengths_per_s=opts.max_body_lengths_per_s,
+    )  # fmt: skip
+    implausible = cand & (speed > thr[None, :])
+    moving_cand = (cand & ~resting).sum(axis=0)
+    all_bad = (moving_cand > 0) & (implausible.sum(axis=0) == moving_cand)
+    counts["n_individuals_all_implausible"] = int(all_bad.sum())
+    if opts.keep_implausible:
+        counts["n_implausible_kept"] = int(implausible.sum())
+    else:
+        cls[implausible] = CODE["implausible"]
+        cand = cand & ~implausible
+    resting &= cand
+    n_rest = int(resting.sum())
+    if opts.keep_resting:
+        counts["n_resting_kept"] = n_rest
+    else:
+        cls[resting] = CODE["resting"]
+        cand = cand & ~resting
+    return cand, resting, thr, rule
+
+
+def classify_steps(
+    s: Samples,
+    clock: Clock,
+    X: np.ndarray,
+    Y: np.ndarray,
+    present: np.ndarray,
+    opts: AnalysisOptions,
+    counts: dict[str, Any],
+) -> Classes:
+    """The classify stage: every step in exactly one bucket, in the order of the
+    module docstring, each bucket counted in ``counts``."""
+    ex = opts.exclude
+    exists, gap = clock.exists, clock.gap
+    both = exists & present[:-1] & present[1:]
+    cls = np.full(clock.dt.shape, -1, dtype=np.int8)
+    cls[exists & ~both] = CODE["missing_position"]
+    cls[both & gap] = CODE["time_gap"]
+    measured = both & ~gap
+    if ex.min_track_extent is not None:
+        static = _static_tracks(X, Y, present, ex.min_track_extent, counts)
+        cls[measured & static[None, :]] = CODE["static_track"]
+        measured &= ~static[None, :]
+    dx, dy = np.diff(X, axis=0), np.diff(Y, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        speed = np.where(measured, np.hypot(dx, dy) / np.where(measured, clock.dt, 1.0), np.nan)
+    cand, resting, thr, rule = _moving_buckets(cls, measured.copy(), speed, ex, counts)
+    # Long stationary periods (among measured, plausible steps)
+    still_speed = opts.steps.min_speed if ex.stationary_speed is None else ex.stationary_speed
+    still_for = 1.0 if ex.stationary_duration is None else ex.stationary_duration
+    stationary = _stationary(s.T, (cand | resting) & (speed <= still_speed), still_for, counts)
+    if ex.drop_stationary:
         drop = cand & stationary
         cls[drop] = CODE["stationary_dropped"]
         cand &= ~drop
@@ -493,25 +488,91 @@ def compute_kinematics(
     cls[used] = CODE["used"]
     for c, key in zip(STEP_CLASSES, STEP_BUCKETS, strict=True):
         counts[key] = int((cls == CODE[c]).sum())
-    counts["n_steps_used_regular"] = int((used & regular).sum())
-    counts["n_steps_used_irregular"] = int((used & ~regular).sum())
-    denom = int(used.sum()) + (0 if keep_resting else n_rest)  # plausible measured steps
+    counts["n_steps_used_regular"] = int((used & clock.regular).sum())
+    counts["n_steps_used_irregular"] = int((used & ~clock.regular).sum())
+    n_rest = int(resting.sum())
+    denom = int(used.sum()) + (0 if ex.keep_resting else n_rest)  # plausible measured steps
     counts["resting_fraction"] = float(n_rest / denom) if denom else 0.0
+    return Classes(cls, speed, used, stationary, thr, rule, still_speed)
 
-    moving = used & (speed_s > min_speed)
+
+def steering(
+    clock: Clock,
+    X: np.ndarray,
+    Y: np.ndarray,
+    c: Classes,
+    min_speed: float,
+    counts: dict[str, Any],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The step stage's turns: each used step's heading (rad; NaN at or below
+    ``min_speed``) and the steering rate (rad/s) between consecutive moving steps.
+
+    Returns the headings, the rates and the mask of usable rates (each one row shorter
+    than the steps: row ``k`` is the turn into step ``k + 1``)."""
+    used = c.used
+    moving = used & (c.speed > min_speed)
     counts["n_zero_speed"] = int((used & ~moving).sum())
-    heading_s = np.where(moving, np.arctan2(dy, dx), np.nan)
-    dh = heading_s[1:] - heading_s[:-1]
+    heading = np.where(moving, np.arctan2(np.diff(Y, axis=0), np.diff(X, axis=0)), np.nan)
+    dh = heading[1:] - heading[:-1]
     dh = (dh + np.pi) % (2 * np.pi) - np.pi
-    mid_dt = 0.5 * (dt[:-1] + dt[1:])
+    mid_dt = 0.5 * (clock.dt[:-1] + clock.dt[1:])
     steer_ok = moving[:-1] & moving[1:]
     counts["n_steering_samples"] = int(steer_ok.sum())
     counts["n_steering_undefined"] = int((used[:-1] & used[1:] & ~steer_ok).sum())
     counts["n_steering_near_wrap"] = int((steer_ok & (np.abs(dh) > 0.9 * np.pi)).sum())
     with np.errstate(invalid="ignore", divide="ignore"):
-        rate_s = np.where(steer_ok, dh / np.where(steer_ok, mid_dt, 1.0), np.nan)
+        rate = np.where(steer_ok, dh / np.where(steer_ok, mid_dt, 1.0), np.nan)
+    return heading, rate, steer_ok
 
-    n_t = T.shape[0]
+
+def compute_kinematics(
+    ds: xr.Dataset, options: AnalysisOptions | None = None, **keywords: Any
+) -> xr.Dataset:
+    """Kinematics of every step of every track: the clean, step and classify stages.
+
+    Parameters
+    ----------
+    ds
+        Trajectories (positions in mm), on a shared clock or per-individual clocks.
+    options
+        The analysis options (:class:`~thermoswarm.analysis.options.AnalysisOptions`);
+        this reads ``read.fps`` and the ``clean``, ``steps`` and ``exclude`` sections.
+    **keywords
+        Options by their flat names, applied over ``options`` (``fps``, ``smooth``,
+        ``polyorder``, ``mass``, ``min_speed``, ``max_speed``, ``gap_factor``, ...:
+        each documented in :mod:`thermoswarm.analysis.options` and ``docs/analysis.md``).
+
+    Returns
+    -------
+    xarray.Dataset
+        See the module docstring; the counts are in ``attrs``.
+    """
+    opts = _options(options, keywords)
+    counts: dict[str, Any] = dict.fromkeys(DATA_QUALITY_KEYS, 0)
+    s = clean_samples(ds, opts, counts)
+    clock = step_clock(s, opts.steps, counts)
+    X, Y, present = fill_and_smooth(s, clock, opts.clean, counts)
+    classes = classify_steps(s, clock, X, Y, present, opts, counts)
+    turns = steering(clock, X, Y, classes, opts.steps.min_speed, counts)
+    out = steps_dataset(ds, s, clock, X, Y, classes, turns, opts.steps.mass)
+    out.attrs.update(_settings_attrs(ds, opts, classes, out.attrs["clock"]))
+    out.attrs.update(counts)
+    return out
+
+
+def steps_dataset(
+    ds: xr.Dataset,
+    s: Samples,
+    clock: Clock,
+    X: np.ndarray,
+    Y: np.ndarray,
+    c: Classes,
+    turns: tuple[np.ndarray, np.ndarray, np.ndarray],
+    mass: float | None,
+) -> xr.Dataset:
+    """The per-step dataset on ``(time, individuals)`` (the module docstring's table)."""
+    T = s.T
+    n_t, n_i = T.shape
 
     def on_rows(a: np.ndarray, fill: Any, first: bool = False) -> np.ndarray:
         out = np.full((n_t, n_i), fill, dtype=a.dtype)
@@ -521,81 +582,90 @@ def compute_kinematics(
             out[:-1] = a
         return out
 
-    speed = on_rows(speed_s, np.nan)
+    heading, rate, steer_ok = turns
+    speed = on_rows(c.speed, np.nan)
     if mass is None:
-        energy = 0.5 * speed * speed
-        e_unit = "mm^2/s^2"
+        energy, e_unit = 0.5 * speed * speed, "mm^2/s^2"
     else:
-        energy = 0.5 * mass * (speed * 1e-3) ** 2
-        e_unit = "J"
-    energy = np.where(on_rows(used, False), energy, np.nan)
+        energy, e_unit = 0.5 * mass * (speed * 1e-3) ** 2, "J"
+    energy = np.where(on_rows(c.used, False), energy, np.nan)
     dims = ("time", "individuals")
-    shared = one_axis or bool(
+    shared = s.one_axis or bool(
         n_i == 1 or np.array_equal(T, np.broadcast_to(T[:, :1], T.shape), equal_nan=True)
     )
-    time_coord = T[:, 0] if shared else np.arange(n_t, dtype=np.float64)
     out = xr.Dataset(
         {
             "step_time": (dims, T, {"units": "s", "description": "time of the step's start"}),
-            "dt": (dims, on_rows(dt, np.nan), {"units": "s"}),
+            "dt": (dims, on_rows(clock.dt, np.nan), {"units": "s"}),
             "speed": (dims, speed, {"units": "mm/s"}),
             "energy": (dims, energy, {"units": e_unit}),
-            "heading": (dims, on_rows(heading_s, np.nan), {"units": "rad"}),
-            "steering_rate": (dims, on_rows(rate_s, np.nan, first=True), {"units": "rad/s"}),
+            "heading": (dims, on_rows(heading, np.nan), {"units": "rad"}),
+            "steering_rate": (dims, on_rows(rate, np.nan, first=True), {"units": "rad/s"}),
             "x_mid": (dims, on_rows(0.5 * (X[:-1] + X[1:]), np.nan), {"units": "mm"}),
             "y_mid": (dims, on_rows(0.5 * (Y[:-1] + Y[1:]), np.nan), {"units": "mm"}),
             "step_class": (
                 dims,
-                on_rows(cls, np.int8(-1)),
+                on_rows(c.cls, np.int8(-1)),
                 {"codes": ",".join(STEP_CLASSES), "no_step": -1},
             ),
-            "valid": (dims, on_rows(used, False)),
+            "valid": (dims, on_rows(c.used, False)),
             "steering_valid": (dims, on_rows(steer_ok, False, first=True)),
-            "stationary": (dims, on_rows(stationary, False)),
-            "input_row": (dims, input_row, {"description": "input row of the step's start"}),
+            "stationary": (dims, on_rows(c.stationary, False)),
+            "input_row": (dims, s.input_row, {"description": "input row of the step's start"}),
             "implausible_threshold": (
                 ("individuals",),
-                np.where(np.isfinite(thr), thr, np.nan),
+                np.where(np.isfinite(c.thr), c.thr, np.nan),
                 {"units": "mm/s"},
             ),
-            "median_dt": (("individuals",), med, {"units": "s"}),
+            "median_dt": (("individuals",), clock.med, {"units": "s"}),
         },
-        coords={"time": time_coord, "individuals": ds["individuals"].values},
+        coords={
+            "time": T[:, 0] if shared else np.arange(n_t, dtype=np.float64),
+            "individuals": ds["individuals"].values,
+        },
     )
     out["time"].attrs.update(
         {"units": "s", "convention": "start of the step"}
         if shared
         else {"description": "sample index; each individual's times are in step_time"}
     )
+    out.attrs.update({"energy_unit": e_unit, "clock": "shared" if shared else "per_individual"})
+    return out
+
+
+def _settings_attrs(
+    ds: xr.Dataset, opts: AnalysisOptions, c: Classes, clock: str
+) -> dict[str, Any]:
+    """The options the kinematics ran with, as the dataset's ``attrs`` (``None`` left out)."""
+    cl, st, ex = opts.clean, opts.steps, opts.exclude
     params = {
-        "energy_unit": e_unit,
-        "clock": "shared" if shared else "per_individual",
-        "mass_kg": mass,
-        "smooth_s": smooth,
-        "polyorder": int(polyorder) if smooth is not None else None,
-        "min_speed": min_speed,
-        "max_speed": max_speed,
-        "gap_factor": gap_factor,
-        "regular_tolerance": regular_tolerance,
-        "max_gap_s": max_gap,
-        "stationary_speed": stationary_speed,
-        "stationary_duration_s": stationary_duration,
-        "drop_stationary": int(bool(drop_stationary)),
-        "min_confidence": min_confidence,
-        "min_track_extent": min_track_extent,
-        "duplicates": duplicates,
-        "held_positions": held_positions,
-        "resting_speed": resting_speed,
-        "keep_resting": int(bool(keep_resting)),
-        "keep_implausible": int(bool(keep_implausible)),
-        "implausible_rule": json.dumps(rule),
-        "keypoint": keypoint,
+        "energy_unit": "mm^2/s^2" if st.mass is None else "J",
+        "clock": clock,
+        "mass_kg": st.mass,
+        "smooth_s": cl.smooth,
+        "polyorder": _polyorder(cl) if cl.smooth is not None else None,
+        "min_speed": st.min_speed,
+        "max_speed": ex.max_speed,
+        "gap_factor": st.gap_factor,
+        "regular_tolerance": st.regular_tolerance,
+        "max_gap_s": cl.max_gap,
+        "stationary_speed": c.stationary_speed,
+        "stationary_duration_s": 1.0 if ex.stationary_duration is None
+        else ex.stationary_duration,
+        "drop_stationary": int(bool(ex.drop_stationary)),
+        "min_confidence": cl.min_confidence,
+        "min_track_extent": ex.min_track_extent,
+        "duplicates": cl.duplicates,
+        "held_positions": cl.held_positions,
+        "resting_speed": ex.resting_speed,
+        "keep_resting": int(bool(ex.keep_resting)),
+        "keep_implausible": int(bool(ex.keep_implausible)),
+        "implausible_rule": json.dumps(c.rule),
+        "keypoint": cl.keypoint,
         "source_file": ds.attrs.get("source_file"),
         "source_software": ds.attrs.get("source_software"),
-    }
-    out.attrs.update({k: v for k, v in params.items() if v is not None})
-    out.attrs.update(counts)
-    return out
+    }  # fmt: skip
+    return {k: v for k, v in params.items() if v is not None}
 
 
 def data_quality(kin: xr.Dataset) -> dict[str, Any]:

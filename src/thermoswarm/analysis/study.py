@@ -37,9 +37,7 @@ regions
 
 from __future__ import annotations
 
-import math
 import os
-import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -48,10 +46,11 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm import __version__
-from thermoswarm.analysis.groups import group_codes, ks_comparison, parse_group_by
+from thermoswarm.analysis.groups import GroupSpec, group_codes, ks_comparison, parse_group_by
 from thermoswarm.analysis.kinematics import compute_kinematics, data_quality, excluded_summary
+from thermoswarm.analysis.options import KEYWORD_SECTIONS, AnalysisOptions, parse_energy_bins
 from thermoswarm.analysis.phase_tests import PhaseComparison
-from thermoswarm.analysis.phases import MIN_SAMPLES, dependence, phase_block, plausibility
+from thermoswarm.analysis.phases import dependence, phase_block, plausibility
 from thermoswarm.analysis.region_stats import regions_block
 from thermoswarm.analysis.regions import OUTSIDE, Region, assign_regions, load_regions
 from thermoswarm.analysis.steering import steering_block
@@ -61,11 +60,19 @@ __all__ = [
     "analyze_tracks",
     "run_study",
     "StudyResult",
+    "StudyPlan",
+    "plan_study",
+    "fittable_steps",
+    "fits_header",
+    "fit_energy",
+    "fit_steering",
+    "fit_groups",
     "parse_energy_bins",
     "KINEMATICS_KEYS",
 ]
 
 
+#: The kinematics options written to ``fits.json["settings"]``, in order.
 KINEMATICS_KEYS = (
     "keypoint",
     "smooth",
@@ -91,70 +98,6 @@ KINEMATICS_KEYS = (
 )
 
 
-def parse_energy_bins(value: Any) -> int | tuple[float, ...]:
-    """An integer (equal-count bins) or increasing edges (``"0,5,10,20"`` or a list)."""
-    if isinstance(value, str):
-        parts = [p for p in re.split(r"[,\s]+", value.strip()) if p]
-        if len(parts) == 1:
-            value = parts[0]
-            try:
-                value = int(value)
-            except ValueError:
-                raise ConfigError(
-                    f"--energy-bins must be a count or comma-separated edges, got {value!r}"
-                ) from None
-        else:
-            try:
-                value = [float(p) for p in parts]
-            except ValueError:
-                raise ConfigError(
-                    f"--energy-bins edges must be numbers, got {','.join(parts)!r}"
-                ) from None
-    if isinstance(value, bool):
-        raise ConfigError(f"energy_bins must be a count or a list of edges, got {value!r}")
-    if isinstance(value, int | np.integer):
-        if value < 1:
-            raise ConfigError(f"energy_bins must be at least 1, got {value}")
-        return int(value)
-    try:
-        edges = tuple(float(v) for v in value)
-    except (TypeError, ValueError):
-        raise ConfigError(
-            f"energy_bins must be a count or a list of edges, got {value!r}"
-        ) from None
-    if len(edges) < 2 or not all(math.isfinite(e) for e in edges):
-        raise ConfigError(f"energy_bins edges must be at least 2 finite numbers, got {edges}")
-    if any(b <= a for a, b in zip(edges[:-1], edges[1:], strict=True)):
-        raise ConfigError(f"energy_bins edges must increase, got {edges}")
-    return edges
-
-
-def _check_options(
-    n_bootstrap: Any, test_size: Any, thin: Any, alpha: Any, steering_by: Any
-) -> tuple[int, int | None, str | int, float]:
-    if isinstance(n_bootstrap, bool) or not isinstance(n_bootstrap, int | np.integer):
-        raise ConfigError(f"n_bootstrap must be an integer >= 0, got {n_bootstrap!r}")
-    if n_bootstrap < 0:
-        raise ConfigError(f"n_bootstrap must be an integer >= 0, got {n_bootstrap!r}")
-    if test_size is not None:
-        if isinstance(test_size, bool) or not isinstance(test_size, int | np.integer):
-            raise ConfigError(f"test_size must be an integer >= 20 or None, got {test_size!r}")
-        if test_size < MIN_SAMPLES:
-            raise ConfigError(f"test_size must be an integer >= 20 or None, got {test_size!r}")
-    if thin != "auto":
-        if isinstance(thin, bool) or not isinstance(thin, int | np.integer) or thin < 1:
-            raise ConfigError(f"thin must be 'auto' or an integer >= 1, got {thin!r}")
-    try:
-        alpha = float(alpha)
-    except (TypeError, ValueError):
-        alpha = float("nan")
-    if not 0 < alpha < 1:
-        raise ConfigError(f"alpha must be in (0, 1), got {alpha!r}")
-    if steering_by not in ("energy", "speed"):
-        raise ConfigError(f"steering_by must be 'energy' or 'speed', got {steering_by!r}")
-    return int(n_bootstrap), (None if test_size is None else int(test_size)), thin, alpha
-
-
 @dataclass
 class StudyResult:
     """Everything :func:`run_study` computed.
@@ -175,86 +118,26 @@ class StudyResult:
     regions: list[Region] = field(default_factory=list)
 
 
-def run_study(
-    ds: xr.Dataset,
-    *,
-    fps: float | None = None,
-    mass: float | None = None,
-    regions: Sequence[Region] | str | os.PathLike | None = None,
-    group_by: Sequence[str] | str = (),
-    energy_bins: int | Sequence[float] | str = 8,
-    steering_by: str = "energy",
-    n_bootstrap: int = 200,
-    test_size: int | None = 10_000,
-    thin: str | int = "auto",
-    alpha: float = 0.05,
-    seed: int | None = 0,
-    max_plausible_speed: float | None = None,
-    progress: Callable[[str], None] | None = None,
-    **kinematics_options: Any,
-) -> StudyResult:
-    """Run the whole study on trajectories ``ds``.
+@dataclass(frozen=True)
+class StudyPlan:
+    """What the study will fit, checked before any work: the group specs and the regions
+    (with the file they came from, if any)."""
 
-    Parameters
-    ----------
-    ds
-        Trajectories in the format of :mod:`thermoswarm.tracks` (mm).
-    fps
-        Frame rate for frame-numbered data.
-    mass
-        kg; energies in J (default: per unit mass, mm^2/s^2).
-    regions
-        Regions (list, or a TOML file: :mod:`thermoswarm.analysis.regions`).
-    group_by
-        Group specs: a data variable's name, ``time:SECONDS`` or ``region``.
-    energy_bins
-        Steering bins: a count (equal-count bins of ``steering_by``) or edges (in the
-        energy unit, or mm/s for speed).
-    steering_by
-        ``"energy"`` or ``"speed"``.
-    n_bootstrap
-        Bootstrap replicates of every bootstrap test (0: none; p-values are ``None``
-        and the preferred model is chosen by BIC).
-    test_size
-        Largest test sample (``None``: no cap); see
-        :mod:`thermoswarm.analysis.sampling`.
-    thin
-        ``"auto"`` or a thinning step (1: none).
-    alpha
-        Level of the LR test that picks the preferred model, and of the intervals.
-    seed
-        Seed of every random draw (same seed, same output).
-    max_plausible_speed
-        The animal's top speed (mm/s) for the plausibility of the fitted temperatures
-        (:func:`plausibility`); default: the implausible-motion threshold.
-    progress
-        Called with a short message at each stage.
-    **kinematics_options
-        Passed to :func:`thermoswarm.analysis.kinematics.compute_kinematics`
-        (``smooth``, ``min_speed``, ``max_speed``, ``gap_factor``, ``max_gap``,
-        ``duplicates``, ``resting_speed``, ``body_length``, ...).
+    specs: list[GroupSpec]
+    regions: list[Region]
+    region_source: str | None
 
-    Raises
-    ------
-    InputError
-        When no step is left to fit (every step missing, a gap, resting or
-        implausible): the message gives the counts.
-    """
-    unknown = [k for k in kinematics_options if k not in KINEMATICS_KEYS]
-    if unknown:
-        raise ConfigError(
-            f"unknown analysis option {unknown[0]!r}; expected one of: "
-            + ", ".join(sorted(KINEMATICS_KEYS))
-        )
-    n_bootstrap, test_size, thin, alpha = _check_options(
-        n_bootstrap, test_size, thin, alpha, steering_by
-    )
-    bins = parse_energy_bins(energy_bins)
-    if isinstance(group_by, str):
-        group_by = [group_by]
-    specs = [parse_group_by(g) for g in group_by]
+
+def plan_study(
+    opts: AnalysisOptions, regions: Sequence[Region] | str | os.PathLike | None = None
+) -> StudyPlan:
+    """The groups and regions of ``opts.fit`` (``regions`` given here, in memory or as a
+    file, replaces ``opts.fit.regions``); a bad spec fails here, before any work."""
+    specs = [parse_group_by(g) for g in opts.fit.group_by]
     if len({s.text for s in specs}) != len(specs):
         raise ConfigError("--group-by: the same grouping is given twice")
+    if regions is None:
+        regions = opts.fit.regions
     region_source = None
     if regions is not None and not isinstance(regions, list | tuple):
         region_source = str(regions)
@@ -262,99 +145,126 @@ def run_study(
     regions = list(regions or [])
     if any(s.kind == "region" for s in specs) and not regions:
         raise ConfigError("--group-by region needs --regions FILE")
-    say = progress or (lambda msg: None)
-    root = np.random.SeedSequence(seed)
-    s_energy, s_steer, s_regions, s_groups = root.spawn(4)
+    return StudyPlan(specs, regions, region_source)
 
-    if max_plausible_speed is not None:
-        mp = float(max_plausible_speed)
-        if not (math.isfinite(mp) and mp > 0):
-            raise ConfigError(f"max_plausible_speed must be a positive number, got {mp!r}")
-    say("kinematics")
-    kin = compute_kinematics(ds, fps=fps, mass=mass, **kinematics_options)
-    energy = kin["energy"].values
-    valid = kin["valid"].values & np.isfinite(energy)
+
+def fittable_steps(kin: xr.Dataset, source: Any) -> np.ndarray:
+    """The steps whose energy enters the fits; an :class:`InputError` with the bucket
+    counts when there is none."""
+    valid = kin["valid"].values & np.isfinite(kin["energy"].values)
     if not valid.any():
         dq = data_quality(kin)
         buckets = ", ".join(
             f"{v} {k.replace('_', ' ')}" for k, v in dq["step_buckets"].items() if v
         )
-        src = ds.attrs.get("source_file", "the input")
         raise InputError(
-            f"{src}: no step left to fit ({dq['n_steps_total']} steps: {buckets or 'none'}); "
+            f"{source}: no step left to fit ({dq['n_steps_total']} steps: {buckets or 'none'}); "
             "see --keep-resting, --keep-implausible, --gap-factor, --max-gap"
         )
-    region_codes = None
-    if regions:
-        region_codes = assign_regions(regions, kin["x_mid"].values, kin["y_mid"].values)
-        kin["region"] = (
-            ("time", "individuals"),
-            region_codes,
-            {"names": ",".join(r.name for r in regions), "outside": OUTSIDE},
-        )
-    # Group labels before any fitting, so that a bad --group-by fails at once.
-    codes_by_spec = {
-        spec.text: group_codes(spec, ds, kin, region_codes, regions) for spec in specs
+    return valid
+
+
+def option_value(opts: AnalysisOptions, name: str) -> Any:
+    """The option of flat name ``name`` (``"smooth"``, ``"n_bootstrap"``, ...)."""
+    return getattr(getattr(opts, KEYWORD_SECTIONS[name]), name)
+
+
+def settings_block(opts: AnalysisOptions, plan: StudyPlan) -> dict[str, Any]:
+    """``fits.json["settings"]``: the options the study ran with."""
+    bins, t = opts.fit.energy_bins, opts.test
+    regions = plan.region_source if plan.region_source else (
+        [r.name for r in plan.regions] or None)  # fmt: skip
+    return {
+        "fps": opts.read.fps,
+        "mass_kg": opts.steps.mass,
+        "energy_bins": bins if isinstance(bins, int) else list(bins),
+        "steering_by": opts.fit.steering_by,
+        "group_by": [s.text for s in plan.specs],
+        "regions": regions,
+        "n_bootstrap": t.n_bootstrap,
+        "test_size": t.test_size,
+        "thin": t.thin,
+        "alpha": t.alpha,
+        "seed": t.seed,
+        **{k: option_value(opts, k) for k in KINEMATICS_KEYS},
+        "max_plausible_speed": opts.fit.max_plausible_speed,
     }
-    e_unit = kin.attrs["energy_unit"]
-    tracks_used = int(valid.any(axis=0).sum())
-    fits: dict[str, Any] = {
+
+
+def fits_header(
+    ds: xr.Dataset, kin: xr.Dataset, valid: np.ndarray, opts: AnalysisOptions, plan: StudyPlan
+) -> dict[str, Any]:
+    """The part of ``fits.json`` before any fit: source, counts, units, settings, data
+    quality and what was left out."""
+    return {
         "schema": "thermoswarm.analysis/1",
         "thermoswarm_version": __version__,
         "source_file": ds.attrs.get("source_file"),
-        "n_tracks": tracks_used,
+        "n_tracks": int(valid.any(axis=0).sum()),
         "n_samples": int(valid.sum()),
         "units": {
-            "energy": e_unit,
+            "energy": kin.attrs["energy_unit"],
             "speed": "mm/s",
             "steering_rate": "rad/s",
             "kT_theta": "rad/s",
             "time": "s",
             "position": "mm",
         },
-        "settings": {
-            "fps": fps,
-            "mass_kg": mass,
-            "energy_bins": bins if isinstance(bins, int) else list(bins),
-            "steering_by": steering_by,
-            "group_by": [s.text for s in specs],
-            "regions": region_source if region_source else ([r.name for r in regions] or None),
-            "n_bootstrap": n_bootstrap,
-            "test_size": test_size,
-            "thin": thin,
-            "alpha": alpha,
-            "seed": seed,
-            **{k: kinematics_options.get(k) for k in KINEMATICS_KEYS},
-        },
+        "settings": settings_block(opts, plan),
         "data_quality": data_quality(kin),
         "excluded": excluded_summary(kin),
     }
-    fits["settings"]["max_plausible_speed"] = max_plausible_speed
-    result = StudyResult(fits, kin, regions=regions)
 
-    say("energy: one vs two phases")
-    dep_e = dependence(energy, valid)
+
+def fit_energy(
+    result: StudyResult,
+    energy: np.ndarray,
+    valid: np.ndarray,
+    dep: Any,
+    opts: AnalysisOptions,
+    seed: np.random.SeedSequence,
+) -> None:
+    """The fit and test stages of all energies: one against two phases, plausibility."""
+    t = opts.test
     block, cmp_ = phase_block(
-        energy, valid, dep=dep_e, n_bootstrap=n_bootstrap, test_size=test_size, thin=thin,
-        alpha=alpha, seed=s_energy,
+        energy, valid, dep=dep, n_bootstrap=t.n_bootstrap, test_size=t.test_size,
+        thin=t.thin, alpha=t.alpha, seed=seed,
     )  # fmt: skip
-    block["unit"] = e_unit
-    fits["energy"] = block
-    fits["plausibility"] = plausibility(
-        block, kin, mass=mass, max_plausible_speed=max_plausible_speed
-    )
+    block["unit"] = result.kinematics.attrs["energy_unit"]
+    result.fits["energy"] = block
+    result.fits["plausibility"] = plausibility(
+        block, result.kinematics, mass=opts.steps.mass,
+        max_plausible_speed=opts.fit.max_plausible_speed,
+    )  # fmt: skip
     result.energy = cmp_
 
-    say("steering")
+
+def fit_steering(result: StudyResult, opts: AnalysisOptions, seed: np.random.SeedSequence) -> None:
+    """The fit and test stages of steering: ``kT_theta`` per bin and its trend."""
+    t = opts.test
     steer, keep = steering_block(
-        kin, bins=bins, by=steering_by, n_bootstrap=n_bootstrap, test_size=test_size,
-        thin=thin, seed=s_steer,
+        result.kinematics, bins=opts.fit.energy_bins, by=opts.fit.steering_by,
+        n_bootstrap=t.n_bootstrap, test_size=t.test_size, thin=t.thin, seed=seed,
     )  # fmt: skip
-    fits["steering"] = steer
+    result.fits["steering"] = steer
     result.steering = keep
 
-    fits["groups"] = {}
-    for spec, gseed in zip(specs, s_groups.spawn(len(specs)), strict=True):
+
+def fit_groups(
+    result: StudyResult,
+    energy: np.ndarray,
+    valid: np.ndarray,
+    dep: Any,
+    codes_by_spec: dict[str, tuple[np.ndarray, list[str]]],
+    plan: StudyPlan,
+    opts: AnalysisOptions,
+    seed: np.random.SeedSequence,
+    say: Callable[[str], None],
+) -> None:
+    """The energy phases per group of each ``--group-by``, and the paired KS comparison."""
+    t = opts.test
+    result.fits["groups"] = {}
+    for spec, gseed in zip(plan.specs, seed.spawn(len(plan.specs)), strict=True):
         say(f"groups: {spec.text}")
         codes, labels = codes_by_spec[spec.text]
         levels: dict[str, Any] = {}
@@ -362,13 +272,13 @@ def run_study(
         for j, (label, lseed) in enumerate(zip(labels, gseed.spawn(len(labels)), strict=True)):
             m = valid & (codes == j)
             blk, c = phase_block(
-                energy, m, dep=dep_e, n_bootstrap=n_bootstrap, test_size=test_size,
-                thin=thin, alpha=alpha, seed=lseed,
+                energy, m, dep=dep, n_bootstrap=t.n_bootstrap, test_size=t.test_size,
+                thin=t.thin, alpha=t.alpha, seed=lseed,
             )  # fmt: skip
             blk["n_tracks"] = int(m.any(axis=0).sum())
             levels[label] = blk
             kept[label] = c
-        fits["groups"][spec.text] = {
+        result.fits["groups"][spec.text] = {
             "kind": spec.kind,
             **({"window_s": spec.window} if spec.kind == "time" else {}),
             **({"variable": spec.name} if spec.kind == "variable" else {}),
@@ -377,14 +287,71 @@ def run_study(
         }
         result.groups[spec.text] = {"codes": codes, "labels": labels, "fits": kept}
 
-    if regions:
+
+def run_study(
+    ds: xr.Dataset,
+    options: AnalysisOptions | None = None,
+    *,
+    regions: Sequence[Region] | str | os.PathLike | None = None,
+    progress: Callable[[str], None] | None = None,
+    **keywords: Any,
+) -> StudyResult:
+    """Run the whole study on trajectories ``ds``: the stages after reading.
+
+    Parameters
+    ----------
+    ds
+        Trajectories in the format of :mod:`thermoswarm.tracks` (mm).
+    options
+        Every option (:class:`~thermoswarm.analysis.options.AnalysisOptions`; default:
+        the defaults).  ``read.fps`` converts frame numbers to seconds.
+    regions
+        Regions in memory (list of :class:`Region`) or a TOML file; replaces
+        ``options.fit.regions``.
+    progress
+        Called with a short message at each stage.
+    **keywords
+        Options by their flat names, applied over ``options`` (``n_bootstrap=99``,
+        ``seed=1``, ``smooth=0.1``, ``group_by=["region"]``, ...; each documented in
+        :mod:`thermoswarm.analysis.options`); an unknown name is a :class:`ConfigError`.
+
+    Raises :class:`InputError` when no step is left to fit (every step missing, a
+    gap, resting or implausible): the message gives the counts.
+    """
+    opts = AnalysisOptions.from_keywords(options, **keywords)
+    plan = plan_study(opts, regions)
+    say = progress or (lambda msg: None)
+    s_energy, s_steer, s_regions, s_groups = np.random.SeedSequence(opts.test.seed).spawn(4)
+    say("kinematics")
+    kin = compute_kinematics(ds, opts)
+    energy = kin["energy"].values
+    valid = fittable_steps(kin, ds.attrs.get("source_file", "the input"))
+    region_codes = None
+    if plan.regions:
+        region_codes = assign_regions(plan.regions, kin["x_mid"].values, kin["y_mid"].values)
+        kin["region"] = (
+            ("time", "individuals"),
+            region_codes,
+            {"names": ",".join(r.name for r in plan.regions), "outside": OUTSIDE},
+        )
+    # Group labels before any fitting, so that a bad --group-by fails at once.
+    codes_by_spec = {
+        spec.text: group_codes(spec, ds, kin, region_codes, plan.regions) for spec in plan.specs
+    }
+    result = StudyResult(fits_header(ds, kin, valid, opts, plan), kin, regions=plan.regions)
+    say("energy: one vs two phases")
+    dep_e = dependence(energy, valid)
+    fit_energy(result, energy, valid, dep_e, opts, s_energy)
+    say("steering")
+    fit_steering(result, opts, s_steer)
+    fit_groups(result, energy, valid, dep_e, codes_by_spec, plan, opts, s_groups, say)
+    result.fits["regions"] = {}
+    if plan.regions:
         say("regions")
-        fits["regions"] = regions_block(
-            kin, region_codes, regions, cmp_, n_bootstrap=n_bootstrap, alpha=alpha,
-            seed=s_regions, source=region_source,
+        result.fits["regions"] = regions_block(
+            kin, region_codes, plan.regions, result.energy, n_bootstrap=opts.test.n_bootstrap,
+            alpha=opts.test.alpha, seed=s_regions, source=plan.region_source,
         )  # fmt: skip
-    else:
-        fits["regions"] = {}
     return result
 
 

@@ -1,18 +1,28 @@
 """``thermoswarm analyze``: the paper's statistics of any trajectories.
 
-Thin: parses the options, calls :func:`thermoswarm.report.analysis_run.analyze_file`, prints a
-summary.  Every option is documented in ``docs/analysis.md``.
+Thin: builds one :class:`~thermoswarm.analysis.options.AnalysisOptions` from ``--config``
+(a TOML file) and the flags given on the command line (which override the file), calls
+:func:`thermoswarm.report.analysis_run.analyze_file` and prints a summary.  Every option
+is documented in ``docs/analysis.md``.
 """
 
 from __future__ import annotations
 
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
+from click.core import ParameterSource
 
 from thermoswarm.errors import ConfigError
+
+if TYPE_CHECKING:  # the options load on use, after the input files are checked
+    from thermoswarm.analysis.options import AnalysisOptions
+
+#: Flags whose keyword name (:data:`thermoswarm.analysis.options.KEYWORD_SECTIONS`)
+#: differs from the click parameter's name.
+_KEYWORD = {"fmt": "format", "read_option": "read_options", "no_report": "report"}
 
 #: Data-quality counters worth a line on the terminal when they are not zero.
 _NOTABLE = (
@@ -70,6 +80,13 @@ def _p(p: float | None, n_boot: int | None) -> str:
     required=True,
     type=click.Path(path_type=Path),
     help="Output directory (created with its parents).",
+)
+@click.option(
+    "--config",
+    "config_file",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="TOML file of analysis options (docs/analysis.md); flags given override it.",
 )
 @click.option("--format", "fmt", default=None, help="Input format name (default: detected).")
 @click.option("--fps", type=float, default=None, help="Frame rate, for frame-numbered input.")
@@ -248,45 +265,14 @@ def _p(p: float | None, n_boot: int | None) -> str:
 )
 @click.option("--no-report", is_flag=True, help="Skip report.html.")
 @click.option("--quiet", "-q", is_flag=True, help="No progress on stderr.")
+@click.pass_context
 def analyze(
+    ctx: click.Context,
     inputs: tuple[Path, ...],
     out: Path,
-    fmt: str | None,
-    fps: float | None,
-    px_per_mm: str | None,
-    regions: Path | None,
-    group_by: tuple[str, ...],
-    mass: float | None,
-    smooth: float | None,
-    n_bootstrap: int,
-    seed: int,
-    allow_pickle: bool,
-    read_option: tuple[str, ...],
-    energy_bins: str,
-    steering_by: str,
-    test_size: int,
-    thin: str,
-    alpha: float,
-    min_speed: float,
-    max_speed: float | None,
-    max_gap: float,
-    gap_factor: float,
-    keypoint: str | None,
-    min_confidence: float | None,
-    drop_stationary: bool,
-    duplicates: str,
-    regular_tolerance: float,
-    resting_speed: float,
-    keep_resting: bool,
-    held_positions: str,
-    implausible_factor: float,
-    body_length: float | None,
-    max_body_lengths_per_s: float,
-    keep_implausible: bool,
-    min_track_extent: float | None,
-    max_plausible_speed: float | None,
-    no_report: bool,
+    config_file: Path | None,
     quiet: bool,
+    **flags: Any,
 ) -> None:
     """Fit the maximum-entropy laws to the trajectories in INPUTS.
 
@@ -295,14 +281,12 @@ def analyze(
     """
     from thermoswarm.fsutil import require_input
 
+    fps = flags["fps"]
     if fps is not None and not fps > 0:
         raise ConfigError(f"--fps must be a positive number, got {fps!r}")
     require_input(*inputs)  # before the heavy imports
-    from thermoswarm.analysis.explain import explain_phases, trend_statement
-    from thermoswarm.io import parse_read_options
+    opts = cli_options(ctx, config_file, flags)
     from thermoswarm.report.analysis_run import analyze_file
-
-    read_options = parse_read_options(read_option)
 
     def progress(msg: str) -> None:
         if not quiet:
@@ -310,60 +294,55 @@ def analyze(
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = analyze_file(
-            list(inputs),
-            out,
-            format=fmt,
-            fps=fps,
-            px_per_mm=px_per_mm,
-            read_options=read_options,
-            allow_pickle=allow_pickle,
-            regions=regions,
-            group_by=group_by,
-            mass=mass,
-            smooth=smooth,
-            n_bootstrap=n_bootstrap,
-            seed=seed,
-            energy_bins=energy_bins,
-            steering_by=steering_by,
-            test_size=test_size,
-            thin=_thin(thin),
-            alpha=alpha,
-            min_speed=min_speed,
-            max_speed=max_speed,
-            max_gap=max_gap,
-            gap_factor=gap_factor,
-            keypoint=keypoint,
-            min_confidence=min_confidence,
-            drop_stationary=drop_stationary,
-            duplicates=duplicates,
-            regular_tolerance=regular_tolerance,
-            resting_speed=resting_speed,
-            keep_resting=keep_resting,
-            held_positions=held_positions,
-            implausible_factor=implausible_factor,
-            body_length=body_length,
-            max_body_lengths_per_s=max_body_lengths_per_s,
-            keep_implausible=keep_implausible,
-            min_track_extent=min_track_extent,
-            max_plausible_speed=max_plausible_speed,
-            report=not no_report,
-            progress=progress,
-        )
+        result = analyze_file(list(inputs), out, opts, progress=progress)
     for w in caught:  # one line each, never a stack location
         click.echo(f"warning: {str(w.message).splitlines()[0]}", err=True)
-    fits = result.fits
+    for line in summary_lines(result.fits):
+        click.echo(line)
+    files = ["fits.json", "kinematics.nc"] + (["report.html"] if opts.report.html else [])
+    click.echo("wrote " + ", ".join(str(out / f) for f in files))
+
+
+def cli_options(
+    ctx: click.Context, config_file: Path | None, flags: dict[str, Any]
+) -> AnalysisOptions:
+    """The options of ``--config`` (default: the defaults) with the flags given on the
+    command line applied over them (a flag left at its default does not override)."""
+    from thermoswarm.analysis.options import AnalysisOptions
+    from thermoswarm.io import parse_read_options
+
+    base = AnalysisOptions.from_toml(config_file) if config_file else AnalysisOptions()
+    given: dict[str, Any] = {}
+    for name, value in flags.items():
+        if ctx.get_parameter_source(name) in (ParameterSource.DEFAULT, None):
+            continue
+        if name == "thin":
+            value = _thin(value)
+        elif name == "read_option":  # merged over the file's [read.options]
+            value = {**base.read.options, **parse_read_options(value)}
+        elif name == "no_report":
+            value = not value
+        elif name == "regions":
+            value = str(value)
+        given[_KEYWORD.get(name, name)] = value
+    return AnalysisOptions.from_keywords(base, **given)
+
+
+def summary_lines(fits: dict[str, Any]) -> list[str]:
+    """What ``analyze`` prints of ``fits.json``: counts, data quality, the fits."""
+    from thermoswarm.analysis.explain import explain_phases, trend_statement
+
     unit = fits["units"]["energy"]
-    click.echo(f"{fits['n_tracks']} tracks, {fits['n_samples']} energy samples ({unit})")
+    lines = [f"{fits['n_tracks']} tracks, {fits['n_samples']} energy samples ({unit})"]
     dq = fits["data_quality"]
     notes = [f"{dq[k]} {text}" for k, text in _NOTABLE if dq.get(k)]
     if notes:
-        click.echo("data quality: " + "; ".join(notes))
-    click.echo(f"left out of the fits: {fits['excluded']['statement']}")
+        lines.append("data quality: " + "; ".join(notes))
+    lines.append(f"left out of the fits: {fits['excluded']['statement']}")
     e = fits["energy"]
     if "one_phase" in e:
         two = e["two_phase"]
-        click.echo(
+        lines.append(
             f"energy: {e['preferred']} preferred ({e['preferred_by']}; LR p "
             f"{_p(e['lr_p_value'], e.get('n_bootstrap'))}, n = {e['lr_n']}); one phase kT = "
             f"{_fmt(e['one_phase']['kT'])}; two phases phi = {_fmt(two['phi'], '.3f')}, "
@@ -371,19 +350,18 @@ def analyze(
         )
         why = explain_phases(e)
         if why:
-            click.echo(f"  why: {why}")
+            lines.append(f"  why: {why}")
     else:
-        click.echo(f"energy: not fitted ({e.get('skipped')})")
+        lines.append(f"energy: not fitted ({e.get('skipped')})")
     warning = fits.get("plausibility", {}).get("warning")
     if warning:
-        click.echo(f"warning: {warning}")
+        lines.append(f"warning: {warning}")
     tr = fits["steering"].get("trend", {})
     if tr.get("slope") is not None:
-        click.echo(f"steering: {trend_statement(tr)}")
+        lines.append(f"steering: {trend_statement(tr)}")
     for d in fits.get("regions", {}).get("differences", []):
-        click.echo(
+        lines.append(
             f"regions: hot fraction {d['a']} - {d['b']} = {d['difference']:+.3f} "
             f"(p {_p(d['p_value'], None)})"
         )
-    files = ["fits.json", "kinematics.nc"] + ([] if no_report else ["report.html"])
-    click.echo("wrote " + ", ".join(str(out / f) for f in files))
+    return lines

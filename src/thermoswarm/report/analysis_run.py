@@ -7,19 +7,20 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from thermoswarm.analysis.options import AnalysisOptions
 from thermoswarm.analysis.regions import load_regions
 from thermoswarm.analysis.study import StudyResult, run_study
 from thermoswarm.errors import InputError
 from thermoswarm.tracks import combine_tracks
 
-__all__ = ["analyze_file", "write_kinematics"]
+__all__ = ["analyze_file", "read_inputs", "write_results", "write_kinematics"]
 
 
 def write_kinematics(kin: xr.Dataset, path: Path) -> None:
@@ -36,68 +37,85 @@ def write_kinematics(kin: xr.Dataset, path: Path) -> None:
         out.to_netcdf(tmp, engine="h5netcdf", encoding=enc)
 
 
-def analyze_file(
-    path: str | os.PathLike | Sequence[str | os.PathLike],
-    out: str | os.PathLike,
-    *,
-    format: str | None = None,
-    px_per_mm: float | str | None = None,
-    read_options: dict[str, Any] | None = None,
-    allow_pickle: bool = False,
-    fps: float | None = None,
-    regions: str | os.PathLike | None = None,
-    report: bool = True,
-    **options: Any,
-) -> StudyResult:
-    """Read trajectories, run the study, write ``fits.json``, ``kinematics.nc`` and
-    ``report.html`` into directory ``out`` (created with its parents; files are written
-    atomically).  ``format``, ``px_per_mm``, ``allow_pickle`` and ``read_options`` go
-    to :func:`thermoswarm.io.read_tracks`; the other options as :func:`run_study`.
-
-    ``path`` may be several files (one per video or recording): each is read with the
-    same options and their individuals are analysed together, named ``FILE:NAME``
+def read_inputs(paths: Sequence[Path], opts: AnalysisOptions) -> xr.Dataset:
+    """The read stage: each file read with ``opts.read`` (the reader also resolves
+    duplicate samples by ``opts.clean.duplicates`` where it takes that option); several
+    files are combined, their individuals named ``FILE:NAME``
     (:func:`thermoswarm.tracks.combine_tracks`)."""
-    from thermoswarm.fsutil import atomic_write_json, atomic_write_text, prepare_output_dir
     from thermoswarm.io import detect_format, formats, read_tracks
 
-    out = Path(out)
-    paths = [Path(p) for p in path] if isinstance(path, list | tuple) else [Path(path)]
-    if not paths:
-        raise InputError("no input file given")
-    read_options = dict(read_options or {})
-    if options.get("duplicates") is not None and "duplicates" not in read_options:
+    rd = opts.read
+    read_options = dict(rd.options)
+    if "duplicates" not in read_options:
         # one rule for the reader and the kinematics, where the reader takes it
-        name = format or detect_format(paths[0])
-        reader = formats().get(name)
+        reader = formats().get(rd.format or detect_format(paths[0]))
         if reader is not None and "duplicates" in getattr(reader.load(), "OPTIONS", {}):
-            read_options["duplicates"] = options["duplicates"]
-    regions_list = load_regions(regions) if regions is not None else None
-    prepare_output_dir(out)
+            read_options["duplicates"] = opts.clean.duplicates
     read = [
-        read_tracks(
-            p, format, fps=fps, px_per_mm=px_per_mm, allow_pickle=allow_pickle, **read_options
-        )
+        read_tracks(p, rd.format, fps=rd.fps, px_per_mm=rd.px_per_mm,
+                    allow_pickle=rd.allow_pickle, **read_options)
         for p in paths
-    ]
+    ]  # fmt: skip
     if len(read) == 1:
         ds = read[0]
     else:
         stems = [p.stem for p in paths]
         prefixes = stems if len(set(stems)) == len(stems) else [str(p) for p in paths]
-        ds = combine_tracks(read, prefixes, fps=fps)
+        ds = combine_tracks(read, prefixes, fps=rd.fps)
     if "position" not in ds:
         raise InputError(f"{paths[0]}: the reader returned no positions")
-    result = run_study(ds, fps=fps, regions=regions_list, **options)
-    if regions is not None:
-        result.fits["settings"]["regions"] = str(regions)
-        if result.fits["regions"]:
-            result.fits["regions"]["source"] = str(regions)
-    result.fits["settings"]["format"] = format
-    result.fits["settings"]["px_per_mm"] = px_per_mm
+    return ds
+
+
+def write_results(out: Path, result: StudyResult, opts: AnalysisOptions) -> None:
+    """The report stage: ``kinematics.nc``, ``fits.json`` and (with ``opts.report.html``)
+    ``report.html`` into directory ``out`` (created with its parents), each written
+    atomically."""
+    from thermoswarm.fsutil import atomic_write_json, atomic_write_text
+
+    out.mkdir(parents=True, exist_ok=True)
     write_kinematics(result.kinematics, out / "kinematics.nc")
     atomic_write_json(out / "fits.json", result.fits)
-    if report:
+    if opts.report.html:
         from thermoswarm.report.analysis_figures import build_report
 
         atomic_write_text(out / "report.html", build_report(result))
+
+
+def analyze_file(
+    path: str | os.PathLike | Sequence[str | os.PathLike],
+    out: str | os.PathLike,
+    options: AnalysisOptions | None = None,
+    *,
+    progress: Callable[[str], None] | None = None,
+    **keywords: Any,
+) -> StudyResult:
+    """Read trajectories, run the study, write ``fits.json``, ``kinematics.nc`` and
+    ``report.html`` into directory ``out`` (created with its parents; files are written
+    atomically): the stages of :mod:`thermoswarm.analysis` in order.
+
+    ``options`` holds every option (:class:`AnalysisOptions`); ``keywords`` give
+    options by their flat names over it (``format``, ``px_per_mm``, ``read_options``,
+    ``fps``, ``regions``, ``report``, and those of :func:`run_study`).  ``path`` may be
+    several files (one per video or recording), analysed together."""
+    from thermoswarm.fsutil import prepare_output_dir
+
+    opts = AnalysisOptions.from_keywords(options, **keywords)
+    out = Path(out)
+    paths = [Path(p) for p in path] if isinstance(path, list | tuple) else [Path(path)]
+    if not paths:
+        raise InputError("no input file given")
+    regions = opts.fit.regions
+    regions_list = load_regions(regions) if regions is not None else None
+    prepare_output_dir(out)
+    ds = read_inputs(paths, opts)
+    result = run_study(ds, opts, regions=regions_list, progress=progress)
+    settings = result.fits["settings"]
+    if regions is not None:
+        settings["regions"] = regions
+        if result.fits["regions"]:
+            result.fits["regions"]["source"] = regions
+    settings["format"] = opts.read.format
+    settings["px_per_mm"] = opts.read.px_per_mm
+    write_results(out, result, opts)
     return result

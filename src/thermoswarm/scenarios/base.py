@@ -26,7 +26,15 @@ if TYPE_CHECKING:
     from thermoswarm.sim.engine import EngineParams, Sensing, Simulator, SwarmState
     from thermoswarm.sim.world import World
 
-__all__ = ["Numerics", "Recording", "Setup", "Scenario", "wrap", "build_simulator"]
+__all__ = [
+    "Numerics",
+    "Recording",
+    "Setup",
+    "Scenario",
+    "wrap",
+    "build_simulator",
+    "overlap_metrics",
+]
 
 
 @dataclass(frozen=True)
@@ -154,6 +162,33 @@ def build_simulator(setup: Setup, backend: str = "cpu") -> Simulator:
 def wrap(a: np.ndarray) -> np.ndarray:
     """Angles into [-pi, pi)."""
     return (a + math.pi) % (2 * math.pi) - math.pi  # math.pi == np.pi
+
+
+def overlap_metrics(sim: Simulator, state: SwarmState) -> dict[str, float | None]:
+    """The engine's overlap figures that every scenario reports (the runner adds them).
+
+    Returns
+    -------
+    dict
+        ``max_overlap_fraction``: the largest overlap any step's projection left (robot
+        with robot, wall or body), as a fraction of the robot diameter; ``final_max_
+        overlap_fraction``: the largest overlap of the final configuration, measured
+        independently of the step (:meth:`Simulator.max_overlap`), same unit;
+        ``mean_sweeps_per_step``: projection sweeps per step.  In inertial mode no step
+        projects (collisions are rewound), so the first and last are ``None``.  A
+        scenario whose robots never overlap by construction (``transport-connected``:
+        rigidly attached) reports 0 for the step's figures.
+    """
+    diameter = 2.0 * float(sim.params.radius)
+    out: dict[str, float | None] = {
+        "final_max_overlap_fraction": float(sim.max_overlap(state)) / diameter,
+        "max_overlap_fraction": None,
+        "mean_sweeps_per_step": None,
+    }
+    if sim.params.mode != "inertial":
+        out["max_overlap_fraction"] = float(state.counters[1]) / 1e6 / diameter
+        out["mean_sweeps_per_step"] = float(state.counters[0]) / max(state.step, 1)
+    return out
 
 
 class Scenario:

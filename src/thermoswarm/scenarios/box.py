@@ -153,12 +153,9 @@ class Box(Scenario):
             "mode": p.mode,
             "duration": p.duration,
             "kT_measured": float(np.nanmean(speed**2) / 2),
-            "final_max_overlap_fraction": sim.max_overlap(state) / p.diameter,
             "robots_outside": outside,
         }
         if p.mode == "overdamped":
-            out["max_overlap_fraction"] = float(state.counters[1]) / 1e6 / p.diameter
-            out["mean_sweeps_per_step"] = float(state.counters[0]) / max(state.step, 1)
             out["diffusion"] = diffusion_from_tracks(tracks, p.tau, p.kT)
         else:
             e1 = 0.5 * float(np.sum(state.vel**2))

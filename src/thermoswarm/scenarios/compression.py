@@ -407,9 +407,6 @@ class Compression(Scenario):
                 "height_max": float(setup.info["height_max"]),
                 "radius": p.radius,
             },
-            "max_overlap_fraction": float(state.counters[1]) / 1e6 / d,
-            "final_max_overlap_fraction": sim.max_overlap(state) / d,
-            "mean_sweeps_per_step": float(state.counters[0]) / max(state.step, 1),
         }
         return out
 

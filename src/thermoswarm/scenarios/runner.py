@@ -40,7 +40,7 @@ from thermoswarm.config import (
 from thermoswarm.errors import ConfigError, InputError, OutputError
 from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text, check_output_dir
 from thermoswarm.scenarios import get
-from thermoswarm.scenarios.base import Scenario, Setup, build_simulator
+from thermoswarm.scenarios.base import Scenario, Setup, build_simulator, overlap_metrics
 from thermoswarm.sim.engine import Simulator, SwarmState
 from thermoswarm.sim.recorder import ZarrRecorder, load_checkpoint, read_marker
 
@@ -264,6 +264,7 @@ def _loop(
     rec.flush(_checkpoint(cfg, state, acc), step=state.step)
     tracks = open_run_tracks(store)
     metrics = scen.metrics(setup, acc, tracks, sim, state)
+    metrics.update(overlap_metrics(sim, state))  # every scenario, one definition
     steps_run = state.step - start_step
     metrics["performance"] = {
         "wall_seconds": wall,

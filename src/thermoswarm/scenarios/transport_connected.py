@@ -311,6 +311,20 @@ class ConnectedSimulator(Simulator):
         state.time = state.step * p.dt
         return state
 
+    def max_overlap(self, state: SwarmState) -> float:
+        """Largest overlap (mm) of an attached robot with another robot or a wall.
+
+        The object (body 0) is the composite disc that covers its attached robots, so
+        robots against it are not contacts and are left out; everything else is the
+        engine's independent check (:meth:`Simulator.max_overlap`).
+        """
+        bodies = state.bodies
+        state.bodies = bodies[:0]
+        try:
+            return super().max_overlap(state)
+        finally:
+            state.bodies = bodies
+
 
 @dataclass
 class _ConnectedSetup(Setup):

@@ -792,7 +792,6 @@ class TransportFree(Scenario):
                 "y": obj[:, 1].tolist(),
                 "progress": progress.tolist(),
             },
-            "max_overlap_fraction": float(state.counters[1]) / 1e6 / p.diameter,
         }
         return out
 

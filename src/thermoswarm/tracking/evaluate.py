@@ -30,6 +30,7 @@ IoU thresholds 0.05, 0.10, ..., 0.95 as TrackEval reports them (independent of
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -166,6 +167,142 @@ def _hota(
     }
 
 
+def _per_frame(
+    gt: np.ndarray, pred: np.ndarray
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], int]:
+    """The evaluated rows of each frame ``(gt rows, prediction rows)`` and the number of
+    frames: ground truth of class 1 and considered; predictions matched to a distractor
+    removed (TrackEval's MOT17 preprocessing)."""
+    # Frames are counted from 0 when either table has a frame 0, else from 1
+    # (MOTChallenge); frames without rows in either table are empty, never dropped.
+    first = 0 if (gt[:, 0].min(initial=1) == 0 or pred[:, 0].min(initial=1) == 0) else 1
+    last = int(max(gt[:, 0].max(initial=first - 1), pred[:, 0].max(initial=first - 1)))
+    n_frames = last - first + 1
+    gt_cls = gt[:, 7].astype(np.int64) if gt.shape[1] > 7 else np.ones(len(gt), np.int64)
+    gt_cls = np.where(gt_cls == -1, 1, gt_cls)
+    gt_keep = (gt[:, 6] != 0) & (gt_cls == 1)
+    distractor = np.isin(gt_cls, _DISTRACTORS)
+    gt_rows = _frames(gt, first, n_frames)
+    pr_rows = _frames(pred, first, n_frames)
+    per_frame = []
+    for t in range(n_frames):
+        g, p = gt_rows[t], pr_rows[t]
+        if len(g) and len(p) and distractor[g].any():
+            sim = box_iou(gt[g, 2:6], pred[p, 2:6])
+            score = np.where(sim < 0.5 - _EPS, 0.0, sim)
+            r, c = linear_sum_assignment(-score)
+            ok = score[r, c] > _EPS
+            drop = c[ok][distractor[g][r[ok]]]
+            p = np.delete(p, drop)
+        g = g[gt_keep[g]]
+        per_frame.append((g, p))
+    return per_frame, n_frames
+
+
+def _relabel(ids: np.ndarray, rows: list[np.ndarray]) -> tuple[np.ndarray, int, int]:
+    """Ids of the evaluated rows relabelled ``0..n-1`` (-1: not evaluated), with the
+    number of distinct ids and of evaluated rows."""
+    allrows = np.concatenate(rows) if rows else np.zeros(0, int)
+    uid, inv = np.unique(ids[allrows].astype(np.int64), return_inverse=True)
+    out = np.full(len(ids), -1, np.int64)
+    out[allrows] = inv
+    return out, int(uid.size), int(allrows.size)
+
+
+@dataclass
+class _Counts:
+    """CLEAR-MOT tallies over the frames, and what the identity and HOTA scores need:
+    frames each id is present in, the per-pair count of frames with IoU >= threshold
+    (``potential``) and each frame's ids and similarity matrix."""
+
+    gt_count: np.ndarray
+    pr_count: np.ndarray
+    potential: np.ndarray
+    gt_matched: np.ndarray
+    frag: np.ndarray
+    hota_frames: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
+    tp: int = 0
+    fp: int = 0
+    fn: int = 0
+    idsw: int = 0
+    motp_sum: float = 0.0
+
+
+def _clear_mot(
+    gt: np.ndarray,
+    pred: np.ndarray,
+    per_frame: list[tuple[np.ndarray, np.ndarray]],
+    gid: np.ndarray,
+    pid: np.ndarray,
+    n_gid: int,
+    n_pid: int,
+    iou: float,
+) -> _Counts:
+    """Frame-by-frame matching (continuing a previous frame's match first): TP, FP, FN,
+    identity switches, fragmentations and MOTP's IoU sum."""
+    k = _Counts(np.zeros(n_gid), np.zeros(n_pid), np.zeros((n_gid, n_pid)), np.zeros(n_gid),
+                np.zeros(n_gid))  # fmt: skip
+    prev_id = np.full(n_gid, -1, np.int64)  # last matched prediction id (any time)
+    prev_step = np.full(n_gid, -1, np.int64)  # matched in the previous frame
+    for g, p in per_frame:
+        gi, pi = gid[g], pid[p]
+        k.gt_count[gi] += 1
+        k.pr_count[pi] += 1
+        if len(g) == 0 or len(p) == 0:
+            k.hota_frames.append((gi, pi, np.zeros((len(g), len(p)))))
+            k.fp += len(p)
+            k.fn += len(g)
+            continue
+        sim = box_iou(gt[g, 2:6], pred[p, 2:6])
+        k.hota_frames.append((gi, pi, sim))
+        mi, mj = np.nonzero(sim >= iou)
+        np.add.at(k.potential, (gi[mi], pi[mj]), 1)
+        score = 1000.0 * (pi[None, :] == prev_step[gi][:, None]) + sim
+        score[sim < iou - _EPS] = 0.0
+        r, c = linear_sum_assignment(-score)
+        ok = score[r, c] > _EPS
+        r, c = r[ok], c[ok]
+        mg, mp = gi[r], pi[c]
+        last = prev_id[mg]
+        k.idsw += int(np.sum((last >= 0) & (last != mp)))
+        k.gt_matched[mg] += 1
+        was = prev_step >= 0
+        prev_id[mg] = mp
+        prev_step[:] = -1
+        prev_step[mg] = mp
+        k.frag += ~was & (prev_step >= 0)
+        k.tp += r.size
+        k.fn += len(g) - r.size
+        k.fp += len(p) - r.size
+        k.motp_sum += float(sim[r, c].sum())
+    return k
+
+
+def _id_true_positives(k: _Counts, n_gid: int, n_pid: int, n_gt: int, n_pred: int) -> int:
+    """IDTP of one global assignment of ground-truth ids to predicted ids (TrackEval's
+    Identity)."""
+    if n_gt == 0 or n_pred == 0:
+        return 0
+    big = n_gid + n_pid
+    fp_mat = np.zeros((big, big))
+    fn_mat = np.zeros((big, big))
+    fp_mat[n_gid:, :n_pid] = 1e10
+    fn_mat[:n_gid, n_pid:] = 1e10
+    fn_mat[:n_gid, :n_pid] = k.gt_count[:, None]
+    fn_mat[np.arange(n_gid), n_pid + np.arange(n_gid)] = k.gt_count
+    fp_mat[:n_gid, :n_pid] = k.pr_count[None, :]
+    fp_mat[n_gid + np.arange(n_pid), np.arange(n_pid)] = k.pr_count
+    fn_mat[:n_gid, :n_pid] -= k.potential
+    fp_mat[:n_gid, :n_pid] -= k.potential
+    r, c = linear_sum_assignment(fn_mat + fp_mat)
+    idfn = int(fn_mat[r, c].sum())
+    return int(k.gt_count.sum() - idfn)
+
+
+def _ratio(a: float, b: float) -> float:
+    return float(a) / max(1.0, float(b))
+
+
 def evaluate_tables(
     gt: np.ndarray,
     pred: np.ndarray,
@@ -196,123 +333,24 @@ def evaluate_tables(
     pred = _as_table(pred, pred_name)
     _check_unique(gt, gt_name)
     _check_unique(pred, pred_name)
-    # Frames are counted from 0 when either table has a frame 0, else from 1
-    # (MOTChallenge); frames without rows in either table are empty, never dropped.
-    first = 0 if (gt[:, 0].min(initial=1) == 0 or pred[:, 0].min(initial=1) == 0) else 1
-    last = int(max(gt[:, 0].max(initial=first - 1), pred[:, 0].max(initial=first - 1)))
-    n_frames = last - first + 1
-    gt_cls = gt[:, 7].astype(np.int64) if gt.shape[1] > 7 else np.ones(len(gt), np.int64)
-    gt_cls = np.where(gt_cls == -1, 1, gt_cls)
-    gt_keep = (gt[:, 6] != 0) & (gt_cls == 1)
-    distractor = np.isin(gt_cls, _DISTRACTORS)
-    gt_rows = _frames(gt, first, n_frames)
-    pr_rows = _frames(pred, first, n_frames)
-
-    # Relabel ids to 0..n-1 (over rows that are evaluated).
-    per_frame = []
-    for t in range(n_frames):
-        g, p = gt_rows[t], pr_rows[t]
-        if len(g) and len(p) and distractor[g].any():
-            # Remove predictions matched to distractors (TrackEval's MOT17 preprocessing).
-            sim = box_iou(gt[g, 2:6], pred[p, 2:6])
-            score = np.where(sim < 0.5 - _EPS, 0.0, sim)
-            r, c = linear_sum_assignment(-score)
-            ok = score[r, c] > _EPS
-            drop = c[ok][distractor[g][r[ok]]]
-            p = np.delete(p, drop)
-        g = g[gt_keep[g]]
-        per_frame.append((g, p))
-    g_all = np.concatenate([g for g, _ in per_frame]) if per_frame else np.zeros(0, int)
-    p_all = np.concatenate([p for _, p in per_frame]) if per_frame else np.zeros(0, int)
-    gt_uid, gt_inv = np.unique(gt[g_all, 1].astype(np.int64), return_inverse=True)
-    pr_uid, pr_inv = np.unique(pred[p_all, 1].astype(np.int64), return_inverse=True)
-    gid = np.full(len(gt), -1, np.int64)
-    gid[g_all] = gt_inv
-    pid = np.full(len(pred), -1, np.int64)
-    pid[p_all] = pr_inv
-    n_gid, n_pid = gt_uid.size, pr_uid.size
-    n_gt, n_pred = int(g_all.size), int(p_all.size)
-
-    tp = fp = fn = idsw = 0
-    motp_sum = 0.0
-    prev_id = np.full(n_gid, -1, np.int64)  # last matched prediction id (any time)
-    prev_step = np.full(n_gid, -1, np.int64)  # matched in the previous frame
-    gt_count = np.zeros(n_gid)
-    gt_matched = np.zeros(n_gid)
-    frag = np.zeros(n_gid)
-    potential = np.zeros((n_gid, n_pid))
-    pr_count = np.zeros(n_pid)
-    hota_frames = []
-    for g, p in per_frame:
-        gi, pi = gid[g], pid[p]
-        gt_count[gi] += 1
-        pr_count[pi] += 1
-        if len(g) == 0 or len(p) == 0:
-            hota_frames.append((gi, pi, np.zeros((len(g), len(p)))))
-            fp += len(p)
-            fn += len(g)
-            continue
-        sim = box_iou(gt[g, 2:6], pred[p, 2:6])
-        hota_frames.append((gi, pi, sim))
-        mi, mj = np.nonzero(sim >= iou)
-        np.add.at(potential, (gi[mi], pi[mj]), 1)
-        score = 1000.0 * (pi[None, :] == prev_step[gi][:, None]) + sim
-        score[sim < iou - _EPS] = 0.0
-        r, c = linear_sum_assignment(-score)
-        ok = score[r, c] > _EPS
-        r, c = r[ok], c[ok]
-        mg, mp = gi[r], pi[c]
-        last = prev_id[mg]
-        idsw += int(np.sum((last >= 0) & (last != mp)))
-        gt_matched[mg] += 1
-        was = prev_step >= 0
-        prev_id[mg] = mp
-        prev_step[:] = -1
-        prev_step[mg] = mp
-        frag += ~was & (prev_step >= 0)
-        tp += r.size
-        fn += len(g) - r.size
-        fp += len(p) - r.size
-        motp_sum += float(sim[r, c].sum())
-
-    ratio = gt_matched[gt_count > 0] / gt_count[gt_count > 0]
+    per_frame, n_frames = _per_frame(gt, pred)
+    gid, n_gid, n_gt = _relabel(gt[:, 1], [g for g, _ in per_frame])
+    pid, n_pid, n_pred = _relabel(pred[:, 1], [p for _, p in per_frame])
+    k = _clear_mot(gt, pred, per_frame, gid, pid, n_gid, n_pid, iou)
+    ratio = k.gt_matched[k.gt_count > 0] / k.gt_count[k.gt_count > 0]
     mt = int(np.sum(ratio > 0.8))
     pt = int(np.sum(ratio >= 0.2)) - mt
-    ml = n_gid - mt - pt
-    n_frag = int(np.sum(frag[frag > 0] - 1))
-
-    # Identity: one global assignment of gt ids to predicted ids (TrackEval's Identity).
-    if n_gt == 0 or n_pred == 0:
-        idtp = 0
-    else:
-        big = n_gid + n_pid
-        fp_mat = np.zeros((big, big))
-        fn_mat = np.zeros((big, big))
-        fp_mat[n_gid:, :n_pid] = 1e10
-        fn_mat[:n_gid, n_pid:] = 1e10
-        fn_mat[:n_gid, :n_pid] = gt_count[:, None]
-        fn_mat[np.arange(n_gid), n_pid + np.arange(n_gid)] = gt_count
-        fp_mat[:n_gid, :n_pid] = pr_count[None, :]
-        fp_mat[n_gid + np.arange(n_pid), np.arange(n_pid)] = pr_count
-        fn_mat[:n_gid, :n_pid] -= potential
-        fp_mat[:n_gid, :n_pid] -= potential
-        r, c = linear_sum_assignment(fn_mat + fp_mat)
-        idfn = int(fn_mat[r, c].sum())
-        idtp = int(gt_count.sum() - idfn)
-    idfn = n_gt - idtp
-    idfp = n_pred - idtp
-
-    def ratio_(a: float, b: float) -> float:
-        return float(a) / max(1.0, float(b))
-
+    idtp = _id_true_positives(k, n_gid, n_pid, n_gt, n_pred)
+    idfn, idfp = n_gt - idtp, n_pred - idtp
+    tp, fp, fn, idsw = k.tp, k.fp, k.fn, k.idsw
     return {
-        "mota": ratio_(tp - fp - idsw, tp + fn),
-        "motp": ratio_(motp_sum, tp),
-        "idf1": ratio_(idtp, idtp + 0.5 * idfp + 0.5 * idfn),
-        "idp": ratio_(idtp, idtp + idfp),
-        "idr": ratio_(idtp, idtp + idfn),
+        "mota": _ratio(tp - fp - idsw, tp + fn),
+        "motp": _ratio(k.motp_sum, tp),
+        "idf1": _ratio(idtp, idtp + 0.5 * idfp + 0.5 * idfn),
+        "idp": _ratio(idtp, idtp + idfp),
+        "idr": _ratio(idtp, idtp + idfn),
         "idsw": idsw,
-        "idsw_rate": ratio_(idsw, n_gt),
+        "idsw_rate": _ratio(idsw, n_gt),
         "fp": fp,
         "fn": fn,
         "tp": tp,
@@ -321,14 +359,14 @@ def evaluate_tables(
         "n_gt_ids": n_gid,
         "n_pred_ids": n_pid,
         "n_frames": n_frames,
-        "precision": ratio_(tp, tp + fp),
-        "recall": ratio_(tp, tp + fn),
+        "precision": _ratio(tp, tp + fp),
+        "recall": _ratio(tp, tp + fn),
         "mt": mt,
         "pt": pt,
-        "ml": ml,
-        "frag": n_frag,
+        "ml": n_gid - mt - pt,
+        "frag": int(np.sum(k.frag[k.frag > 0] - 1)),
         "iou_threshold": float(iou),
-        **_hota(hota_frames, n_gid, n_pid),
+        **_hota(k.hota_frames, n_gid, n_pid),
     }
 
 

@@ -56,11 +56,12 @@ from typing import Any
 
 import numpy as np
 
-from thermoswarm.config import check, to_dict
+from thermoswarm.config import to_dict
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_json
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.train_augment import AugmentConfig, _Sampler
+from thermoswarm.tracking.train_augment import _Sampler
+from thermoswarm.tracking.train_config import AugmentConfig, TrainConfig
 from thermoswarm.tracking.train_data import (
     NODE_ALIASES,
     LabeledFrames,
@@ -77,7 +78,6 @@ from thermoswarm.tracking.train_validate import (
     evaluate_detector,
     synthetic_validation,
 )
-from thermoswarm.tracking.unet import ModelConfig
 
 __all__ = [
     "LabeledFrames",
@@ -97,111 +97,6 @@ __all__ = [
     "train_from_sources",
     "NODE_ALIASES",
 ]
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Training options (TOML: top-level keys and ``[model]``, ``[augment]``,
-    ``[synth]``, ``[validation]`` tables).
-
-    ``seed``: of every random draw.  ``max_steps``: most optimisation steps (one batch
-    for each network per step).  ``max_minutes``: wall-clock limit (``None``: none).
-    ``eval_every``: steps between evaluations.  ``target_mota``, ``target_idsw_rate``:
-    synthetic training stops when the validation video meets both, MOTA with a margin
-    ``target_margin``, at ``target_evals`` consecutive evaluations (the validation clip
-    is short: one lucky evaluation is not enough, and its MOTA ran 1-2 points above
-    that of the longer benchmark videos).  ``lr``,
-    ``weight_decay``: AdamW, learning rate decayed by a cosine to ``lr / 20`` over
-    ``max_steps``.  ``centroid_batch``, ``patch_size`` (px, a multiple of 16):
-    centroid patches per step and their side.  ``pose_batch``: crops per step.
-    ``anchor_jitter_px``: standard deviation of the crop centre around the true body
-    point (the centroid network's error); a fraction ``anchor_far_fraction`` of the
-    crops is centred anywhere within ``anchor_far_px`` of it instead (a stray peak on
-    a head or gaster), and every crop is labelled with the ant whose body point is
-    nearest its centre, so that a stray peak yields the same pose again (removed as a
-    duplicate) rather than a shifted ghost.  ``crowd_weight``: how much more often ants
-    with another body point within half a body length are drawn for pose crops.
-    ``variance_weight``: weight of the soft-argmax variance in the pose loss.
-    ``ema_decay``: the model evaluated and saved is an exponential moving average of
-    the weights with this decay per step (0: the weights themselves).
-    ``val_fraction``: held-out frames of labelled data.  ``threads``: PyTorch threads
-    (``None``: as set).
-    """
-
-    seed: int = 0
-    max_steps: int = 4000
-    max_minutes: float | None = None
-    eval_every: int = 1000
-    target_mota: float = 0.95
-    target_idsw_rate: float = 0.01
-    target_evals: int = 2
-    target_margin: float = 0.01
-    lr: float = 3e-3
-    weight_decay: float = 1e-4
-    centroid_batch: int = 8
-    patch_size: int = 192
-    pose_batch: int = 64
-    anchor_jitter_px: float = 1.0
-    anchor_far_fraction: float = 0.3
-    anchor_far_px: float = 10.0
-    crowd_weight: float = 3.0
-    variance_weight: float = 0.05
-    ema_decay: float = 0.99
-    val_fraction: float = 0.1
-    threads: int | None = None
-    model: ModelConfig = field(default_factory=ModelConfig)
-    augment: AugmentConfig = field(default_factory=AugmentConfig)
-    synth: SynthDataConfig = field(default_factory=SynthDataConfig)
-    validation: ValidationConfig = field(default_factory=ValidationConfig)
-
-    def __post_init__(self) -> None:
-        check(self.max_steps >= 1, "max_steps", "a positive integer", self.max_steps)
-        check(
-            self.max_minutes is None or self.max_minutes > 0,
-            "max_minutes",
-            "a positive number",
-            self.max_minutes,
-        )
-        check(self.eval_every >= 1, "eval_every", "a positive integer", self.eval_every)
-        check(0 < self.target_mota <= 1, "target_mota", "in (0, 1]", self.target_mota)
-        check(
-            0 <= self.target_idsw_rate <= 1,
-            "target_idsw_rate",
-            "in [0, 1]",
-            self.target_idsw_rate,
-        )
-        check(self.target_evals >= 1, "target_evals", "a positive integer", self.target_evals)
-        check(0 <= self.target_margin < 1, "target_margin", "in [0, 1)", self.target_margin)
-        check(self.lr > 0, "lr", "a positive number", self.lr)
-        check(self.weight_decay >= 0, "weight_decay", "a non-negative number", self.weight_decay)
-        check(
-            self.centroid_batch >= 1, "centroid_batch", "a positive integer", self.centroid_batch
-        )
-        check(
-            self.patch_size >= 32 and self.patch_size % 16 == 0,
-            "patch_size",
-            "a multiple of 16, at least 32 px",
-            self.patch_size,
-        )
-        check(self.pose_batch >= 1, "pose_batch", "a positive integer", self.pose_batch)
-        check(self.anchor_jitter_px >= 0, "anchor_jitter_px", ">= 0", self.anchor_jitter_px)
-        check(
-            0 <= self.anchor_far_fraction <= 1,
-            "anchor_far_fraction",
-            "in [0, 1]",
-            self.anchor_far_fraction,
-        )
-        check(self.anchor_far_px >= 0, "anchor_far_px", ">= 0", self.anchor_far_px)
-        check(self.crowd_weight >= 0, "crowd_weight", ">= 0", self.crowd_weight)
-        check(self.variance_weight >= 0, "variance_weight", ">= 0", self.variance_weight)
-        check(0 <= self.ema_decay < 1, "ema_decay", "in [0, 1)", self.ema_decay)
-        check(0 <= self.val_fraction < 1, "val_fraction", "in [0, 1)", self.val_fraction)
-        check(
-            self.threads is None or self.threads >= 1,
-            "threads",
-            "a positive integer",
-            self.threads,
-        )
 
 
 # -------------------------------------------------------------- synthetic source
@@ -289,6 +184,247 @@ def _score(metrics: dict[str, Any]) -> tuple[float, float]:
     return float(main), -float(err if math.isfinite(err) else 1e9)
 
 
+def _model_and_data(
+    data: LabeledFrames, cfg: TrainConfig, init: str | os.PathLike | None
+) -> tuple[Any, LabeledFrames, TrainConfig]:
+    """The model to train (new, or the weights of ``init``), the data at its scale and
+    the configuration with its model section."""
+    from thermoswarm.tracking.unet import TopDownModel, load_model
+
+    if init is not None:
+        model = load_model(init)
+        mcfg = model.config
+    else:
+        mcfg = dataclasses.replace(cfg.model, px_per_mm=float(data.px_per_mm))
+        model = TopDownModel(mcfg)
+    return model, data.rescaled(mcfg.px_per_mm), dataclasses.replace(cfg, model=mcfg)
+
+
+def _hold_out(
+    data: LabeledFrames, cfg: TrainConfig, rng: np.random.Generator
+) -> tuple[LabeledFrames, ValidationSet | None]:
+    """The training frames and the held-out fraction ``val_fraction`` of them (``None``
+    when it rounds to no frame, or to all of them)."""
+    n_val = int(round(cfg.val_fraction * len(data)))
+    if not (n_val >= 1 and len(data) - n_val >= 1):
+        return data, None
+    perm = rng.permutation(len(data))
+    val_data = data.subset(sorted(perm[:n_val]))
+    data = data.subset(sorted(perm[n_val:]))
+    validation = ValidationSet(
+        val_data.frames,
+        val_data.points,
+        data.px_per_mm,
+        description=f"{n_val} held-out frames of {data.source}",
+        ignore=val_data.ignore,
+    )
+    return data, validation
+
+
+def _optimiser(model: Any, cfg: TrainConfig) -> tuple[Any, Any]:
+    """AdamW over both networks, with a cosine decay to ``lr / 20`` over ``max_steps``."""
+    import torch
+
+    opt = torch.optim.AdamW(
+        [{"params": list(model.centroid.parameters())}, {"params": list(model.pose.parameters())}],
+        lr=cfg.lr,
+        weight_decay=cfg.weight_decay,
+    )
+    sched = torch.optim.lr_scheduler.CosineAnnealingLR(
+        opt, T_max=cfg.max_steps, eta_min=cfg.lr / 20
+    )
+    return opt, sched
+
+
+def _step(model: Any, sampler: _Sampler, opt: Any, sched: Any, cfg: TrainConfig
+          ) -> tuple[float, float]:  # fmt: skip
+    """One optimisation step on a centroid batch and a pose batch; their losses."""
+    import torch
+
+    from thermoswarm.tracking.unet import soft_argmax
+
+    xb, yb, wb = sampler.centroid_batch()
+    x = torch.from_numpy(xb).permute(0, 3, 1, 2).float().div_(255.0)
+    y = torch.from_numpy(yb)[:, None]
+    loss_c = _centroid_loss(model.centroid(x), y, torch.from_numpy(wb)[:, None])
+    cb, pb = sampler.pose_batch()
+    xc = torch.from_numpy(cb).permute(0, 3, 1, 2).float().div_(255.0)
+    target = torch.from_numpy(pb).float()
+    xy, var = soft_argmax(model.pose(xc))
+    valid = torch.isfinite(target).all(-1)
+    d2 = ((xy - torch.nan_to_num(target)) ** 2).sum(-1)
+    nvalid = valid.sum().clamp(min=1)
+    loss_p = (d2 * valid).sum() / nvalid + cfg.variance_weight * (var * valid).sum() / nvalid
+    opt.zero_grad(set_to_none=True)
+    (loss_c + loss_p).backward()
+    opt.step()
+    sched.step()
+    return loss_c.item(), loss_p.item()
+
+
+@dataclass
+class _Progress:
+    """The loop's state: clocks, running losses, evaluations and the best model so far."""
+
+    t_start: float
+    c_start: float
+    t_train: float = 0.0
+    run_c: float | None = None
+    run_p: float | None = None
+    history: list[dict[str, Any]] = field(default_factory=list)
+    best: dict[str, Any] | None = None
+    best_state: dict[str, Any] | None = None
+    stopped: str = "max_steps"
+    n_met: int = 0
+    step: int = 0
+
+    def losses(self, lc: float, lp: float) -> None:
+        self.run_c = lc if self.run_c is None else 0.95 * self.run_c + 0.05 * lc
+        self.run_p = lp if self.run_p is None else 0.95 * self.run_p + 0.05 * lp
+
+
+def _evaluate(
+    ema: Any,
+    data: LabeledFrames,
+    validation: ValidationSet | None,
+    sched: Any,
+    st: _Progress,
+) -> dict[str, Any]:
+    """One evaluation: losses, learning rate, the peak reference measured on the
+    training frames and (with ``validation``) the detector's scores."""
+    from thermoswarm.tracking.unet import UNetDetector
+
+    entry: dict[str, Any] = {
+        "step": st.step,
+        "seconds": time.perf_counter() - st.t_start,
+        "cpu_seconds": time.process_time() - st.c_start,
+        "loss_centroid": st.run_c,
+        "loss_pose": st.run_p,
+        "lr": float(sched.get_last_lr()[0]),
+    }
+    ema.config = dataclasses.replace(
+        ema.config, peak_reference=calibrate_peaks(ema, data, rng=np.random.default_rng(0))
+    )
+    if validation is not None:
+        det = UNetDetector(ema, px_per_mm=validation.px_per_mm)
+        entry.update(evaluate_detector(det, validation))
+        entry["seconds_with_eval"] = time.perf_counter() - st.t_start
+        entry["cpu_seconds_with_eval"] = time.process_time() - st.c_start
+    return entry
+
+
+def _keep(
+    st: _Progress,
+    entry: dict[str, Any],
+    ema: Any,
+    validation: ValidationSet | None,
+    cfg: TrainConfig,
+) -> bool:
+    """Record an evaluation, keep the best model (by validation; the latest without);
+    true when the stopping rule (targets met ``target_evals`` times in a row) holds."""
+    entry["peak_reference"] = ema.config.peak_reference
+    if st.best is None or (validation is not None and _score(entry) > _score(st.best)):
+        st.best, st.best_state = entry, copy.deepcopy(ema.state_dict())
+    if validation is None:
+        st.best, st.best_state = entry, copy.deepcopy(ema.state_dict())
+    met = (
+        validation is not None
+        and validation.mot_gt is not None
+        and entry.get("mota", 0) >= cfg.target_mota + cfg.target_margin
+        and entry.get("idsw_rate", 1) <= cfg.target_idsw_rate
+    )
+    st.n_met = st.n_met + 1 if met else 0
+    if st.n_met >= cfg.target_evals:
+        st.stopped = "target"
+        st.best, st.best_state = entry, copy.deepcopy(ema.state_dict())
+        return True
+    return False
+
+
+def _loop(
+    model: Any,
+    ema: Any,
+    data: LabeledFrames,
+    sampler: _Sampler,
+    validation: ValidationSet | None,
+    cfg: TrainConfig,
+    st: _Progress,
+    progress: bool,
+    log: Callable[[str], None] | None,
+) -> None:
+    """The training steps, an evaluation every ``eval_every`` of them and at the end;
+    stops at ``max_steps``, at the targets or at ``max_minutes``."""
+    opt, sched = _optimiser(model, cfg)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=cfg.max_steps, unit="step", desc="train", disable=None)
+    st.t_train = time.perf_counter()
+    for step in range(1, cfg.max_steps + 1):
+        st.step = step
+        st.losses(*_step(model, sampler, opt, sched, cfg))
+        _ema_update(ema, model, cfg.ema_decay, step)
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix(centroid=f"{st.run_c:.4f}", pose=f"{st.run_p:.2f}")
+        last = step == cfg.max_steps
+        over_time = (
+            cfg.max_minutes is not None and time.perf_counter() - st.t_train > 60 * cfg.max_minutes
+        )
+        if step % cfg.eval_every and not last and not over_time:
+            continue
+        entry = _evaluate(ema, data, validation, sched, st)
+        st.history.append(entry)
+        if log is not None:
+            log(_log_line(entry))
+        if _keep(st, entry, ema, validation, cfg):
+            break
+        if over_time:
+            st.stopped = "max_minutes"
+            break
+    if bar is not None:
+        bar.close()
+
+
+def _report(
+    out: Path,
+    st: _Progress,
+    data: LabeledFrames,
+    sampler: _Sampler,
+    validation: ValidationSet | None,
+    init: str | os.PathLike | None,
+    cfg: TrainConfig,
+) -> dict[str, Any]:
+    """The training report (keys in ``docs/tracking_unet.md``)."""
+    import torch
+
+    return {
+        "model": str(out),
+        "stopped": st.stopped,
+        "target_reached": st.stopped == "target",
+        "steps": st.step,
+        "seconds": time.perf_counter() - st.t_start,
+        "cpu_seconds": time.process_time() - st.c_start,
+        "train_seconds": time.perf_counter() - st.t_train,
+        "best": st.best,
+        "history": st.history,
+        "data": {
+            "source": data.source,
+            "n_frames": len(data),
+            "n_instances": data.n_instances,
+            "n_crowded_instances": sampler.n_crowded,
+            "n_ignored": data.n_ignored,
+            "px_per_mm": data.px_per_mm,
+        },
+        "validation": None if validation is None else validation.description,
+        "torch_threads": torch.get_num_threads(),
+        "torch_version": torch.__version__,
+        "init": None if init is None else str(init),
+        "config": to_dict(cfg),
+    }
+
+
 def train(
     data: LabeledFrames,
     out: str | os.PathLike,
@@ -326,15 +462,7 @@ def train(
     dict
         The report (also written as JSON, keys in ``docs/tracking_unet.md``).
     """
-    import torch
-
-    from thermoswarm.tracking.unet import (
-        TopDownModel,
-        UNetDetector,
-        load_model,
-        save_model,
-        soft_argmax,
-    )
+    from thermoswarm.tracking.unet import save_model
 
     cfg = config or TrainConfig()
     out = Path(out)
@@ -343,170 +471,24 @@ def train(
     if len(data) == 0:
         raise InputError("no training frames")
     rng = np.random.default_rng(cfg.seed)
-    t_start = time.perf_counter()
-    c_start = time.process_time()
+    st = _Progress(time.perf_counter(), time.process_time())
     with _torch_state(cfg.seed, cfg.threads):
-        if init is not None:
-            model = load_model(init)
-            mcfg = model.config
-        else:
-            mcfg = dataclasses.replace(cfg.model, px_per_mm=float(data.px_per_mm))
-            model = TopDownModel(mcfg)
-        data = data.rescaled(mcfg.px_per_mm)
-        cfg = dataclasses.replace(cfg, model=mcfg)
+        model, data, cfg = _model_and_data(data, cfg, init)
         if validation is None:
-            n_val = int(round(cfg.val_fraction * len(data)))
-            if n_val >= 1 and len(data) - n_val >= 1:
-                perm = rng.permutation(len(data))
-                val_data = data.subset(sorted(perm[:n_val]))
-                data = data.subset(sorted(perm[n_val:]))
-                validation = ValidationSet(
-                    val_data.frames,
-                    val_data.points,
-                    data.px_per_mm,
-                    description=f"{n_val} held-out frames of {data.source}",
-                    ignore=val_data.ignore,
-                )
+            data, validation = _hold_out(data, cfg, rng)
         sampler = _Sampler(data, cfg, rng)
         model.train()
         ema = copy.deepcopy(model).eval()
         for p in ema.parameters():
             p.requires_grad_(False)
-        params_c = list(model.centroid.parameters())
-        params_p = list(model.pose.parameters())
-        opt = torch.optim.AdamW(
-            [{"params": params_c}, {"params": params_p}],
-            lr=cfg.lr,
-            weight_decay=cfg.weight_decay,
-        )
-        sched = torch.optim.lr_scheduler.CosineAnnealingLR(
-            opt, T_max=cfg.max_steps, eta_min=cfg.lr / 20
-        )
-        history: list[dict[str, Any]] = []
-        best: dict[str, Any] | None = None
-        best_state: dict[str, torch.Tensor] | None = None
-        stopped = "max_steps"
-        n_met = 0
-        run_c = run_p = None
-        bar = None
-        if progress:
-            from tqdm import tqdm
-
-            bar = tqdm(total=cfg.max_steps, unit="step", desc="train", disable=None)
-        t_train = time.perf_counter()
-        step = 0
-        for step in range(1, cfg.max_steps + 1):
-            xb, yb, wb = sampler.centroid_batch()
-            x = torch.from_numpy(xb).permute(0, 3, 1, 2).float().div_(255.0)
-            y = torch.from_numpy(yb)[:, None]
-            loss_c = _centroid_loss(model.centroid(x), y, torch.from_numpy(wb)[:, None])
-            cb, pb = sampler.pose_batch()
-            xc = torch.from_numpy(cb).permute(0, 3, 1, 2).float().div_(255.0)
-            target = torch.from_numpy(pb).float()
-            xy, var = soft_argmax(model.pose(xc))
-            valid = torch.isfinite(target).all(-1)
-            d2 = ((xy - torch.nan_to_num(target)) ** 2).sum(-1)
-            nvalid = valid.sum().clamp(min=1)
-            loss_p = (d2 * valid).sum() / nvalid + cfg.variance_weight * (
-                var * valid
-            ).sum() / nvalid
-            opt.zero_grad(set_to_none=True)
-            (loss_c + loss_p).backward()
-            opt.step()
-            sched.step()
-            _ema_update(ema, model, cfg.ema_decay, step)
-            lc, lp = loss_c.item(), loss_p.item()
-            run_c = lc if run_c is None else 0.95 * run_c + 0.05 * lc
-            run_p = lp if run_p is None else 0.95 * run_p + 0.05 * lp
-            if bar is not None:
-                bar.update(1)
-                bar.set_postfix(centroid=f"{run_c:.4f}", pose=f"{run_p:.2f}")
-            last = step == cfg.max_steps
-            over_time = (
-                cfg.max_minutes is not None
-                and time.perf_counter() - t_train > 60 * cfg.max_minutes
-            )
-            if step % cfg.eval_every and not last and not over_time:
-                continue
-            entry: dict[str, Any] = {
-                "step": step,
-                "seconds": time.perf_counter() - t_start,
-                "cpu_seconds": time.process_time() - c_start,
-                "loss_centroid": run_c,
-                "loss_pose": run_p,
-                "lr": float(sched.get_last_lr()[0]),
-            }
-            ema.config = dataclasses.replace(
-                ema.config, peak_reference=calibrate_peaks(ema, data, rng=np.random.default_rng(0))
-            )
-            if validation is not None:
-                det = UNetDetector(ema, px_per_mm=validation.px_per_mm)
-                entry.update(evaluate_detector(det, validation))
-                entry["seconds_with_eval"] = time.perf_counter() - t_start
-                entry["cpu_seconds_with_eval"] = time.process_time() - c_start
-            history.append(entry)
-            if log is not None:
-                log(_log_line(entry))
-            entry["peak_reference"] = ema.config.peak_reference
-            if best is None or (validation is not None and _score(entry) > _score(best)):
-                best = entry
-                best_state = copy.deepcopy(ema.state_dict())
-            if validation is None:
-                best, best_state = entry, copy.deepcopy(ema.state_dict())
-            met = (
-                validation is not None
-                and validation.mot_gt is not None
-                and entry.get("mota", 0) >= cfg.target_mota + cfg.target_margin
-                and entry.get("idsw_rate", 1) <= cfg.target_idsw_rate
-            )
-            n_met = n_met + 1 if met else 0
-            if n_met >= cfg.target_evals:
-                stopped = "target"
-                best, best_state = entry, copy.deepcopy(ema.state_dict())
-                break
-            if over_time:
-                stopped = "max_minutes"
-                break
-        if bar is not None:
-            bar.close()
-        assert best_state is not None
-        model.load_state_dict(best_state)
-        model.config = dataclasses.replace(model.config, peak_reference=best["peak_reference"])
-        elapsed = time.perf_counter() - t_start
-        report: dict[str, Any] = {
-            "model": str(out),
-            "stopped": stopped,
-            "target_reached": stopped == "target",
-            "steps": step,
-            "seconds": elapsed,
-            "cpu_seconds": time.process_time() - c_start,
-            "train_seconds": time.perf_counter() - t_train,
-            "best": best,
-            "history": history,
-            "data": {
-                "source": data.source,
-                "n_frames": len(data),
-                "n_instances": data.n_instances,
-                "n_crowded_instances": sampler.n_crowded,
-                "n_ignored": data.n_ignored,
-                "px_per_mm": data.px_per_mm,
-            },
-            "validation": None if validation is None else validation.description,
-            "torch_threads": torch.get_num_threads(),
-            "torch_version": torch.__version__,
-            "init": None if init is None else str(init),
-            "config": to_dict(cfg),
-        }
+        _loop(model, ema, data, sampler, validation, cfg, st, progress, log)
+        assert st.best_state is not None and st.best is not None
+        model.load_state_dict(st.best_state)
+        model.config = dataclasses.replace(model.config, peak_reference=st.best["peak_reference"])
+        report = _report(out, st, data, sampler, validation, init, cfg)
         model.eval()
-        save_model(
-            model,
-            out,
-            info={
-                k: report[k]
-                for k in ("stopped", "target_reached", "steps", "seconds", "best", "data")
-            }
-            | {"seed": cfg.seed},
-        )
+        kept = ("stopped", "target_reached", "steps", "seconds", "best", "data")
+        save_model(model, out, info={k: report[k] for k in kept} | {"seed": cfg.seed})
         atomic_write_json(out.with_suffix(".json"), report)
     return report
 

@@ -4,48 +4,13 @@ Part of :mod:`thermoswarm.tracking.train`."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from thermoswarm.config import check
 from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy
+from thermoswarm.tracking.train_config import AugmentConfig, TrainConfig
 from thermoswarm.tracking.train_data import LabeledFrames
-
-if TYPE_CHECKING:  # the training configuration (train.py imports this module)
-    from thermoswarm.tracking.train import TrainConfig
-
-
-@dataclass(frozen=True)
-class AugmentConfig:
-    """Augmentations: ``rotate`` (any angle half the time, multiples of 90 degrees
-    otherwise), ``flip`` (mirror), ``scale`` (relative, uniform +-), ``brightness``
-    (relative gain +-), ``contrast`` (relative +-), ``colour`` (per-channel gain +-),
-    ``noise_sigma`` (largest Gaussian noise, grey levels), ``blur_sigma`` (largest
-    Gaussian blur, px; applied to ``blur_probability`` of the samples)."""
-
-    rotate: bool = True
-    flip: bool = True
-    scale: float = 0.08
-    brightness: float = 0.25
-    contrast: float = 0.2
-    colour: float = 0.06
-    noise_sigma: float = 6.0
-    blur_sigma: float = 1.2
-    blur_probability: float = 0.3
-
-    def __post_init__(self) -> None:
-        for name in ("scale", "brightness", "contrast", "colour"):
-            v = getattr(self, name)
-            check(0 <= v < 0.9, name, "in [0, 0.9)", v)
-        for name in ("noise_sigma", "blur_sigma"):
-            v = getattr(self, name)
-            check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
-        check(
-            0 <= self.blur_probability <= 1, "blur_probability", "in [0, 1]", self.blur_probability
-        )
 
 
 def _affine(

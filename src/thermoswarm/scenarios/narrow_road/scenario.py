@@ -336,7 +336,4 @@ class NarrowRoadScenario(Scenario):
             ],
             "geometry": geo.info(),
         }
-        out["mean_sweeps_per_step"] = float(state.counters[0]) / max(state.step, 1)
-        out["max_overlap_fraction"] = float(state.counters[1]) / 1e6 / p.diameter
-        out["final_max_overlap_fraction"] = sim.max_overlap(state) / p.diameter
         return out

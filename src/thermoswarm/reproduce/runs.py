@@ -1,0 +1,138 @@
+"""Running the experiments: one worker pool for every sweep, the progress log, and a
+scenario run that reuses a finished run in its directory."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from concurrent.futures import Executor
+from pathlib import Path
+from typing import Any
+
+from thermoswarm.reproduce.plans import Plan
+
+
+def _duration(seconds: float) -> str:
+    seconds = max(0.0, seconds)
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    m, s = divmod(int(round(seconds)), 60)
+    return f"{m} min {s:02d} s" if m < 60 else f"{m // 60} h {m % 60:02d} min"
+
+
+class _Pool(Executor):
+    """One pool for every sweep of a ``reproduce`` (compression, regime, mechanism,
+    scaling).
+
+    A pool per sweep started fresh worker processes (each importing the engine, SciPy
+    and xarray) 17 times in the compression step alone.  Processes: the sweeps' local
+    pool (a worker that dies fails only its own run, which the sweep retries).
+    ``workers == 1`` runs everything in this process, one run at a time.
+    """
+
+    def __init__(self, workers: int | None) -> None:
+        self.workers = workers
+        self._ex: Executor | None = None
+
+    def _make(self) -> Executor:
+        if self.workers == 1:
+            from concurrent.futures import ThreadPoolExecutor
+
+            return ThreadPoolExecutor(max_workers=1)
+        from thermoswarm.sweep import local_pool
+
+        return local_pool(self.workers)
+
+    def submit(self, fn, /, *args, **kwargs):  # type: ignore[override]
+        from concurrent.futures.process import BrokenProcessPool
+
+        if self._ex is None:
+            self._ex = self._make()
+        try:
+            return self._ex.submit(fn, *args, **kwargs)
+        except BrokenProcessPool:
+            self._ex.shutdown(wait=False, cancel_futures=True)
+            self._ex = self._make()
+            return self._ex.submit(fn, *args, **kwargs)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        if self._ex is not None:
+            self._ex.shutdown(wait=wait, cancel_futures=cancel_futures)
+            self._ex = None
+
+
+class _Log:
+    """One line per finished step with the time it took and an estimate of what is left
+    (the plan's expected durations, rescaled by how long the finished steps took); on a
+    terminal also a line when a step starts, and the runs' progress bars."""
+
+    def __init__(self, verbose: bool, plan: Plan, steps: list[str]) -> None:
+        import sys
+
+        self.verbose = verbose
+        self.tty = verbose and sys.stdout.isatty()
+        self.t0 = time.perf_counter()
+        self.times: dict[str, float] = {}
+        self.steps = steps
+        self.expected = {s: float(plan.expected.get(s, 1.0)) for s in steps}
+
+    @property
+    def bars(self) -> bool | None:
+        """``progress`` for runs and studies: bars on a terminal, nothing in a log (the
+        step lines are the log) or when quiet."""
+        return None if self.tty else False
+
+    def left(self) -> float:
+        done = [s for s in self.steps if s in self.times]
+        todo = [s for s in self.steps if s not in self.times]
+        exp_done = sum(self.expected[s] for s in done)
+        scale = sum(self.times[s] for s in done) / exp_done if exp_done > 0 else 1.0
+        return scale * sum(self.expected[s] for s in todo)
+
+    def step(self, name: str) -> Callable[[], None]:
+        start = time.perf_counter()
+        k = self.steps.index(name) + 1 if name in self.steps else 0
+        if self.tty:
+            print(f"[{_duration(start - self.t0):>11s}] {k}/{len(self.steps)} {name} ... "
+                  f"(about {_duration(self.left())} left)", flush=True)  # fmt: skip
+
+        def done() -> None:
+            took = time.perf_counter() - start
+            self.times[name] = round(took, 1)
+            if self.verbose:
+                left = self.left()
+                tail = f"; about {_duration(left)} left" if left > 0 else ""
+                print(f"[{_duration(time.perf_counter() - self.t0):>11s}] {k}/{len(self.steps)} "
+                      f"{name} done in {_duration(took)}{tail}", flush=True)  # fmt: skip
+
+        return done
+
+
+def _run(name: str, out: Path, overrides: dict[str, Any] | None = None, seed: int = 0,
+         progress: bool | None = False):  # fmt: skip
+    """Run (or reuse the finished run in) ``out``; returns (metrics, tracks, setup info)."""
+    import xarray as xr
+
+    from thermoswarm.config import from_mapping
+    from thermoswarm.scenarios import get
+    from thermoswarm.scenarios.runner import RunConfig, build, open_run_tracks, resume, run
+    from thermoswarm.sweep import _flatten_base
+
+    cls = get(name)
+    cfg = RunConfig(name, from_mapping(cls.Params, _flatten_base(overrides or {})), seed)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if (out / "metrics.json").is_file() and (out / "config.toml").read_text() == cfg.to_toml():
+        metrics = json.loads((out / "metrics.json").read_text())
+    elif (out / "tracks.zarr").is_dir() and (out / "config.toml").read_text() == cfg.to_toml():
+        metrics = resume(out, progress=progress)
+    else:
+        if out.exists():
+            import shutil
+
+            shutil.rmtree(out)
+        metrics = run(cfg, out, progress=progress)
+    nc = out / "tracks.nc"
+    tracks = xr.open_dataset(nc).load() if nc.is_file() else open_run_tracks(out / "tracks.zarr")
+    _, setup, _, _ = build(cfg)
+    return metrics, tracks, setup.info

@@ -1,0 +1,154 @@
+"""What README.md and docs/*.md quote must exist: every test they name, every benchmark
+script and its options, every ``thermoswarm`` verb and its options quoted inline.
+
+The fenced examples are run by ``tests/docs/test_examples.py``; this file covers the
+sentences and tables: a claim that names ``tests/x.py::test_y`` fails here once that
+test is renamed or removed, and ``python benchmarks/b.py --opt`` fails once the script
+or its option is gone.  Also the sentences of the README that describe behaviour this
+file checks directly (stepping in place).
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+import shlex
+from pathlib import Path
+
+import click
+import numpy as np
+
+from thermoswarm.cli import cli
+
+REPO = Path(__file__).resolve().parents[1]
+PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+
+# a test named by path, optionally with its function: tests/a/b.py or tests/a/b.py::test_c
+TEST_REF = re.compile(r"(tests/[\w/]+\.py)(?:::(\w+))?")
+# a benchmark command quoted inline or in a block: python benchmarks/x.py [args]
+BENCH_CMD = re.compile(r"python (benchmarks/\w+\.py)((?:[ \t]+(?:\\\n\s*)?[^`\n|;)]+)?)")
+# an inline code span that starts with the command
+VERB_SPAN = re.compile(r"`(thermoswarm [^`]+)`")
+
+
+def _text(page: Path) -> str:
+    return page.read_text(encoding="utf-8")
+
+
+def _refs(regex: re.Pattern) -> list[tuple[str, re.Match]]:
+    return [(p.name, m) for p in PAGES for m in regex.finditer(_text(p))]
+
+
+def _functions(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    return {n.name for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)}
+
+
+def _option_literals(path: Path) -> set[str]:
+    """Every string constant of a script that looks like an option (``--name``)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    return {
+        n.value
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Constant) and isinstance(n.value, str) and n.value.startswith("-")
+    }
+
+
+def test_the_pages_quote_tests_benchmarks_and_commands():
+    # the checks below must have something to check (a regex that matches nothing
+    # would pass them all)
+    assert len(_refs(TEST_REF)) >= 20
+    assert len(_refs(BENCH_CMD)) >= 15
+    assert len(_refs(VERB_SPAN)) >= 20
+
+
+def test_every_named_test_exists():
+    missing = []
+    for page, m in _refs(TEST_REF):
+        path = REPO / m.group(1)
+        if not path.is_file():
+            missing.append(f"{page}: {m.group(0)} (no such file)")
+        elif m.group(2) and m.group(2) not in _functions(path):
+            missing.append(f"{page}: {m.group(0)} (no such test)")
+    assert not missing, "\n".join(missing)
+
+
+def test_every_quoted_benchmark_script_and_option_exists():
+    missing = []
+    for page, m in _refs(BENCH_CMD):
+        path = REPO / m.group(1)
+        if not path.is_file():
+            missing.append(f"{page}: {m.group(0).strip()} (no such script)")
+            continue
+        known = _option_literals(path)
+        args = re.sub(r"\\\n\s*", " ", m.group(2) or "")
+        try:
+            words = shlex.split(args)
+        except ValueError:
+            words = args.split()
+        for w in words:
+            opt = w.split("=")[0]
+            if re.fullmatch(r"--[a-z][\w-]*", opt) and opt not in known:
+                missing.append(f"{page}: {m.group(1)} has no option {opt}")
+    assert not missing, "\n".join(missing)
+
+
+def _command(words: list[str]) -> tuple[click.Command, str] | None:
+    """The (sub)command a quoted ``thermoswarm`` span names, or None if it names none."""
+    cmd: click.Command = cli
+    name = "thermoswarm"
+    if words[:2] == ["track", "train"]:  # routed to `track-train` by the command group
+        words = ["track-train", *words[2:]]
+    for w in words:
+        if not isinstance(cmd, click.Group) or w.startswith("-"):
+            break
+        sub = cmd.get_command(click.Context(cmd), w)
+        if sub is None:
+            return None
+        cmd, name = sub, f"{name} {w}"
+    return cmd, name
+
+
+def test_every_inline_thermoswarm_command_and_option_exists():
+    bad = []
+    for page, m in _refs(VERB_SPAN):
+        try:
+            words = shlex.split(m.group(1))[1:]
+        except ValueError:
+            words = m.group(1).split()[1:]
+        if not words or words[0].startswith("-") or words[0] in ("...", "VERB"):
+            continue
+        found = _command(words)
+        if found is None:
+            bad.append(f"{page}: `{m.group(1)}`: no such command")
+            continue
+        cmd, name = found
+        opts = {o for p in cmd.params for o in (*p.opts, *p.secondary_opts)}
+        opts |= {"--help"}
+        for w in words:
+            opt = w.split("=")[0]
+            if re.fullmatch(r"--[a-z][\w-]*", opt) and opt not in opts:
+                bad.append(f"{page}: `{m.group(1)}`: {name} has no option {opt}")
+    assert not bad, "\n".join(bad)
+
+
+def test_step_advances_the_state_in_place():
+    """README, "From Python": ``step`` returns the same state object, advanced in
+    place; a position array read before the step is not a copy to keep."""
+    from thermoswarm.policy import BoltzmannUniform
+    from thermoswarm.sim import EngineParams, box_world, place_lattice, simulator
+
+    world = box_world(1000.0, 1000.0)
+    init, step = simulator(world, EngineParams(dt=0.1, tau=1.0), BoltzmannUniform(kT=63.7))
+    rng = np.random.default_rng(1)
+    state = init(place_lattice(world.bounds, 200, 16.5, rng), rng)
+    kept = state.by_id(state.pos).copy()
+    arrays = []
+    for _ in range(5):
+        arrays.append(state.pos)
+        assert step(state) is state
+    assert state.step == 5
+    moved = np.hypot(*(state.by_id(state.pos) - kept).T)
+    assert np.all(np.isfinite(moved)) and moved.max() > 0
+    # the state's arrays are reused: no new position array per step
+    assert len({id(a) for a in arrays}) <= 2
