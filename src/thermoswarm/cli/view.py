@@ -1,0 +1,62 @@
+"""``thermoswarm view``: open a run, a trajectory file or a ``track`` output in the browser."""
+
+from __future__ import annotations
+
+import webbrowser
+from pathlib import Path
+
+import click
+
+
+@click.command()
+@click.argument("path", type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    "out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Write one self-contained HTML file (small data) instead of serving.",
+)
+@click.option(
+    "--host",
+    default="127.0.0.1",
+    show_default=True,
+    help="Address to listen on; anything but 127.0.0.1 is reachable from other machines.",
+)
+@click.option(
+    "--port", type=click.IntRange(0, 65535), default=0, help="Port (default: a free one)."
+)
+@click.option("--video", type=click.Path(path_type=Path), help="Source video of a track output "
+              "(default: the one its summary.json names).")  # fmt: skip
+@click.option("--no-browser", is_flag=True, help="Print the URL; do not open a browser.")
+def view(path: Path, out: Path | None, host: str, port: int, video: Path | None,
+         no_browser: bool) -> None:  # fmt: skip
+    """Show PATH: a `simulate` run folder (or its tracks.zarr, even while the run is
+    writing), any trajectory file `thermoswarm formats` lists, or a `track` output folder
+    drawn over its video.  Serves a page on 127.0.0.1 behind a random token (Ctrl+C
+    stops), or with --out writes one HTML file that works from disk."""
+    from thermoswarm.fsutil import require_input
+
+    require_input(path)
+    from thermoswarm.view.data import open_source
+
+    data = open_source(path, video=video)
+    if out is not None:
+        from thermoswarm.view.page import write_html
+
+        write_html(data, out)
+        click.echo(f"{data.n_frames} frames, {data.n} individuals -> {out}")
+        return
+    from thermoswarm.view.server import start_server, warn_public
+
+    root = path if path.is_dir() else path.parent
+    server = start_server(data, root, host=host, port=port)
+    warn_public(host)
+    click.echo(f"thermoswarm view: {server.url}  (Ctrl+C stops)")
+    if not no_browser:
+        webbrowser.open(server.url)
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        click.echo("stopped", err=True)
+    finally:
+        server.server_close()
