@@ -44,7 +44,7 @@ _UNITS = {
 }
 #: Category names of the variables we know (value -> label).
 _LABELS = {
-    "phase": {0: "0 (cold, liquid-like)", 1: "1 (hot, gas-like)"},
+    "phase": {0: "{:g} (cold, liquid-like)", 1: "{:g} (hot, gas-like)"},
 }
 _MAX_CATEGORIES = 12
 
@@ -211,13 +211,19 @@ class ViewData:
             "long_name": str(attrs.get("long_name", "")),
         }
         dtype = self.ds[var].dtype.kind if var in self.ds.data_vars else "f"
+        labels: dict[float, str] = {}
+        if self.kind == "run":
+            labels.update({float(k): v for k, v in _LABELS.get(var, {}).items()})
+        geo = self.geometry or {}
+        labels.update({float(k): v for k, v in geo.get("labels", {}).get(var, {}).items()})
+        if var == "temperature" and var not in self.ds.data_vars:  # from phase: two levels
+            dtype = "i"
+            labels.update({geo["kT"]["hot"]: "{:g} (hot)", geo["kT"]["cold"]: "{:g} (cold)"})
         uniq = np.unique(finite) if finite.size else np.zeros(0)
         if dtype in "biu" and uniq.size <= _MAX_CATEGORIES:
-            labels = dict(_LABELS.get(var, {})) if self.kind == "run" else {}
-            labels.update((self.geometry or {}).get("labels", {}).get(var, {}))
             info["kind"] = "categorical"
             info["categories"] = [
-                {"value": float(u), "label": str(labels.get(int(u), int(u)))} for u in uniq
+                {"value": float(u), "label": labels.get(float(u), "{:g}").format(u)} for u in uniq
             ]
         else:
             lo, hi = np.percentile(finite, [1, 99]) if finite.size else (0.0, 1.0)
@@ -295,7 +301,7 @@ def to_json(obj: Any) -> str:
 def _jsonable(v: Any) -> Any:
     if isinstance(v, np.ndarray):
         a = np.asarray(v, dtype=np.float64)
-        return np.where(np.isfinite(a), np.round(a, 6), np.nan).astype(object).tolist()
+        return a.tolist()  # NaN becomes null in to_json
     return v
 
 
@@ -424,7 +430,7 @@ def scenario_geometry(config_text: str, source: str) -> dict[str, Any]:
         geo["kT"] = {"hot": float(hot), "cold": float(cold)}
     names = info.get("names")
     if names is not None:
-        geo["labels"]["section"] = {-1: "depot", **{k: str(v) for k, v in enumerate(names)}}
+        geo["labels"]["section"] = {-1: "depot", **{k: f"{k}: {v}" for k, v in enumerate(names)}}
     return _plain(geo)
 
 
