@@ -60,6 +60,12 @@ class _Handler(BaseHTTPRequestHandler):
     def log_message(self, format: str, *args: Any) -> None:  # quiet: the page is chatty
         pass
 
+    def setup(self) -> None:
+        super().setup()
+        # headers and body go out as two writes: without NODELAY, Nagle's algorithm and
+        # the browser's delayed ACK hold small frames back by tens of milliseconds
+        self.connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+
     def _send(self, code: int, body: bytes, ctype: str) -> None:
         self.send_response(code)
         self.send_header("Content-Type", ctype)

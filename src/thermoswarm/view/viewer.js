@@ -7,7 +7,7 @@
 "use strict";
 (function () {
   const $ = (id) => document.getElementById(id);
-  const SPLAT_ABOVE = 20000;       // more robots than this: pixels, not circles
+  const SPLAT_ABOVE = 2000;        // more robots, each under 4 px: pixel discs, not paths
   const CACHE_BYTES = 400e6;       // frames kept in memory
   const MAX_INFLIGHT = 4;          // concurrent frame requests
   const VIRIDIS = [[68, 1, 84], [72, 40, 120], [62, 74, 137], [49, 104, 142], [38, 130, 142],
@@ -299,7 +299,8 @@
     const xs = arr.subarray(r0 * 2 * n, r0 * 2 * n + n), ys = arr.subarray(r0 * 2 * n + n, (r0 + 1) * 2 * n);
     const vals = arr.subarray(K * 2 * n, K * 2 * n + n), info = varInfo();
     const rad = m.radius ? m.radius * S.zoom : 0;
-    if (n > SPLAT_ABOVE && rad < 2.5) return splat(xs, ys, vals, info, rad);
+    S.stats.mode = n > SPLAT_ABOVE && rad < 4 ? "pixels" : "circles";
+    if (S.stats.mode === "pixels") return splat(xs, ys, vals, info, rad);
     const bn = binner(info), paths = bn.bins.map(() => new Path2D()), nanPath = new Path2D();
     const r = Math.max(rad, m.radius ? 1.2 : 3);
     const W = canvas.width, H = canvas.height;
@@ -323,14 +324,18 @@
     const bn = binner(info);
     const lut = bn.bins.map((c) => (255 << 24) | ((c[2] | 0) << 16) | ((c[1] | 0) << 8) | (c[0] | 0));
     const nanc = (255 << 24) | (NAN_RGB[2] << 16) | (NAN_RGB[1] << 8) | NAN_RGB[0];
-    const z = S.zoom, ox = W / 2 - S.cx * z, yd = S.meta.y_down, s = rad >= 1 ? 2 : 1;
+    const z = S.zoom, ox = W / 2 - S.cx * z, yd = S.meta.y_down;
     const oy = yd ? H / 2 - S.cy * z : H / 2 + S.cy * z, sy = yd ? z : -z;
+    // a disc of radius R px as offsets into the buffer (R = 0: one pixel)
+    const R = Math.max(0, Math.round(rad - 0.25)), offs = [];
+    for (let dy = -R; dy <= R; dy++)
+      for (let dx = -R; dx <= R; dx++) if (dx * dx + dy * dy <= R * R + R) offs.push(dy * W + dx);
+    const m = offs.length;
     for (let i = 0, n = xs.length; i < n; i++) {
       const px = (xs[i] * z + ox) | 0, py = (ys[i] * sy + oy) | 0;
-      if (px < 0 || py < 0 || px >= W - 1 || py >= H - 1) continue;  // NaN fails too
+      if (px < R || py < R || px >= W - R || py >= H - R) continue;  // NaN fails too
       const b = bn.of(vals[i]), c = b < 0 ? nanc : lut[b], o = py * W + px;
-      buf[o] = c;
-      if (s === 2) { buf[o + 1] = c; buf[o + W] = c; buf[o + W + 1] = c; }
+      if (m === 1) buf[o] = c; else for (let j = 0; j < m; j++) buf[o + offs[j]] = c;
     }
     splatCanvas.getContext("2d").putImageData(splatImage, 0, 0);
     ctx.drawImage(splatCanvas, 0, 0);
