@@ -168,3 +168,19 @@ def test_run_being_written_is_said_in_the_page(chromium, serve, tmp_path):
     server = serve(open_source(tmp_path / "tracks.zarr"), tmp_path)
     _open(chromium, server.url)
     assert "still being written: showing its 2 committed frames" in _notes(chromium)
+
+
+def test_names_from_files_are_shown_as_text(chromium, serve, tmp_path):
+    from thermoswarm.tracks import make_tracks
+    from thermoswarm.view.data import from_dataset
+
+    evil = "<img src=x onerror=window.__pwned=1>"
+    pos = np.zeros((3, 2, 2))
+    pos[:, 0, 1] = 100.0
+    data = from_dataset(make_tracks(pos, fps=1.0, individuals=[evil, "b"]), "names")
+    server = serve(data, tmp_path)
+    _open(chromium, server.url)
+    chromium.evaluate("window.viewer.select(0)")
+    chromium.wait_for("document.getElementById('sel-id') !== null")
+    assert chromium.evaluate("document.getElementById('sel-id').innerText") == evil
+    assert chromium.evaluate("window.__pwned === undefined")

@@ -28,13 +28,26 @@ import click
 @click.option("--video", type=click.Path(path_type=Path), help="Source video of a track output "
               "(default: the one its summary.json names).")  # fmt: skip
 @click.option("--no-browser", is_flag=True, help="Print the URL; do not open a browser.")
+@click.option(
+    "--screenshot",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Render the page in headless Chromium to this PNG and exit.",
+)
+@click.option("--frame", type=int, default=0, show_default=True, help="Frame of --screenshot.")
+@click.option("--select", help="Individual followed in --screenshot (name or index).")
+@click.option("--color-by", help="Colour variable of --screenshot.")
+@click.option("--trail", type=click.IntRange(0, 500), default=0, help="Trail of --screenshot.")
 def view(path: Path, out: Path | None, host: str, port: int, video: Path | None,
-         no_browser: bool) -> None:  # fmt: skip
+         no_browser: bool, screenshot: Path | None, frame: int, select: str | None,
+         color_by: str | None, trail: int) -> None:  # fmt: skip
     """Show PATH: a `simulate` run folder (or its tracks.zarr, even while the run is
     writing), any trajectory file `thermoswarm formats` lists, or a `track` output folder
     drawn over its video.  Serves a page on 127.0.0.1 behind a random token (Ctrl+C
     stops), or with --out writes one HTML file that works from disk."""
     from thermoswarm.fsutil import require_input
+
+    if out is not None and screenshot is not None:
+        raise click.UsageError("give --out or --screenshot, not both")
 
     require_input(path)
     from thermoswarm.view.data import open_source
@@ -46,9 +59,16 @@ def view(path: Path, out: Path | None, host: str, port: int, video: Path | None,
         write_html(data, out)
         click.echo(f"{data.n_frames} frames, {data.n} individuals -> {out}")
         return
+    root = path if path.is_dir() else path.parent
+    if screenshot is not None:
+        from thermoswarm.view.snapshot import screenshot as render
+
+        render(data, root, screenshot, frame=frame, select=select, color_by=color_by,
+               trail=trail)  # fmt: skip
+        click.echo(f"frame {frame} of {data.n_frames} -> {screenshot}")
+        return
     from thermoswarm.view.server import start_server, warn_public
 
-    root = path if path.is_dir() else path.parent
     server = start_server(data, root, host=host, port=port)
     warn_public(host)
     click.echo(f"thermoswarm view: {server.url}  (Ctrl+C stops)")

@@ -367,14 +367,18 @@
     const frames = [];
     for (let j = S.trail; j >= 0; j--) { const a = S.cache.get(key(S.k - j, S.varName)); if (a) frames.push(a); }
     if (frames.length < 2) return;
+    // a step longer than this is a jump (a robot put back at the start): no line across
+    const b = m.bounds, diag = Math.hypot(b[2] - b[0], b[3] - b[1]);
+    const jump2 = Math.pow(Math.max(8 * (m.radius || 0), (m.radius ? 0.03 : 0.1) * diag), 2);
     ctx.strokeStyle = "rgba(60,60,60,0.35)"; ctx.lineWidth = 1; ctx.beginPath();
     for (let i = 0; i < n; i++) {
-      let started = false;
+      let px = NaN, py = NaN;
       for (const a of frames) {
         const x = a[r0 * 2 * n + i], y = a[r0 * 2 * n + n + i];
-        if (!(x === x)) { started = false; continue; }
         const [sx, sy] = toScreen(x, y);
-        if (started) ctx.lineTo(sx, sy); else { ctx.moveTo(sx, sy); started = true; }
+        const near = (x - px) * (x - px) + (y - py) * (y - py) <= jump2;
+        if (near) ctx.lineTo(sx, sy); else if (x === x) ctx.moveTo(sx, sy);
+        px = x; py = y;
       }
     }
     ctx.stroke();
@@ -446,10 +450,16 @@
     if (ser && ser.index === S.sel) {
       rows.push(["speed", fmt(ser.speed[S.k], "mm/s")], ["energy", fmt(ser.energy[S.k], "mm^2/s^2")]);
     }
-    if (info && info.name !== "speed" && info.name !== "energy")
-      rows.push([info.name, fmt(arr[K * 2 * n + S.sel], info.units)]);
-    el.innerHTML = "<table>" + rows.map(([a, b]) => "<tr><td>" + a + "</td><td class='v' id='sel-" +
-      a + "'>" + b + "</td></tr>").join("") + "</table>";
+    if (info && info.name !== "speed" && info.name !== "energy") {
+      const v = arr[K * 2 * n + S.sel], cat = (info.categories || []).find((c) => c.value === v);
+      rows.push([info.name, cat ? cat.label : fmt(v, info.units)]);
+    }
+    const table = document.createElement("table");  // text only: names come from files
+    for (const [a, b] of rows) {
+      const tr = table.insertRow(), td0 = tr.insertCell(), td1 = tr.insertCell();
+      td0.textContent = a; td1.textContent = b; td1.className = "v"; td1.id = "sel-" + a;
+    }
+    el.replaceChildren(table);
     if (ser && ser.index === S.sel) {
       plot($("plot-speed"), ser.time, ser.speed, "speed (mm/s)");
       plot($("plot-energy"), ser.time, ser.energy, "energy (mm^2/s^2)");
