@@ -184,3 +184,20 @@ def test_names_from_files_are_shown_as_text(chromium, serve, tmp_path):
     chromium.wait_for("document.getElementById('sel-id') !== null")
     assert chromium.evaluate("document.getElementById('sel-id').innerText") == evil
     assert chromium.evaluate("window.__pwned === undefined")
+
+
+def test_self_contained_file_works_from_disk(chromium, small_run, tmp_path):
+    from thermoswarm.view.page import write_html
+
+    out = write_html(open_source(small_run), tmp_path / "run.html")
+    chromium.goto(out.resolve().as_uri())
+    chromium.wait_for("window.viewer && window.viewer.ready()", timeout=60)
+    assert "self-contained file" in _notes(chromium)
+    k, i = 5, 3
+    chromium.evaluate(f"window.viewer.setFrame({k})")
+    chromium.evaluate(f"window.viewer.select({i})")
+    chromium.wait_for("document.getElementById('sel-speed') !== null", timeout=30)
+    nc = xr.open_dataset(small_run / "tracks.nc", engine="h5netcdf")
+    shown = chromium.evaluate("document.getElementById('sel-speed').innerText")
+    assert float(shown.split()[0]) == pytest.approx(float(nc["speed"].values[k, i]), rel=5e-4)
+    nc.close()

@@ -133,3 +133,50 @@ def test_other_interfaces_warn(capsys):
     assert capsys.readouterr().err == ""
     warn_public("0.0.0.0")
     assert "warning: listening on 0.0.0.0" in capsys.readouterr().err
+
+
+def _serve_cli(args):
+    """Start ``thermoswarm view ARGS --no-browser``; return the process and its URL."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "thermoswarm", "view", *args, "--no-browser"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    line = proc.stdout.readline()
+    return proc, line
+
+
+@pytest.mark.parametrize("host", ["127.0.0.1", "0.0.0.0"])
+def test_cli_serves_the_run(small_run, host):
+    import urllib.request
+
+    proc, line = _serve_cli([str(small_run), "--host", host])
+    try:
+        assert line.startswith("thermoswarm view: http://"), line + proc.stderr.read()
+        url = line.split()[2]
+        if host != "127.0.0.1":
+            url = url.replace(host, "127.0.0.1")
+        with urllib.request.urlopen(url + "api/meta", timeout=30) as r:
+            meta = json.load(r)
+        assert meta["geometry"]["scenario"] == "transport-free"
+    finally:
+        proc.terminate()
+        proc.wait(timeout=30)
+    err = proc.stderr.read()
+    assert ("warning: listening on 0.0.0.0" in err) == (host != "127.0.0.1")
+    proc.stdout.close()
+    proc.stderr.close()
+
+
+def test_cli_out_writes_one_file(small_run, tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["view", str(small_run), "--out", str(tmp_path / "run.html")])
+    assert exc.value.code == 0
+    assert "-> " in capsys.readouterr().out
+    text = (tmp_path / "run.html").read_text()
+    assert text.startswith("<!doctype html>") and "window.__EMBED__" in text
+    assert not list(tmp_path.glob(".run.html*"))  # no temporary left behind

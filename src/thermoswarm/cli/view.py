@@ -27,6 +27,9 @@ import click
 )
 @click.option("--video", type=click.Path(path_type=Path), help="Source video of a track output "
               "(default: the one its summary.json names).")  # fmt: skip
+@click.option("--format", "fmt", help="Trajectory format (default: detected; see `formats`).")
+@click.option("--fps", type=float, help="Frame rate of files with frame numbers only.")
+@click.option("--px-per-mm", help="Scale of pixel-based files (a number, or 'paper' = 3.04).")
 @click.option("--no-browser", is_flag=True, help="Print the URL; do not open a browser.")
 @click.option(
     "--screenshot",
@@ -38,8 +41,9 @@ import click
 @click.option("--color-by", help="Colour variable of --screenshot.")
 @click.option("--trail", type=click.IntRange(0, 500), default=0, help="Trail of --screenshot.")
 def view(path: Path, out: Path | None, host: str, port: int, video: Path | None,
-         no_browser: bool, screenshot: Path | None, frame: int, select: str | None,
-         color_by: str | None, trail: int) -> None:  # fmt: skip
+         fmt: str | None, fps: float | None, px_per_mm: str | None, no_browser: bool,
+         screenshot: Path | None, frame: int, select: str | None, color_by: str | None,
+         trail: int) -> None:  # fmt: skip
     """Show PATH: a `simulate` run folder (or its tracks.zarr, even while the run is
     writing), any trajectory file `thermoswarm formats` lists, or a `track` output folder
     drawn over its video.  Serves a page on 127.0.0.1 behind a random token (Ctrl+C
@@ -52,7 +56,7 @@ def view(path: Path, out: Path | None, host: str, port: int, video: Path | None,
     require_input(path)
     from thermoswarm.view.data import open_source
 
-    data = open_source(path, video=video)
+    data = open_source(path, video=video, format=fmt, fps=fps, px_per_mm=px_per_mm)
     if out is not None:
         from thermoswarm.view.page import write_html
 

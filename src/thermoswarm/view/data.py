@@ -458,12 +458,23 @@ def from_dataset(ds: xr.Dataset, title: str = "trajectories") -> ViewData:
     return _with_geometry(data, ds.attrs.get("config"), title)
 
 
-def open_source(path: str | Path, *, video: str | Path | None = None) -> ViewData:
-    """Open what ``thermoswarm view PATH`` shows (see the module docstring)."""
+def open_source(
+    path: str | Path,
+    *,
+    video: str | Path | None = None,
+    format: str | None = None,
+    fps: float | None = None,
+    px_per_mm: float | str | None = None,
+) -> ViewData:
+    """Open what ``thermoswarm view PATH`` shows (see the module docstring).
+
+    ``format``, ``fps`` and ``px_per_mm`` are passed to
+    :func:`thermoswarm.io.read_tracks` for files other than run stores.
+    """
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file or directory")
-    if path.is_dir() and (path / "summary.json").is_file():
+    if path.is_dir() and (path / "summary.json").is_file() and format is None:
         from thermoswarm.view.track_output import open_track_output
 
         return open_track_output(path, video=video)
@@ -474,7 +485,7 @@ def open_source(path: str | Path, *, video: str | Path | None = None) -> ViewDat
         store = path / "tracks.zarr"
     elif path.is_dir() and (path / "zarr.json").is_file():
         store = path
-    if store is not None:
+    if store is not None and format in (None, "zarr"):
         ds, committed, complete = _open_zarr(store)
         data = ViewData(ds=ds, kind="run", title=str(path), store=store)
         data.committed, data.complete = committed, complete
@@ -483,7 +494,7 @@ def open_source(path: str | Path, *, video: str | Path | None = None) -> ViewDat
         path = path / "tracks.nc"
     from thermoswarm.io import read_tracks
 
-    ds = read_tracks(path)
+    ds = read_tracks(path, format, fps=fps, px_per_mm=px_per_mm)
     from thermoswarm.tracks import per_individual
 
     if per_individual(ds):
