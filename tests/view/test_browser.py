@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from thermoswarm.view.data import ViewData, open_source
+from thermoswarm.view.data import ViewData
 from thermoswarm.view.server import serve_in_thread, start_server
+from thermoswarm.view.source import open_source
 
 
 @pytest.fixture

@@ -11,8 +11,9 @@ import xarray as xr
 from thermoswarm.cli import main
 from thermoswarm.errors import InputError
 from thermoswarm.tracks import make_tracks
-from thermoswarm.view.data import from_dataset, open_source
+from thermoswarm.view.data import from_dataset
 from thermoswarm.view.page import write_html
+from thermoswarm.view.source import open_source
 from thermoswarm.view.track_output import track_events
 
 

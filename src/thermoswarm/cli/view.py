@@ -54,7 +54,7 @@ def view(path: Path, out: Path | None, host: str, port: int, video: Path | None,
         raise click.UsageError("give --out or --screenshot, not both")
 
     require_input(path)
-    from thermoswarm.view.data import open_source
+    from thermoswarm.view.source import open_source
 
     data = open_source(path, video=video, format=fmt, fps=fps, px_per_mm=px_per_mm)
     if out is not None:

@@ -1,6 +1,7 @@
 """``thermoswarm view``: look at a run, a trajectory file or a ``track`` output in the browser.
 
-- :mod:`~thermoswarm.view.data` opens the source and reads one frame at a time;
+- :mod:`~thermoswarm.view.source` opens the source; :mod:`~thermoswarm.view.data`
+  reads it one frame at a time;
 - :mod:`~thermoswarm.view.track_output` and :mod:`~thermoswarm.view.video` add a
   ``track`` output's boxes, events and source video frames;
 - :mod:`~thermoswarm.view.server` serves it on 127.0.0.1 behind a random token;
@@ -16,8 +17,9 @@ colour bin) are used when robots are few or zoomed in.
 
 from __future__ import annotations
 
-from thermoswarm.view.data import ViewData, from_dataset, open_source
+from thermoswarm.view.data import ViewData, from_dataset
 from thermoswarm.view.page import page_html, write_html
 from thermoswarm.view.server import start_server
+from thermoswarm.view.source import open_source
 
 __all__ = ["ViewData", "from_dataset", "open_source", "page_html", "write_html", "start_server"]

@@ -1,6 +1,6 @@
 """What the viewer shows: one trajectory source, read a frame at a time.
 
-:func:`open_source` turns a path into a :class:`ViewData`:
+:func:`thermoswarm.view.source.open_source` turns a path into a :class:`ViewData`:
 
 - a run folder of ``thermoswarm simulate`` (``config.toml`` + ``tracks.zarr`` or
   ``tracks.nc``), or a run's ``tracks.zarr`` alone: the Zarr store is opened lazily and
@@ -32,7 +32,7 @@ import xarray as xr
 
 from thermoswarm.errors import InputError, ThermoswarmError
 
-__all__ = ["ViewData", "open_source", "from_dataset", "to_json"]
+__all__ = ["ViewData", "from_dataset", "to_json", "open_zarr", "check_dataset"]
 
 #: Units of the variables we know, where the file does not say.
 _UNITS = {
@@ -119,7 +119,7 @@ class ViewData:
         if self.store is None or self.complete:
             return
         with self._lock:
-            ds, committed, complete = _open_zarr(self.store)
+            ds, committed, complete = open_zarr(self.store)
             self.ds, self.committed, self.complete = ds, committed, complete
 
     # ------------------------------------------------------------------ frames
@@ -348,7 +348,7 @@ def _bounds(data: ViewData) -> list[float]:
     return [float(lo[0] - pad), float(lo[1] - pad), float(hi[0] + pad), float(hi[1] + pad)]
 
 
-def _check(ds: xr.Dataset, path: Path) -> xr.Dataset:
+def check_dataset(ds: xr.Dataset, path: Path) -> xr.Dataset:
     if "position" not in ds.data_vars:
         raise InputError(f"{path}: no 'position' variable; not a trajectory")
     want = {"time", "space", "keypoints", "individuals"}
@@ -362,7 +362,7 @@ def _check(ds: xr.Dataset, path: Path) -> xr.Dataset:
     return ds
 
 
-def _open_zarr(path: Path) -> tuple[xr.Dataset, int | None, bool]:
+def open_zarr(path: Path) -> tuple[xr.Dataset, int | None, bool]:
     """A run store opened lazily, cut to its committed frames."""
     from thermoswarm.io.zarrstore import _committed, sniff
 
@@ -380,7 +380,7 @@ def _open_zarr(path: Path) -> tuple[xr.Dataset, int | None, bool]:
             ds = xr.open_zarr(path, consolidated=False)
     except Exception as exc:  # zarr raises many types for damaged metadata
         raise InputError(f"{path}: not a readable Zarr store ({type(exc).__name__})") from None
-    _check(ds, path)
+    check_dataset(ds, path)
     complete = bool(ds.attrs.get("complete", committed is None))
     if committed is not None:
         if committed > ds.sizes["time"]:
@@ -439,7 +439,7 @@ def _plain(obj: Any) -> Any:
     return json.loads(json.dumps(obj, default=lambda o: np.asarray(o).tolist()))
 
 
-def _with_geometry(data: ViewData, config_text: str | None, source: str) -> ViewData:
+def with_geometry(data: ViewData, config_text: str | None, source: str) -> ViewData:
     if not config_text:
         return data
     try:
@@ -452,55 +452,7 @@ def _with_geometry(data: ViewData, config_text: str | None, source: str) -> View
 
 def from_dataset(ds: xr.Dataset, title: str = "trajectories") -> ViewData:
     """A :class:`ViewData` of an in-memory trajectory dataset (mm, s)."""
-    _check(ds, Path(title))
+    check_dataset(ds, Path(title))
     kind = "run" if ds.attrs.get("scenario") else "tracks"
     data = ViewData(ds=ds, kind=kind, title=title)
-    return _with_geometry(data, ds.attrs.get("config"), title)
-
-
-def open_source(
-    path: str | Path,
-    *,
-    video: str | Path | None = None,
-    format: str | None = None,
-    fps: float | None = None,
-    px_per_mm: float | str | None = None,
-) -> ViewData:
-    """Open what ``thermoswarm view PATH`` shows (see the module docstring).
-
-    ``format``, ``fps`` and ``px_per_mm`` are passed to
-    :func:`thermoswarm.io.read_tracks` for files other than run stores.
-    """
-    path = Path(path)
-    if not path.exists():
-        raise InputError(f"{path}: no such file or directory")
-    if path.is_dir() and (path / "summary.json").is_file() and format is None:
-        from thermoswarm.view.track_output import open_track_output
-
-        return open_track_output(path, video=video)
-    if video is not None:
-        raise InputError("--video applies to `thermoswarm track` output folders only")
-    store = None
-    if path.is_dir() and (path / "tracks.zarr").is_dir():
-        store = path / "tracks.zarr"
-    elif path.is_dir() and (path / "zarr.json").is_file():
-        store = path
-    if store is not None and format in (None, "zarr"):
-        ds, committed, complete = _open_zarr(store)
-        data = ViewData(ds=ds, kind="run", title=str(path), store=store)
-        data.committed, data.complete = committed, complete
-        return _with_geometry(data, ds.attrs.get("config"), str(store))
-    if path.is_dir() and (path / "tracks.nc").is_file():
-        path = path / "tracks.nc"
-    from thermoswarm.io import read_tracks
-
-    ds = read_tracks(path, format, fps=fps, px_per_mm=px_per_mm)
-    from thermoswarm.tracks import per_individual
-
-    if per_individual(ds):
-        raise InputError(
-            f"{path}: the individuals are on their own clocks; convert to one frame axis "
-            "first (thermoswarm convert)"
-        )
-    data = from_dataset(ds, title=str(path))
-    return data
+    return with_geometry(data, ds.attrs.get("config"), title)

@@ -24,7 +24,7 @@ __all__ = ["page_html", "write_html"]
 
 
 def _asset(name: str) -> str:
-    return resources.files("thermoswarm.view").joinpath(name).read_text(encoding="utf-8")
+    return resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
 
 
 def page_html(embed: dict | None = None) -> str:

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from thermoswarm.errors import InputError
+from thermoswarm.view.data import ViewData, check_dataset
 
 __all__ = ["open_track_output", "track_events"]
 
@@ -107,16 +108,15 @@ def track_events(
     return events
 
 
-def open_track_output(path: Path, *, video: str | Path | None = None) -> Any:
+def open_track_output(path: Path, *, video: str | Path | None = None) -> ViewData:
     """A :class:`~thermoswarm.view.data.ViewData` of a ``track`` output folder."""
     from thermoswarm.io import read_tracks
-    from thermoswarm.view.data import ViewData, _check
 
     summary = _summary(path)
     nc = path / "tracks.nc"
     if not nc.is_file():
         raise InputError(f"{path}: a track output folder without tracks.nc")
-    ds = _check(read_tracks(nc), nc)
+    ds = check_dataset(read_tracks(nc), nc)
     scale = summary.get("px_per_mm") or ds.attrs.get("px_per_mm")
     if not isinstance(scale, (int, float)) or not scale > 0:
         raise InputError(f"{path / 'summary.json'}: px_per_mm missing; cannot place the tracks")
