@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from thermoswarm import scenarios
 from thermoswarm.cli import main
 from thermoswarm.errors import InputError
 from thermoswarm.tracks import make_tracks
@@ -165,3 +166,20 @@ def test_self_contained_html(small_run, tmp_path):
     assert len(embed["pos"]) == embed["meta"]["n_frames"]
     with pytest.raises(InputError, match="too many for one HTML"):
         write_html(open_source(small_run), tmp_path / "big.html", max_bytes=1000)
+
+
+@pytest.mark.parametrize("name", scenarios.names())
+def test_every_scenario_geometry_is_drawable(name):
+    """The world of each scenario, rebuilt from a run's config, as the page draws it."""
+    from thermoswarm.scenarios import runner
+    from thermoswarm.view.data import scenario_geometry
+
+    cfg = runner.resolve(name, seed=3)
+    _, setup, _, _ = runner.build(cfg)
+    geo = scenario_geometry(cfg.to_toml(), "config.toml")
+    assert geo["scenario"] == name
+    assert geo["bounds"] == list(setup.world.bounds)
+    np.testing.assert_array_equal(np.reshape(geo["walls"], (-1, 4)), setup.world.segments)
+    assert len(geo["bodies"]) == len(setup.world.bodies)
+    assert len(geo["pistons"]) == len(setup.world.pistons)
+    json.dumps(geo, allow_nan=False)
