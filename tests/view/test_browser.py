@@ -130,10 +130,7 @@ def test_track_output_drawn_over_its_video(chromium, serve, track_output):
     server = serve(data, track_output["out"])
     _open(chromium, server.url)
     chromium.evaluate("window.viewer.setFrame(7)")
-    chromium.wait_for(
-        "window.viewer.ready() && window.viewer.S.video.get(7) && "
-        "window.viewer.S.video.get(7).complete"
-    )
+    chromium.wait_for("window.viewer.ready() && window.viewer.videoReady(7)")
     chromium.evaluate("window.viewer.S.dirty = true")
     chromium.wait_for("window.viewer.ready() && !window.viewer.S.dirty")
     # the video's white square (10..30 px) is under world point (20, 20)

@@ -183,3 +183,22 @@ def test_every_scenario_geometry_is_drawable(name):
     assert len(geo["bodies"]) == len(setup.world.bodies)
     assert len(geo["pistons"]) == len(setup.world.pistons)
     json.dumps(geo, allow_nan=False)
+
+
+def test_regions_file_gives_a_region_variable(tmp_path):
+    pos = np.zeros((2, 2, 3))
+    pos[:, 0] = [[10.0, 70.0, 500.0], [15.0, 80.0, 500.0]]  # x: wide, narrow, outside
+    pos[:, 1] = 20.0
+    from thermoswarm.io.netcdf import write as write_nc
+
+    write_nc(make_tracks(pos, fps=1.0), tmp_path / "t.nc")
+    (tmp_path / "road.toml").write_text(
+        '[[region]]\nname = "wide"\nrect = [0, 0, 60, 40]\n'
+        '[[region]]\nname = "narrow"\nrect = [60, 10, 100, 30]\n'
+    )
+    data = open_source(tmp_path / "t.nc", regions=tmp_path / "road.toml")
+    np.testing.assert_array_equal(data.values(0, "region"), [0, 1, -1])
+    info = data.var_info("region")
+    assert info["kind"] == "categorical"
+    assert [c["label"] for c in info["categories"]] == ["outside", "wide", "narrow"]
+    assert [r["name"] for r in data.meta()["regions"]] == ["wide", "narrow"]

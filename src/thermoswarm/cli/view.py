@@ -30,6 +30,11 @@ import click
 @click.option("--format", "fmt", help="Trajectory format (default: detected; see `formats`).")
 @click.option("--fps", type=float, help="Frame rate of files with frame numbers only.")
 @click.option("--px-per-mm", help="Scale of pixel-based files (a number, or 'paper' = 3.04).")
+@click.option(
+    "--regions",
+    type=click.Path(dir_okay=False, path_type=Path),
+    help="Regions TOML (mm, as analyze --regions): colour by region, and outlines.",
+)
 @click.option("--no-browser", is_flag=True, help="Print the URL; do not open a browser.")
 @click.option(
     "--screenshot",
@@ -41,7 +46,8 @@ import click
 @click.option("--color-by", help="Colour variable of --screenshot.")
 @click.option("--trail", type=click.IntRange(0, 500), default=0, help="Trail of --screenshot.")
 def view(path: Path, out: Path | None, host: str, port: int, video: Path | None,
-         fmt: str | None, fps: float | None, px_per_mm: str | None, no_browser: bool,
+         fmt: str | None, fps: float | None, px_per_mm: str | None, regions: Path | None,
+         no_browser: bool,
          screenshot: Path | None, frame: int, select: str | None, color_by: str | None,
          trail: int) -> None:  # fmt: skip
     """Show PATH: a `simulate` run folder (or its tracks.zarr, even while the run is
@@ -53,10 +59,11 @@ def view(path: Path, out: Path | None, host: str, port: int, video: Path | None,
     if out is not None and screenshot is not None:
         raise click.UsageError("give --out or --screenshot, not both")
 
-    require_input(path)
+    require_input(path, regions)
     from thermoswarm.view.source import open_source
 
-    data = open_source(path, video=video, format=fmt, fps=fps, px_per_mm=px_per_mm)
+    data = open_source(path, video=video, format=fmt, fps=fps, px_per_mm=px_per_mm,
+                       regions=regions)  # fmt: skip
     if out is not None:
         from thermoswarm.view.page import write_html
 

@@ -76,6 +76,7 @@ class ViewData:
     video: Any = None
     boxes: dict[int, list[list[float]]] = field(default_factory=dict)
     events: list[dict[str, Any]] = field(default_factory=list)
+    regions: list[Any] | None = None
     _ranges: dict[str, Any] = field(default_factory=dict)
     _lock: threading.Lock = field(default_factory=threading.Lock)
 
@@ -103,6 +104,8 @@ class ViewData:
                 out.append(name)
         if "temperature" not in out and "phase" in out and (self.geometry or {}).get("kT"):
             out.append("temperature")
+        if self.regions and "region" not in out:
+            out.append("region")
         return out
 
     def times(self) -> np.ndarray:
@@ -145,6 +148,11 @@ class ViewData:
         if var == "energy":
             s = self.values(k, "speed")
             return 0.5 * s * s
+        if var == "region" and self.regions and var not in self.ds.data_vars:
+            from thermoswarm.analysis.regions import assign_regions
+
+            c = self._centre(k)
+            return assign_regions(self.regions, c[0], c[1]).astype(np.float64)
         if var == "temperature" and "temperature" in self.variables():
             kt = self.geometry["kT"]  # type: ignore[index]
             phase = self.values(k, "phase")
@@ -219,6 +227,10 @@ class ViewData:
         if var == "temperature" and var not in self.ds.data_vars:  # from phase: two levels
             dtype = "i"
             labels.update({geo["kT"]["hot"]: "{:g} (hot)", geo["kT"]["cold"]: "{:g} (cold)"})
+        if var == "region" and self.regions and var not in self.ds.data_vars:
+            dtype = "i"
+            labels.update({float(k): r.name for k, r in enumerate(self.regions)})
+            labels[-1.0] = "outside"
         uniq = np.unique(finite) if finite.size else np.zeros(0)
         if dtype in "biu" and uniq.size <= _MAX_CATEGORIES:
             info["kind"] = "categorical"
@@ -270,6 +282,10 @@ class ViewData:
             "per_frame": per_frame,
             "events": self.events,
             "boxes": {str(k): v for k, v in self.boxes.items()},
+            "regions": [
+                {"name": r.name, "vertices": (np.asarray(r.vertices) * self.scale).tolist()}
+                for r in self.regions or []
+            ],
             "video": None if self.video is None else self.video.describe(),
             "complete": self.complete,
             "notes": notes,

@@ -91,7 +91,7 @@ def screenshot(
             if index >= 0:
                 ready += f" && window.viewer.S.series && window.viewer.S.series.index === {index}"
             if data.video is not None:
-                ready += f" && (window.viewer.S.video.get({k}) || {{}}).complete"
+                ready += f" && window.viewer.videoReady({k})"
             browser.wait_for(ready, timeout=120)
             time.sleep(0.3 + 0.02 * trail)  # trail frames arrive after the current one
             browser.evaluate("window.viewer.S.dirty = true")

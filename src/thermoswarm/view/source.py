@@ -22,13 +22,31 @@ def open_source(
     format: str | None = None,
     fps: float | None = None,
     px_per_mm: float | str | None = None,
+    regions: str | Path | None = None,
 ) -> ViewData:
     """Open what ``thermoswarm view PATH`` shows (see the module docstring).
 
     ``format``, ``fps`` and ``px_per_mm`` are passed to
-    :func:`thermoswarm.io.read_tracks` for files other than run stores.
+    :func:`thermoswarm.io.read_tracks` for files other than run stores.  ``regions``
+    is a regions TOML file (mm, as ``analyze --regions``): a ``region`` variable to
+    colour by, and the regions' outlines.
     """
-    path = Path(path)
+    data = _open(Path(path), video=video, format=format, fps=fps, px_per_mm=px_per_mm)
+    if regions is not None:
+        from thermoswarm.analysis.regions import load_regions
+
+        data.regions = load_regions(regions)
+    return data
+
+
+def _open(
+    path: Path,
+    *,
+    video: str | Path | None,
+    format: str | None,
+    fps: float | None,
+    px_per_mm: float | str | None,
+) -> ViewData:
     if not path.exists():
         raise InputError(f"{path}: no such file or directory")
     if path.is_dir() and (path / "summary.json").is_file() and format is None:

@@ -110,7 +110,7 @@
     src.videoUrl(k).then((url) => {
       if (!url) return;
       img.onload = () => { if (k === S.k) S.dirty = true; };
-      img.onerror = () => fail("video frame " + k + " could not be shown");
+      img.onerror = () => { img.failed = true; fail("video frame " + k + " could not be shown"); };
       img.src = url;
     }).catch((e) => { S.video.delete(k); fail(e); });
     while (S.video.size > 40) {
@@ -118,6 +118,11 @@
       if (S.video.get(first).src.startsWith("blob:")) URL.revokeObjectURL(S.video.get(first).src);
       S.video.delete(first);
     }
+  }
+  // A video frame is ready once decoded (an Image without src also says "complete").
+  function videoReady(k) {
+    const img = S.video.get(k);
+    return !!img && (img.failed || (img.complete && img.naturalWidth > 0));
   }
   function prefetch() {
     const ahead = S.meta.n > 300000 ? 3 : 6;
@@ -236,7 +241,20 @@
     if (stroke) { ctx.strokeStyle = stroke; ctx.lineWidth = 1.2; ctx.stroke(); }
   }
   const m_y = (v) => (S.meta.y_down ? -v : v);
+  function drawRegions() {
+    ctx.strokeStyle = "rgba(120,60,160,0.8)"; ctx.lineWidth = 1.5; ctx.setLineDash([4, 3]);
+    ctx.fillStyle = "rgba(120,60,160,0.9)"; ctx.font = "12px system-ui, sans-serif";
+    for (const r of S.meta.regions || []) {
+      ctx.beginPath();
+      r.vertices.forEach((p, i) => { const [x, y] = toScreen(p[0], p[1]); i ? ctx.lineTo(x, y) : ctx.moveTo(x, y); });
+      ctx.closePath(); ctx.stroke();
+      const [x, y] = toScreen(r.vertices[0][0], r.vertices[0][1]);
+      ctx.fillText(r.name, x + 4, y - 4);
+    }
+    ctx.setLineDash([]);
+  }
   function drawGeometry(k) {
+    drawRegions();
     const g = S.meta.geometry; if (!g) return;
     const b = g.bounds, reach = 3 * Math.hypot(b[2] - b[0], b[3] - b[1]);
     const objs = S.meta.per_frame.object_position;
@@ -417,7 +435,7 @@
     ctx.fillStyle = "#f7f7f5"; ctx.fillRect(0, 0, canvas.width, canvas.height);
     if (m.video && $("showvideo").checked) {
       const img = S.video.get(S.k);
-      if (img && img.complete && img.naturalWidth) {
+      if (videoReady(S.k) && !img.failed) {
         const [x0, y0] = toScreen(0, 0);
         ctx.drawImage(img, x0, y0, m.video.width * S.zoom, m.video.height * S.zoom);
       }
@@ -526,8 +544,7 @@
       if (next >= m.n_frames) setPlaying(false);
       else {
         const due = S.speed === "max" ? 0 : 1000 / (m.fps * S.speed);
-        const vidOk = !m.video || !$("showvideo").checked ||
-          (S.video.get(next) && S.video.get(next).complete);
+        const vidOk = !m.video || !$("showvideo").checked || videoReady(next);
         if (now - S.lastAdvance >= due && cached(next) && vidOk) {
           S.lastAdvance = S.speed === "max" ? now : Math.max(S.lastAdvance + due, now - due);
           S.k = next; S.dirty = true;
@@ -633,7 +650,7 @@
     requestAnimationFrame(tick);
   }
   // For tests and benchmarks: the state, and the functions the controls call.
-  window.viewer = { S, setFrame, setPlaying, select, toScreen, pick, fit,
+  window.viewer = { S, setFrame, setPlaying, select, toScreen, pick, fit, videoReady,
     ready: () => !!(S.meta && S.shownK === S.k) };
   window.addEventListener("error", (e) => fail(e.message));
   start();
