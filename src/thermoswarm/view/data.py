@@ -257,8 +257,8 @@ class ViewData:
         notes = list(self.notes)
         if not self.complete:
             notes.append(
-                f"this run is still being written: showing its {self.n_frames} committed "
-                "frames (the page checks for more every few seconds)"
+                f"this run is still being written (or was stopped): showing its "
+                f"{self.n_frames} committed frames; the page checks for more every 3 s"
             )
         return {
             "title": self.title,
