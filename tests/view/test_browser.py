@@ -200,3 +200,29 @@ def test_self_contained_file_works_from_disk(chromium, small_run, tmp_path):
     shown = chromium.evaluate("document.getElementById('sel-speed').innerText")
     assert float(shown.split()[0]) == pytest.approx(float(nc["speed"].values[k, i]), rel=5e-4)
     nc.close()
+
+
+def test_wheel_zooms_about_the_cursor_and_drag_pans(chromium, serve, small_run):
+    data = open_source(small_run)
+    server = serve(data, small_run)
+    _open(chromium, server.url)
+    z0 = chromium.evaluate("window.viewer.S.zoom")
+    cx, cy = _canvas_point(chromium, 600.0, 700.0)  # world point under the cursor
+    chromium.call("Input.dispatchMouseEvent", type="mouseWheel", x=cx, y=cy, deltaX=0,
+                  deltaY=-300)  # fmt: skip
+    chromium.wait_for(f"window.viewer.S.zoom > {z0 * 1.3}")
+    # the point under the cursor stays under it
+    x2, y2 = _canvas_point(chromium, 600.0, 700.0)
+    assert abs(x2 - cx) < 1.5 and abs(y2 - cy) < 1.5
+    before = chromium.evaluate("[window.viewer.S.cx, window.viewer.S.cy]")
+    chromium.call("Input.dispatchMouseEvent", type="mousePressed", x=cx, y=cy, button="left",
+                  clickCount=1)  # fmt: skip
+    chromium.call("Input.dispatchMouseEvent", type="mouseMoved", x=cx + 100, y=cy + 50,
+                  button="left")  # fmt: skip
+    chromium.call("Input.dispatchMouseEvent", type="mouseReleased", x=cx + 100, y=cy + 50,
+                  button="left", clickCount=1)  # fmt: skip
+    after = chromium.evaluate("[window.viewer.S.cx, window.viewer.S.cy]")
+    zoom = chromium.evaluate("window.viewer.S.zoom")
+    assert after[0] == pytest.approx(before[0] - 100 / zoom, rel=1e-6)
+    assert after[1] == pytest.approx(before[1] + 50 / zoom, rel=1e-6)  # y up in a run
+    assert chromium.evaluate("window.viewer.S.sel") == -1  # a drag is not a click
