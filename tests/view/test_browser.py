@@ -226,3 +226,28 @@ def test_wheel_zooms_about_the_cursor_and_drag_pans(chromium, serve, small_run):
     assert after[0] == pytest.approx(before[0] - 100 / zoom, rel=1e-6)
     assert after[1] == pytest.approx(before[1] + 50 / zoom, rel=1e-6)  # y up in a run
     assert chromium.evaluate("window.viewer.S.sel") == -1  # a drag is not a click
+
+
+def test_cli_screenshot(chromium, small_run, tmp_path, capsys):
+    from PIL import Image
+
+    from thermoswarm.cli import main
+
+    png = tmp_path / "run.png"
+    with pytest.raises(SystemExit) as exc:
+        main(["view", str(small_run), "--screenshot", str(png), "--frame", "-1",
+              "--select", "id_3", "--color-by", "energy"])  # fmt: skip
+    assert exc.value.code == 0
+    with Image.open(png) as img:
+        assert img.size == (1400, 900) and img.mode == "P"
+        rgb = np.asarray(img.convert("RGB"))
+    assert len(np.unique(rgb.reshape(-1, 3), axis=0)) > 8  # drawn, not blank
+    for bad, what in ((["--select", "nobody"], "--select 'nobody'"),
+                      (["--color-by", "mood"], "--color-by 'mood'"),
+                      (["--frame", "999"], "--frame 999")):  # fmt: skip
+        with pytest.raises(SystemExit) as exc:
+            main(["view", str(small_run), "--screenshot", str(tmp_path / "x.png"), *bad])
+        assert exc.value.code == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"error: {what}") and err.count("\n") == 1
+    assert not (tmp_path / "x.png").exists()
