@@ -132,6 +132,9 @@ def tiny(argv: list[str]) -> list[str]:
         return [*_replace(a, "--n", "2000"), "--seconds", "0.5"]
     if verb == "track" and len(a) > 1 and a[1] != "train":
         return [*a, "--max-frames", "5", "--no-overlay"]
+    if verb == "view" and "--out" not in a and "--screenshot" not in a:
+        # serving runs until Ctrl+C: the same data written as the self-contained page
+        return [*a, "--out", "view.html"]
     return a
 
 

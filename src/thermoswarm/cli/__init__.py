@@ -1,4 +1,4 @@
-"""``thermoswarm <verb>``: simulate, bench, analyze, track, evaluate, reproduce, sweep, study.
+"""``thermoswarm <verb>``: simulate, analyze, track, evaluate, reproduce, sweep, view, ...
 
 The CLI is thin: each verb parses its options, calls one library function and prints.
 Verbs live in modules of this package and are imported only when invoked, so that
@@ -34,6 +34,7 @@ _COMMANDS: dict[str, str] = {
     "convert": "thermoswarm.cli.convert:convert",
     "formats": "thermoswarm.cli.convert:formats",
     "cache": "thermoswarm.cli.cache:cache",
+    "view": "thermoswarm.cli.view:view",
 }
 
 
