@@ -536,3 +536,27 @@ def test_both_directions_keep_flowing_for_5600_seconds(tmp_path):
         assert np.all(per10 > 0)
         assert c[d] > 300
     assert m["max_overlap_fraction"] < 0.02
+
+
+def test_flow_plot_draws_whole_bins_and_marks_the_tail():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from thermoswarm.scenarios.narrow_road import plot_flow
+
+    m = {
+        "flow_over_time": {"bin_s": 60.0, "t_start": [0.0, 60.0], "+x": [2.0, 1.0],
+                           "-x": [0.0, 3.0], "unbinned_tail_s": 30.0},
+        "flow_per_direction": {"+x": 1.6, "-x": 1.2},
+    }  # fmt: skip
+    fig, ax = plt.subplots()
+    plot_flow(ax, m)
+    steps = [p for p in ax.patches if type(p).__name__ == "StepPatch"]
+    assert len(steps) == 2
+    for p in steps:  # each step spans its whole minute: the last ends at 120 s
+        assert p.get_data().edges.tolist() == [0.0, 60.0, 120.0]
+    assert ax.get_xlim() == (0.0, 150.0)  # the 30 s tail is shown, shaded, not a rate
+    assert any("not a whole bin" in t.get_text() for t in ax.get_legend().get_texts())
+    plt.close(fig)
