@@ -9,6 +9,7 @@ declares, and none gives a silently wrong result.  Hypothesis draws the bad valu
 
 from __future__ import annotations
 
+import itertools
 import warnings
 from pathlib import Path
 
@@ -43,9 +44,13 @@ SETTINGS = dict(
 )
 
 
+_EXAMPLE = itertools.count()
+
+
 def _fresh(tmp_path: Path, tag: object) -> Path:
-    d = tmp_path / f"ex{abs(hash(tag)) % 10**12}"
-    d.mkdir(exist_ok=True)
+    """A new folder for each example (hypothesis may draw one example twice)."""
+    d = tmp_path / f"ex{next(_EXAMPLE)}"
+    d.mkdir()
     return d
 
 
@@ -358,3 +363,55 @@ def test_dlc_rows_of_one_frame_are_refused(tmp_path, n, again):
     df.to_csv(path)
     with pytest.raises(InputError, match=rf"frame {again % n} appears 2 times"):
         read_tracks(path, fps=1.0, px_per_mm=1.0, format="dlc")
+
+
+# --------------------------------------------------------------------------- siblings
+# The same sizes declared by the other readers' containers: netCDF (HDF5), Zarr, the
+# .npy/.npz of idtracker.ai and TRex, and TRex frame numbers spanning too many frames.
+
+
+def _declared(d: Path, kind: str, n_frames: int) -> tuple[Path, dict]:
+    if kind == "netcdf":
+        ds = make_tracks(np.ones((n_frames, 2, 3)), fps=5.0)
+        ds.to_netcdf(d / "t.nc", engine="h5netcdf")
+        return d / "t.nc", {}
+    if kind == "zarr":
+        ds = make_tracks(np.ones((n_frames, 2, 3)), fps=5.0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ds.to_zarr(d / "r.zarr", zarr_format=3, consolidated=False)
+        return d / "r.zarr", {}
+    if kind == "idtracker_npy":
+        np.save(d / "trajectories.npy", np.ones((n_frames, 3, 2)))
+        return d / "trajectories.npy", {"format": "idtracker", "px_per_mm": 1.0, "fps": 5.0}
+    frames = np.arange(n_frames)
+    # an array the reader does not use is loaded with the rest: its size counts too
+    np.savez(d / "video_fish0.npz", frame=frames, time=frames / 10.0, frame_rate=10.0,
+             midline=np.ones((n_frames, 6)),
+             **{"X#wcentroid": frames * 1.0, "Y#wcentroid": frames * 1.0})  # fmt: skip
+    return d / "video_fish0.npz", {"format": "trex"}
+
+
+@pytest.mark.parametrize("kind", ["netcdf", "zarr", "idtracker_npy", "trex_npz"])
+@settings(**SETTINGS)
+@given(n_frames=st.integers(2, 400))
+def test_declared_sizes_are_checked_by_every_container(tmp_path, monkeypatch, kind, n_frames):
+    monkeypatch.setattr(_common, "MAX_CELLS", 600)
+    path, kw = _declared(_fresh(tmp_path, (kind, n_frames)), kind, n_frames)
+    if n_frames * 6 > 600:  # the largest array: 6 values a frame
+        with pytest.raises(InputError, match=r"declares shape .* more than the 600"):
+            read_tracks(path, **kw)
+    else:
+        assert read_tracks(path, **kw).sizes["time"] == n_frames
+
+
+@settings(**SETTINGS)
+@given(far=st.one_of(st.integers(1001, 10**5), st.integers(10**11, 10**12)))
+def test_trex_frames_spanning_too_many_frames_are_refused(tmp_path, monkeypatch, far):
+    monkeypatch.setattr(_common, "MAX_FRAMES", 1000, raising=False)
+    frames = np.array([0, 1, 2, far])
+    d = _fresh(tmp_path, far)
+    np.savez(d / "video_fish0.npz", frame=frames, frame_rate=10.0, missing=np.zeros(4),
+             **{"X#wcentroid": np.ones(4), "Y#wcentroid": np.ones(4)})  # fmt: skip
+    with pytest.raises(InputError, match=r"frames 0 to \d+ span .* accepted"):
+        read_tracks(d / "video_fish0.npz", format="trex")

@@ -327,6 +327,7 @@ def assemble_long(
             bad = int(np.flatnonzero(frames != time)[0])
             raise InputError(f"{path}: frame number {time[bad]!r} is not an integer")
         f0, f1 = float(frames.min()), float(frames.max())
+        check_frame_span(path, [f0, f1])
         check_dense_size(path, int(f1 - f0) + 1, n_k, n_i)
         key = time
     else:
@@ -542,6 +543,57 @@ def check_declared_size(path: Path, name: str, shape: Sequence[int]) -> None:
 #: position (1e308 overflows every float32 output and every squared speed) and counts
 #: as non-finite.
 MAX_ABS_MM = 1e12
+
+
+def npy_declared_shape(fh: Any) -> tuple[int, ...] | None:
+    """The shape an ``.npy`` stream declares in its header (``fh`` at its start), or
+    None for a header this cannot parse (the read that follows reports it)."""
+    try:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            return tuple(np.lib.format.read_array_header_1_0(fh)[0])
+        if version == (2, 0):
+            return tuple(np.lib.format.read_array_header_2_0(fh)[0])
+    except (ValueError, OSError, EOFError):
+        return None
+    return None
+
+
+def check_npy_sizes(path: Path) -> None:
+    """Refuse an ``.npy`` file, or an ``.npz`` member, whose header declares more than
+    :data:`MAX_CELLS` values, before NumPy allocates them."""
+    import zipfile
+
+    if zipfile.is_zipfile(path):
+        try:
+            with zipfile.ZipFile(path) as zf:
+                for name in zf.namelist():
+                    with zf.open(name) as fh:
+                        shape = npy_declared_shape(fh)
+                    if shape is not None:
+                        check_declared_size(path, name.removesuffix(".npy"), shape)
+        except (zipfile.BadZipFile, OSError, EOFError, RuntimeError):
+            return  # the reader's own load reports a damaged archive
+        return
+    try:
+        with open(path, "rb") as fh:
+            shape = npy_declared_shape(fh)
+    except OSError:
+        return
+    if shape is not None:
+        check_declared_size(path, path.name, shape)
+
+
+def check_h5_sizes(path: Path, fh: Any) -> None:
+    """Refuse an HDF5 file (netCDF-4) with a dataset declaring more than
+    :data:`MAX_CELLS` values, before a library reads it whole."""
+    import h5py
+
+    def visit(name: str, obj: Any) -> None:
+        if isinstance(obj, h5py.Dataset) and obj.shape:
+            check_declared_size(path, name, obj.shape)
+
+    fh.visititems(visit)
 
 
 def check_tracks(ds: Any, path: Path) -> Any:
