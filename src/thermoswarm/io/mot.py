@@ -31,6 +31,8 @@ from thermoswarm.io._common import (
 )
 from thermoswarm.tracks import centroid, make_tracks
 
+__all__ = ["MAX_FRAMES", "read", "read_mot_table", "tracks_from_table", "write", "write_mot_table"]
+
 OPTIONS: dict[str, str] = {"duplicates": DUPLICATES_HELP}
 NEEDS = "--fps and --px-per-mm (frame numbers and pixel boxes)"
 
@@ -54,16 +56,14 @@ def sniff(path: Path) -> bool:
     return True
 
 
-__all__ = ["MAX_FRAMES", "read", "read_mot_table", "tracks_from_table", "write", "write_mot_table"]
-
-
 def read_mot_table(
     path: str | Path, *, allow_empty: bool = False, min_frame: int = 1
 ) -> np.ndarray:
     """Rows of a MOT file as a float array ``(n, 10)``; missing trailing columns are -1.
 
     Frame numbers must be integers ``>= min_frame`` (MOTChallenge counts from 1; pass
-    0 to accept 0-based files) spanning at most :data:`MAX_FRAMES` frames; box widths
+    0 to accept 0-based files) spanning at most :data:`MAX_FRAMES` frames, ids must be
+    integers (1.5 is an error naming the line, not track 1); box widths
     and heights must not be negative.  Raises :class:`InputError` naming the file and
     line for a malformed row, and for an empty file unless ``allow_empty``.
     """
