@@ -8,6 +8,8 @@ import math
 import numpy as np
 import pytest
 import xarray as xr
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import stats
 
 from thermoswarm.errors import ConfigError
@@ -170,11 +172,36 @@ def test_longest_gap_counts_from_start_and_to_end():
     assert longest_gap(np.array([5.0, 500.0]), 0.0, 100.0) == 95.0  # outside ignored
 
 
-def test_flow_series_is_crossings_per_minute_per_bin():
+def test_flow_series_is_crossings_per_minute_per_whole_bin():
     starts, flow = flow_series(np.array([5.0, 10.0, 70.0, 130.0]), 150.0, 60.0)
-    assert starts.tolist() == [0.0, 60.0, 120.0]
-    # last bin is 30 s long: one crossing in it is 2 per minute
-    assert flow.tolist() == pytest.approx([2.0, 1.0, 2.0])
+    # 150 s hold two whole minutes; the last 30 s (and the crossing at 130 s) are not a bin
+    assert starts.tolist() == [0.0, 60.0]
+    assert flow.tolist() == pytest.approx([2.0, 1.0])
+    # bins are half-open: a crossing at exactly 60 s is in the second minute
+    assert flow_series(np.array([60.0]), 180.0, 60.0)[1].tolist() == [0.0, 1.0, 0.0]
+    # shorter than one bin: no bins, not one bin over a few seconds
+    starts, flow = flow_series(np.array([1.0]), 59.0, 60.0)
+    assert starts.size == 0 and flow.size == 0
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(
+    n_whole=st.integers(0, 20),
+    tail=st.floats(0.0, 0.999),
+    bin_s=st.sampled_from([10.0, 60.0, 90.0]),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_flow_series_last_bin_is_never_partial(n_whole, tail, bin_s, seed):
+    # a steady flow of crossings: every bin returned is whole, so every one shows it
+    duration = (n_whole + tail) * bin_s
+    rng = np.random.default_rng(seed)
+    per_bin = 6
+    t = (np.arange(int(np.ceil(duration / bin_s)) + 1)[:, None] + rng.random((1, per_bin))).ravel()
+    starts, flow = flow_series(t * bin_s, duration, bin_s)
+    assert starts.size == n_whole
+    if n_whole:
+        assert starts[-1] + bin_s <= duration + 1e-9
+        assert flow == pytest.approx(np.full(n_whole, per_bin * 60.0 / bin_s))
 
 
 def test_section_index():
@@ -509,3 +536,27 @@ def test_both_directions_keep_flowing_for_5600_seconds(tmp_path):
         assert np.all(per10 > 0)
         assert c[d] > 300
     assert m["max_overlap_fraction"] < 0.02
+
+
+def test_flow_plot_draws_whole_bins_and_marks_the_tail():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from thermoswarm.scenarios.narrow_road import plot_flow
+
+    m = {
+        "flow_over_time": {"bin_s": 60.0, "t_start": [0.0, 60.0], "+x": [2.0, 1.0],
+                           "-x": [0.0, 3.0], "unbinned_tail_s": 30.0},
+        "flow_per_direction": {"+x": 1.6, "-x": 1.2},
+    }  # fmt: skip
+    fig, ax = plt.subplots()
+    plot_flow(ax, m)
+    steps = [p for p in ax.patches if type(p).__name__ == "StepPatch"]
+    assert len(steps) == 2
+    for p in steps:  # each step spans its whole minute: the last ends at 120 s
+        assert p.get_data().edges.tolist() == [0.0, 60.0, 120.0]
+    assert ax.get_xlim() == (0.0, 150.0)  # the 30 s tail is shown, shaded, not a rate
+    assert any("not a whole bin" in t.get_text() for t in ax.get_legend().get_texts())
+    plt.close(fig)

@@ -282,7 +282,10 @@ def clean_samples(ds: xr.Dataset, opts: AnalysisOptions, counts: dict[str, Any])
     # samples given: every (row, individual) of a shared axis; the timed rows otherwise
     counts["n_samples_input"] = int(np.isfinite(T0).sum() if per_individual(ds) else T0.size)
     nonfinite = (np.isinf(X) | np.isinf(Y)) & ~(np.isnan(X) | np.isnan(Y))
-    counts["n_nonfinite_positions"] = int(nonfinite.sum())
+    # with those the reader found (infinite or beyond thermoswarm.io._common.MAX_ABS_MM)
+    counts["n_nonfinite_positions"] = int(nonfinite.sum()) + int(
+        ds.attrs.get("n_nonfinite_positions", 0) or 0
+    )
     if nonfinite.any():
         X = np.where(nonfinite, np.nan, X)
         Y = np.where(nonfinite, np.nan, Y)

@@ -33,6 +33,7 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm.errors import InputError, OutputError, ThermoswarmError
+from thermoswarm.io._common import MAX_ABS_MM, check_fps, check_tracks
 from thermoswarm.tracks import per_individual, validate_tracks
 
 #: Named scale presets for ``px_per_mm``.
@@ -175,6 +176,7 @@ def read_tracks(
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file or directory")
+    fps = check_fps(path, fps, "--fps")
     name = format or detect_format(path)
     if name not in _FORMATS or not _FORMATS[name].can_read:
         known = ", ".join(sorted(n for n, f in _FORMATS.items() if f.can_read))
@@ -205,14 +207,19 @@ def read_tracks(
 
 
 def _check_result(ds: xr.Dataset, path: Path) -> xr.Dataset:
-    """Final checks common to every reader: schema, at least one finite position."""
+    """Final checks common to every reader: schema, unique names, a recording's frame
+    rate, non-finite positions counted (:func:`~thermoswarm.io._common.check_tracks`),
+    at least one finite position."""
     ds = validate_tracks(ds, source=str(path))
     if ds.sizes["time"] == 0:
         raise InputError(f"{path}: no time steps")
     if ds.sizes["individuals"] == 0 or ds.sizes["keypoints"] == 0:
         raise InputError(f"{path}: no individuals or keypoints")
+    ds = check_tracks(ds, path)
     if not np.isfinite(ds["position"].values).any():
-        raise InputError(f"{path}: every position is missing (NaN); nothing to analyse")
+        n_bad = ds.attrs.get("n_nonfinite_positions", 0)
+        why = f" ({n_bad} infinite or beyond {MAX_ABS_MM:g} mm)" if n_bad else ""
+        raise InputError(f"{path}: every position is missing (NaN){why}; nothing to analyse")
     ds.attrs.setdefault("source_file", str(path))
     return ds
 

@@ -111,16 +111,29 @@ def option_str_list(path: Path, name: str, value: Any) -> list[str]:
     raise InputError(f"{path}: option {name} must be a string or a list of strings, got {value!r}")
 
 
-def check_fps(path: Path, fps: Any) -> float | None:
-    """``None`` or a positive finite frame rate (1/s)."""
+#: Frame rates (frames/s) a recording can have: one frame in 11.6 days to ten million
+#: per second.  A rate outside makes times that are not a recording's (1e-300 frames/s
+#: puts frame 1 at 1e300 s and overflows every step's speed).
+FPS_RANGE = (1e-6, 1e7)
+
+
+def check_fps(path: Path, fps: Any, what: str = "fps") -> float | None:
+    """``None`` or a frame rate (1/s) within :data:`FPS_RANGE`.
+
+    ``what`` names where the value came from in the error (``--fps``, a file's field).
+    """
     if fps is None:
         return None
     try:
         value = float(fps)
     except (TypeError, ValueError):
-        raise InputError(f"{path}: fps must be a positive number, got {fps!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise InputError(f"{path}: fps must be a positive number, got {fps!r}")
+        raise InputError(f"{path}: {what} must be a positive number, got {fps!r}") from None
+    lo, hi = FPS_RANGE
+    if not (math.isfinite(value) and lo <= value <= hi):
+        raise InputError(
+            f"{path}: {what} = {fps!r} is not a recording's frame rate; expected "
+            f"{lo:g} to {hi:g} frames/s"
+        )
     return value
 
 
@@ -128,7 +141,7 @@ def require_fps(path: Path, fps: float | None, what: str) -> float:
     """The frame rate, or an error saying that ``what`` has frame numbers only."""
     if fps is None:
         raise InputError(f"{path}: {what} has frame numbers but no times; {FPS_HINT}")
-    return fps
+    return check_fps(path, fps, "--fps")  # type: ignore[return-value]
 
 
 def require_px_per_mm(path: Path, px_per_mm: float | None, what: str) -> float:
@@ -139,10 +152,16 @@ def require_px_per_mm(path: Path, px_per_mm: float | None, what: str) -> float:
 
 
 def resolve_fps(path: Path, given: float | None, in_file: float | None, what: str) -> float | None:
-    """The frame rate: ``--fps`` overrides the file's own (warning when they differ)."""
-    given = check_fps(path, given)
-    if in_file is not None and not (math.isfinite(in_file) and in_file > 0):
+    """The frame rate: ``--fps`` overrides the file's own (warning when they differ).
+
+    A rate in the file outside :data:`FPS_RANGE` (0, negative, 1e-300, inf) is an
+    error unless ``--fps`` replaces it; NaN counts as not recorded.
+    """
+    given = check_fps(path, given, "--fps")
+    if in_file is not None and math.isnan(in_file):
         in_file = None
+    if in_file is not None and given is None:
+        in_file = check_fps(path, in_file, f"the frame rate stored by {what}")
     if given is not None:
         if in_file is not None and not math.isclose(given, in_file, rel_tol=1e-6):
             warnings.warn(
@@ -308,6 +327,7 @@ def assemble_long(
             bad = int(np.flatnonzero(frames != time)[0])
             raise InputError(f"{path}: frame number {time[bad]!r} is not an integer")
         f0, f1 = float(frames.min()), float(frames.max())
+        check_frame_span(path, [f0, f1])
         check_dense_size(path, int(f1 - f0) + 1, n_k, n_i)
         key = time
     else:
@@ -464,6 +484,160 @@ def check_dense_size(path: Path, n_t: int, n_k: int, n_i: int) -> None:
         )
 
 
+#: The longest frame range a file may span (10 million frames: 3.9 days at 30 fps);
+#: a larger one is refused before anything is allocated for it.
+MAX_FRAMES = 10_000_000
+
+
+def check_frame_span(path: Path, frames: Any, what: str = "frames") -> None:
+    """Refuse frame numbers spanning more than :data:`MAX_FRAMES` (one stray 1e11 would
+    ask for a dense array of 1e11 rows)."""
+    f = np.asarray(frames, dtype=np.float64)
+    if f.size == 0:
+        return
+    lo, hi = float(np.nanmin(f)), float(np.nanmax(f))
+    span = hi - lo + 1
+    if span > MAX_FRAMES:
+        raise InputError(
+            f"{path}: {what} {lo:.0f} to {hi:.0f} span {span:,.0f} frames, "
+            f"more than the {MAX_FRAMES:,} accepted"
+        )
+
+
+def check_integers(path: Path, values: Any, what: str, lines: Any = None) -> np.ndarray:
+    """``values`` as int64, refusing one that is not a whole number (1.5 would be
+    truncated to 1 and merged with it); ``lines`` (file line of each value) names the
+    line in the error."""
+    v = np.asarray(values, dtype=np.float64)
+    bad = ~np.isfinite(v) | (v != np.round(v)) | (np.abs(v) > 2.0**53)
+    if bad.any():
+        i = int(np.argmax(bad))
+        where = f"{path}:{int(np.asarray(lines)[i])}" if lines is not None else f"{path}"
+        raise InputError(f"{where}: {what} {v[i]!r} is not an integer")
+    return v.astype(np.int64)
+
+
+def check_unique_frames(path: Path, frames: Any, what: str) -> None:
+    """Refuse a frame number that appears twice where a file holds one entry per frame."""
+    u, count = np.unique(np.asarray(frames), return_counts=True)
+    if (count > 1).any():
+        k = int(np.argmax(count > 1))
+        raise InputError(
+            f"{path}: {what} {float(u[k]):g} appears {int(count[k])} times; "
+            "expected one entry per frame"
+        )
+
+
+def check_declared_size(path: Path, name: str, shape: Sequence[int]) -> None:
+    """Refuse a dataset whose declared shape holds more than :data:`MAX_CELLS` values,
+    before any of it is read (an HDF5 header can declare 2e10 values in a few bytes)."""
+    size = math.prod(int(n) for n in shape)
+    if size > MAX_CELLS:
+        raise InputError(
+            f"{path}: dataset {name!r} declares shape {tuple(int(n) for n in shape)}, "
+            f"{size:,} values, more than the {MAX_CELLS:,} a reader loads"
+        )
+
+
+#: Largest |position| (mm) a reader keeps: a million km.  Beyond it a value is not a
+#: position (1e308 overflows every float32 output and every squared speed) and counts
+#: as non-finite.
+MAX_ABS_MM = 1e12
+
+
+def npy_declared_shape(fh: Any) -> tuple[int, ...] | None:
+    """The shape an ``.npy`` stream declares in its header (``fh`` at its start), or
+    None for a header this cannot parse (the read that follows reports it)."""
+    try:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            return tuple(np.lib.format.read_array_header_1_0(fh)[0])
+        if version == (2, 0):
+            return tuple(np.lib.format.read_array_header_2_0(fh)[0])
+    except (ValueError, OSError, EOFError):
+        return None
+    return None
+
+
+def check_npy_sizes(path: Path) -> None:
+    """Refuse an ``.npy`` file, or an ``.npz`` member, whose header declares more than
+    :data:`MAX_CELLS` values, before NumPy allocates them."""
+    import zipfile
+
+    if zipfile.is_zipfile(path):
+        try:
+            with zipfile.ZipFile(path) as zf:
+                for name in zf.namelist():
+                    with zf.open(name) as fh:
+                        shape = npy_declared_shape(fh)
+                    if shape is not None:
+                        check_declared_size(path, name.removesuffix(".npy"), shape)
+        except (zipfile.BadZipFile, OSError, EOFError, RuntimeError):
+            return  # the reader's own load reports a damaged archive
+        return
+    try:
+        with open(path, "rb") as fh:
+            shape = npy_declared_shape(fh)
+    except OSError:
+        return
+    if shape is not None:
+        check_declared_size(path, path.name, shape)
+
+
+def check_h5_sizes(path: Path, fh: Any) -> None:
+    """Refuse an HDF5 file (netCDF-4) with a dataset declaring more than
+    :data:`MAX_CELLS` values, before a library reads it whole."""
+    import h5py
+
+    def visit(name: str, obj: Any) -> None:
+        if isinstance(obj, h5py.Dataset) and obj.shape:
+            check_declared_size(path, name, obj.shape)
+
+    fh.visititems(visit)
+
+
+def check_tracks(ds: Any, path: Path) -> Any:
+    """Checks of every reader's result; returns ``ds`` with non-finite positions counted.
+
+    Individual and keypoint names must be unique (they label the tracks: 8 individuals
+    of one name would be analysed as 8 tracks) and the frame rate within
+    :data:`FPS_RANGE`.  Positions that are infinite or beyond :data:`MAX_ABS_MM` (x or
+    y) become NaN and are counted in ``attrs["n_nonfinite_positions"]`` (samples), which
+    the analysis reports with its own count.
+    """
+    for dim in ("individuals", "keypoints"):
+        if dim not in ds.coords:
+            continue
+        counts: dict[str, int] = {}
+        for n in (str(v) for v in ds[dim].values):
+            counts[n] = counts.get(n, 0) + 1
+        dup = {n: c for n, c in counts.items() if c > 1}
+        if dup:
+            shown = ", ".join(f"{n!r} x{c}" for n, c in list(dup.items())[:5])
+            raise InputError(
+                f"{path}: {dim} names must be unique, got {shown}"
+                f"{' ...' if len(dup) > 5 else ''}; rename them"
+            )
+    fps = ds.attrs.get("fps")
+    if fps is not None:
+        check_fps(path, fps, "the frame rate (attribute fps)")
+    pos = ds["position"]
+    if pos.dtype.kind != "f":
+        return ds
+    values = pos.values
+    with np.errstate(invalid="ignore"):
+        bad = (np.abs(values) > MAX_ABS_MM).any(axis=pos.dims.index("space"))
+    n_bad = int(bad.sum())
+    if n_bad:
+        import xarray as xr
+
+        keep = xr.DataArray(~bad, dims=[d for d in pos.dims if d != "space"])
+        ds = ds.copy()
+        ds["position"] = pos.where(keep)
+    ds.attrs["n_nonfinite_positions"] = int(ds.attrs.get("n_nonfinite_positions", 0)) + n_bad
+    return ds
+
+
 def _codes(
     path: Path, values: np.ndarray, order: Sequence[str] | None
 ) -> tuple[list[str], np.ndarray]:
@@ -510,6 +684,9 @@ def h5_read(path: Path, fh: Any, name: str) -> np.ndarray:
     """Read a whole HDF5 dataset; a missing or corrupt one is an InputError."""
     if name not in fh:
         raise InputError(f"{path}: no {name!r} dataset")
+    shape = getattr(fh[name], "shape", None)
+    if shape:
+        check_declared_size(path, name, shape)
     try:
         return fh[name][()]
     except Exception as exc:  # truncated chunks raise OSError/RuntimeError

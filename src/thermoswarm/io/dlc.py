@@ -35,6 +35,7 @@ from thermoswarm.io._common import (
     as_float_column,
     check_dense_size,
     check_options,
+    check_unique_frames,
     decode_names,
     h5_file,
     h5_read,
@@ -159,6 +160,7 @@ def _frame_numbers(path: Path, index: np.ndarray) -> np.ndarray:
         ) from None
     if not np.all(np.isfinite(frames)):
         raise InputError(f"{path}: missing frame number in the first column")
+    check_unique_frames(path, frames, "frame")  # two rows of one frame: which is it?
     return frames
 
 

@@ -31,6 +31,7 @@ import xarray as xr
 from thermoswarm.errors import InputError
 from thermoswarm.io._common import (
     attr_value,
+    check_npy_sizes,
     check_options,
     decode_names,
     h5_file,
@@ -108,6 +109,7 @@ def _from_h5(path: Path) -> dict[str, Any]:
 
 
 def _from_npy(path: Path, allow_pickle: bool) -> dict[str, Any]:
+    check_npy_sizes(path)
     try:
         arr = np.load(path, allow_pickle=False)
     except ValueError as exc:

@@ -19,9 +19,21 @@ import xarray as xr
 
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_text
+from thermoswarm.io._common import (
+    DUPLICATES_HELP,
+    MAX_FRAMES,
+    assemble_long,
+    check_frame_span,
+    check_integers,
+    check_options,
+    option_duplicates,
+    require_fps,
+)
 from thermoswarm.tracks import centroid, make_tracks
 
-OPTIONS: dict[str, str] = {}
+__all__ = ["MAX_FRAMES", "read", "read_mot_table", "tracks_from_table", "write", "write_mot_table"]
+
+OPTIONS: dict[str, str] = {"duplicates": DUPLICATES_HELP}
 NEEDS = "--fps and --px-per-mm (frame numbers and pixel boxes)"
 
 #: Column names of a MOT row.
@@ -44,18 +56,14 @@ def sniff(path: Path) -> bool:
     return True
 
 
-#: The longest frame range a MOT file may span (10 million frames: 3.9 days at 30 fps);
-#: a larger one is refused before anything is allocated for it.
-MAX_FRAMES = 10_000_000
-
-
 def read_mot_table(
     path: str | Path, *, allow_empty: bool = False, min_frame: int = 1
 ) -> np.ndarray:
     """Rows of a MOT file as a float array ``(n, 10)``; missing trailing columns are -1.
 
     Frame numbers must be integers ``>= min_frame`` (MOTChallenge counts from 1; pass
-    0 to accept 0-based files) spanning at most :data:`MAX_FRAMES` frames; box widths
+    0 to accept 0-based files) spanning at most :data:`MAX_FRAMES` frames, ids must be
+    integers (1.5 is an error naming the line, not track 1); box widths
     and heights must not be negative.  Raises :class:`InputError` naming the file and
     line for a malformed row, and for an empty file unless ``allow_empty``.
     """
@@ -108,12 +116,9 @@ def read_mot_table(
             f"{path}:{first(bad)}: frame number {f[np.argmax(bad)]:g} is not an integer "
             f">= {min_frame} (MOT frames are {base})"
         )
-    span = f.max() - f.min() + 1
-    if span > MAX_FRAMES:
-        raise InputError(
-            f"{path}: frames {f.min():.0f} to {f.max():.0f} span {span:,.0f} frames, "
-            f"more than the {MAX_FRAMES:,} accepted"
-        )
+    check_frame_span(path, f)
+    # an id of 1.5 would be truncated to 1 and overwrite track 1
+    check_integers(path, table[:, 1], "id", at)
     bad = (table[:, 4] < 0) | (table[:, 5] < 0)
     if bad.any():
         i = int(np.argmax(bad))
@@ -145,39 +150,53 @@ def write_mot_table(path: str | Path, table: np.ndarray) -> None:
 
 
 def tracks_from_table(
-    table: np.ndarray, *, fps: float, px_per_mm: float, source_file: str | None = None
+    table: np.ndarray,
+    *,
+    fps: float,
+    px_per_mm: float,
+    source_file: str | None = None,
+    duplicates: str = "error",
 ) -> xr.Dataset:
-    """Box centres of a MOT table as trajectories (frame ``f`` -> time ``(f - 1) / fps``)."""
-    frames = table[:, 0].astype(np.int64)
+    """Box centres of a MOT table as trajectories (frame ``f`` -> time ``(f - 1) / fps``).
+
+    Rows of one id in one frame are resolved as in every long-table reader
+    (:func:`~thermoswarm.io._common.assemble_long`): exact duplicates are dropped, other
+    boxes are an error (or ``duplicates="first"``/``"mean"``), and both are counted in
+    ``attrs``.
+    """
+    path = Path(source_file) if source_file is not None else Path("MOT table")
     ids = table[:, 1].astype(np.int64)
-    f0, f1 = frames.min(), frames.max()
-    uid, col = np.unique(ids, return_inverse=True)
-    pos = np.full((f1 - f0 + 1, 2, 1, uid.size), np.nan)
-    conf = np.full((f1 - f0 + 1, 1, uid.size), np.nan, dtype=np.float32)
-    row = frames - f0
-    pos[row, 0, 0, col] = (table[:, 2] + table[:, 4] / 2) / px_per_mm
-    pos[row, 1, 0, col] = (table[:, 3] + table[:, 5] / 2) / px_per_mm
-    conf[row, 0, col] = np.clip(table[:, 6], 0, 1)
-    t = (np.arange(f0, f1 + 1) - 1) / fps
+    uid = np.unique(ids)
+    parts = assemble_long(
+        path,
+        individual=np.asarray([f"id_{i}" for i in ids], dtype=object),
+        time=table[:, 0],
+        x=(table[:, 2] + table[:, 4] / 2) / px_per_mm,
+        y=(table[:, 3] + table[:, 5] / 2) / px_per_mm,
+        confidence=np.clip(table[:, 6], 0, 1),
+        individual_order=[f"id_{i}" for i in uid],
+        frame_rate=fps,
+        duplicates=duplicates,
+    )
+    frames = np.rint(parts["time"] * fps)  # MOT's frame numbers, 1-based
     return make_tracks(
-        pos,
-        time=t,
+        parts["position"],
+        time=(frames - 1) / fps,
         fps=fps,
-        individuals=[f"id_{i}" for i in uid],
-        confidence=conf,
+        individuals=parts["individuals"],
+        confidence=parts["confidence"],
         source_software="MOTChallenge",
         source_file=source_file,
-        attrs={"px_per_mm": px_per_mm},
+        attrs={"px_per_mm": px_per_mm, **parts["attrs"]},
     )
 
 
 def read(
     path: Path, *, fps: float | None = None, px_per_mm: float | None = None, **options: Any
 ) -> xr.Dataset:
-    if options:
-        raise InputError(f"{path}: mot reader takes no options, got {sorted(options)}")
-    if fps is None:
-        raise InputError(f"{path}: MOTChallenge files have frame numbers only; pass --fps")
+    check_options(path, "mot", options, OPTIONS)
+    rule = option_duplicates(path, options)
+    rate = require_fps(path, fps, "a MOTChallenge file")
     if px_per_mm is None:
         raise InputError(
             f"{path}: MOTChallenge boxes are in pixels; pass --px-per-mm "
@@ -186,7 +205,9 @@ def read(
     table = read_mot_table(path)
     if np.any(table[:, 1] < 0):
         raise InputError(f"{path}: rows with id -1 are detections, not tracks")
-    return tracks_from_table(table, fps=fps, px_per_mm=px_per_mm, source_file=str(path))
+    return tracks_from_table(
+        table, fps=rate, px_per_mm=px_per_mm, source_file=str(path), duplicates=rule
+    )
 
 
 def table_from_tracks(

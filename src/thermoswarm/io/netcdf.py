@@ -21,7 +21,13 @@ import xarray as xr
 
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_path
-from thermoswarm.io._common import attr_value, check_options, length_scale, option_str
+from thermoswarm.io._common import (
+    attr_value,
+    check_h5_sizes,
+    check_options,
+    length_scale,
+    option_str,
+)
 from thermoswarm.tracks import DIMS, validate_tracks
 
 OPTIONS = {
@@ -50,10 +56,13 @@ def _open(path: Path) -> xr.Dataset:
     import h5py
 
     try:
-        with h5py.File(path, "r"):
-            pass
+        fh = h5py.File(path, "r")
     except Exception as exc:  # OSError subclasses with long messages
         raise InputError(f"{path}: not a readable netCDF file ({type(exc).__name__})") from None
+    try:
+        check_h5_sizes(path, fh)  # xarray loads every variable whole
+    finally:
+        fh.close()
     hook = sys.unraisablehook
     sys.unraisablehook = lambda unraisable: None
     failed = None

@@ -19,6 +19,7 @@ and positions are pixels: both need ``--fps`` and ``--px-per-mm``.
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +28,10 @@ import xarray as xr
 
 from thermoswarm.errors import InputError
 from thermoswarm.io._common import (
+    check_frame_span,
+    check_integers,
     check_options,
+    check_unique_frames,
     decode_names,
     h5_file,
     h5_read,
@@ -167,9 +171,15 @@ def _read_slp(path: Path, scale: float, fps: float, options: dict[str, Any]) -> 
         raise InputError(f"{path}: {len(labels.skeletons)} skeletons; one is supported")
     if len(labels) == 0:
         raise InputError(f"{path}: no labelled frames")
-    arr = labels.numpy(
-        video=video, untracked=untracked, return_confidence=True, user_instances=user
-    )  # (frame, track, node, 3)
+    lazy = bool(getattr(labels, "is_lazy", False))
+    first = _first_frame(path, video, from_zero=not lazy)
+    with warnings.catch_warnings():
+        # sleap-io returns float32: a position beyond its range becomes inf, which the
+        # final check counts as non-finite (n_nonfinite_positions) instead of a warning
+        warnings.filterwarnings("ignore", "overflow encountered in cast", RuntimeWarning)
+        arr = labels.numpy(
+            video=video, untracked=untracked, return_confidence=True, user_instances=user
+        )  # (frame, track, node, 3) from the first labelled frame (lazy) or frame 0
     nodes = unique_names(path, labels.skeletons[0].node_names, "node")
     if labels.tracks and not untracked:
         names = unique_names(
@@ -185,6 +195,7 @@ def _read_slp(path: Path, scale: float, fps: float, options: dict[str, Any]) -> 
         attrs["video_path"] = filename
     return make_tracks(
         pos,
+        time=(first + np.arange(pos.shape[0])) / fps,  # frame f at f / fps, as in the video
         fps=fps,
         individuals=names,
         keypoints=nodes,
@@ -193,6 +204,32 @@ def _read_slp(path: Path, scale: float, fps: float, options: dict[str, Any]) -> 
         source_file=str(path),
         attrs=attrs,
     )
+
+
+def _first_frame(path: Path, video: int, *, from_zero: bool) -> int:
+    """The first row's frame number, after checking the frame numbers of ``video``.
+
+    Lazy-loaded labels give rows from the first labelled frame, eager ones
+    (``from_zero``, sleap-io before lazy loading) from frame 0.
+
+    Read from the ``frames`` table with h5py before sleap-io builds its array, whose
+    rows span every frame from the first to the last: one ``frame_idx`` of 1e11 would
+    ask for terabytes, and two frames with one ``frame_idx`` would be merged silently.
+    """
+    with h5_file(path, "SLEAP .slp") as fh:
+        table = h5_read(path, fh, "frames")
+    names = table.dtype.names or ()
+    if "frame_idx" not in names or "video" not in names:
+        raise InputError(f"{path}: the 'frames' table has no frame_idx or video column")
+    idx = check_integers(path, table["frame_idx"][table["video"] == video], "frame_idx")
+    if idx.size == 0:
+        raise InputError(f"{path}: no labelled frames in video {video}")
+    if idx.min() < 0:
+        raise InputError(f"{path}: negative frame_idx {int(idx.min())}")
+    first = 0 if from_zero else int(idx.min())
+    check_frame_span(path, [first, int(idx.max())], "frame_idx")
+    check_unique_frames(path, idx, "frame_idx")
+    return first
 
 
 def read(

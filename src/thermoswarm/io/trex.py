@@ -38,6 +38,7 @@ import xarray as xr
 from thermoswarm.errors import InputError
 from thermoswarm.io._common import (
     assemble_long,
+    check_npy_sizes,
     check_options,
     natural_key,
     option_positive,
@@ -66,6 +67,7 @@ def _keys(source: str) -> tuple[str, str]:
 
 def _load(path: Path) -> dict[str, np.ndarray]:
     """Arrays of an npz, without unpickling (object arrays are refused)."""
+    check_npy_sizes(path)
     try:
         with np.load(path, allow_pickle=False) as npz:
             return {k: npz[k] for k in npz.files}

@@ -24,7 +24,7 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm.errors import InputError
-from thermoswarm.io._common import check_options, length_scale
+from thermoswarm.io._common import check_declared_size, check_options, length_scale
 from thermoswarm.tracks import validate_tracks
 
 OPTIONS: dict[str, str] = {}
@@ -80,6 +80,13 @@ def read(
                 f"{path}: committed_frames = {committed} but the store holds {n} time steps"
             )
         store = store.isel(time=slice(0, committed))
+    try:
+        for name, var in store.variables.items():
+            if var.shape:
+                check_declared_size(path, str(name), var.shape)  # before loading it whole
+    except InputError:
+        store.close()
+        raise
     try:
         ds = store.load()
     except Exception as exc:  # a damaged chunk in the committed range

@@ -218,6 +218,11 @@ class Scenario:
     def recording(self) -> Recording:
         return self.params.record
 
+    def robot_count(self) -> tuple[str, int]:
+        """The config key that sets the number of robots, and that number (before
+        anything is built: the runner checks the run's memory with it)."""
+        return "n", int(getattr(self.params, "n", 0) or 0)
+
     # -- per-frame variables besides position: name -> (dims, shape without time, dtype)
     def extras(self, setup: Setup) -> dict[str, tuple[tuple[str, ...], tuple[int, ...], str]]:
         n = setup.positions.shape[0]

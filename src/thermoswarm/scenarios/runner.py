@@ -42,6 +42,7 @@ from thermoswarm.fsutil import atomic_path, atomic_write_json, atomic_write_text
 from thermoswarm.scenarios import get
 from thermoswarm.scenarios.base import Scenario, Setup, build_simulator, overlap_metrics
 from thermoswarm.sim.engine import Simulator, SwarmState
+from thermoswarm.sim.memory import check_run_memory
 from thermoswarm.sim.recorder import ZarrRecorder, load_checkpoint, read_marker
 
 __all__ = ["RunConfig", "resolve", "run", "resume", "open_run_tracks", "build"]
@@ -96,6 +97,10 @@ def resolve(
 def build(cfg: RunConfig) -> tuple[Scenario, Setup, Simulator, SwarmState]:
     """Build the scenario and the initial state (all draws from the seed's generator)."""
     scen = get(cfg.scenario)(cfg.params)
+    key, n = scen.robot_count()
+    rec = scen.recording
+    n_frames = int(min(scen.duration / rec.interval, 2**62)) + 1
+    check_run_memory(n, n_frames, rec.block, key=key)  # before any array is allocated
     rng = np.random.default_rng(cfg.seed)
     setup = scen.build(rng)
     sim = build_simulator(setup, getattr(getattr(cfg.params, "engine", None), "backend", "cpu"))

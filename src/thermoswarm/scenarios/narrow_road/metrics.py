@@ -25,19 +25,22 @@ def longest_gap(times: np.ndarray, start: float, end: float) -> float:
 
 
 def flow_series(times: np.ndarray, duration: float, bin_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """Crossings per minute in consecutive bins of ``bin_s`` seconds over ``[0, duration]``.
+    """Crossings per minute in the whole bins of ``bin_s`` seconds that fit in ``[0, duration]``.
 
-    Returns ``(bin_starts, flow)``; the last bin may be shorter and is normalised by its
-    own length.
+    Bins are half-open, ``[k bin_s, (k + 1) bin_s)``.  Only whole bins are returned: a
+    last, partial bin (the ``duration mod bin_s`` seconds at the end) would be a rate
+    over a few seconds, a spike or a drop that is noise, so its crossings are left out
+    here (they still count in the totals).  A run shorter than one bin has no bins.
+
+    Returns ``(bin_starts, flow)`` in s and crossings per minute.
     """
-    starts = np.arange(0.0, duration, bin_s)
-    if starts.size == 0:
-        starts = np.array([0.0])
-    ends = np.minimum(starts + bin_s, duration)
+    n_bins = int(math.floor(duration / bin_s + 1e-9)) if duration > 0 else 0
+    starts = np.arange(n_bins, dtype=float) * bin_s
     t = np.asarray(times, dtype=float).ravel()
-    counts = np.histogram(t, bins=np.append(starts, duration))[0]
-    width = np.maximum(ends - starts, 1e-12)
-    return starts, counts * 60.0 / width
+    t = t[np.isfinite(t) & (t >= 0)]
+    k = np.floor(t / bin_s).astype(np.int64)
+    counts = np.bincount(k[k < n_bins], minlength=n_bins)
+    return starts, counts * 60.0 / bin_s
 
 
 def _summary(values: np.ndarray) -> dict[str, Any]:

@@ -70,11 +70,25 @@ def plot_frame(
 
 
 def plot_flow(ax: Any, metrics: dict[str, Any]) -> None:
-    """Crossings per minute per direction over time (``metrics["flow_over_time"]``)."""
+    """Crossings per minute per direction over time (``metrics["flow_over_time"]``).
+
+    One step per whole bin, drawn over the bin; the seconds after the last whole bin
+    (``unbinned_tail_s``) are shaded and not drawn as a rate.
+    """
     f = metrics["flow_over_time"]
-    t = np.asarray(f["t_start"], dtype=float) + 0.5 * float(f["bin_s"])
+    bin_s = float(f["bin_s"])
+    starts = np.asarray(f["t_start"], dtype=float)
+    edges = np.append(starts, starts[-1] + bin_s) if starts.size else np.zeros(1)
     for d in DIRECTIONS:
-        ax.step(t, f[d], where="mid", label=f"{d} ({metrics['flow_per_direction'][d]:.2f}/min)")
+        label = f"{d} ({metrics['flow_per_direction'][d]:.2f}/min)"
+        ax.stairs(np.asarray(f[d], dtype=float), edges, label=label, baseline=None)
+    tail = float(f.get("unbinned_tail_s", 0.0) or 0.0)
+    if tail > 0:
+        ax.axvspan(edges[-1], edges[-1] + tail, color="0.85", lw=0,
+                   label=f"last {tail:.0f} s: not a whole bin")  # fmt: skip
+    ax.set_xlim(0.0, edges[-1] + tail)
     ax.set_xlabel("time (s)")
-    ax.set_ylabel("crossings per minute")
-    ax.legend()
+    ax.set_ylabel(f"crossings per minute ({bin_s:g} s bins)")
+    ax.legend(
+        fontsize="small", loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, frameon=False
+    )

@@ -80,6 +80,10 @@ class NarrowRoadScenario(Scenario):
     )
     Params = NarrowRoadParams
 
+    def robot_count(self) -> tuple[str, int]:
+        p: NarrowRoadParams = self.params
+        return ("n" if p.n is not None else "n (occupation x road area / robot area)"), road_n(p)
+
     def build(self, rng: np.random.Generator) -> Setup:
         p: NarrowRoadParams = self.params
         n = road_n(p)
@@ -304,6 +308,8 @@ class NarrowRoadScenario(Scenario):
             starts, f = flow_series(ev_t[ev_g == g], T, p.flow_bin)
             flows["t_start"] = starts.tolist()
             flows[d] = f.tolist()
+        # whole bins only: the seconds after the last one are in the totals, not binned
+        flows["unbinned_tail_s"] = max(T - len(flows["t_start"]) * p.flow_bin, 0.0)
         out["flow_over_time"] = flows
         out["transit_times"] = {}
         for g, d in enumerate(DIRECTIONS):
