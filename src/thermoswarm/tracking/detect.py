@@ -92,6 +92,10 @@ __all__ = [
     "load_checked",
     "ClassicalConfig",
     "ClassicalDetector",
+    "SizeEstimate",
+    "estimate_length_px",
+    "SPAN_PER_LENGTH",
+    "NOTHING_FOUND_HINT",
 ]
 
 
@@ -419,6 +423,10 @@ class ClassicalDetector:
         ``frames`` (an iterable, consumed once) should span a few seconds of video;
         at most ``2 * bg_frames`` of them are kept, at working resolution.
         """
+        self._learn(self._background(frames))
+
+    def _background(self, frames: Iterable[np.ndarray]) -> list[np.ndarray]:
+        """Learn the background from ``frames``; return up to 8 full frames (grey)."""
         c = self.config
         smalls: list[np.ndarray] = []
         grays: list[np.ndarray] = []
@@ -454,7 +462,7 @@ class ClassicalDetector:
             self._bg = norm[kth].copy()
         else:
             self._bg = ref
-        self._learn(grays)
+        return grays
 
     def _learn(self, grays: list[np.ndarray]) -> None:
         """Threshold, single-ant area and body length from a few full frames."""
@@ -606,7 +614,10 @@ class ClassicalDetector:
                 if idx.size < 3:
                     continue
                 px = np.column_stack([fx[idx], fy[idx]])
-                js = hint_at.get(int(i), [])
+                # More predicted ants than max_split in one blob (a clump, or clutter
+                # that tracks were born on): the blob is split max_split ways, started
+                # from the first max_split predictions.
+                js = hint_at.get(int(i), [])[: int(k[i])]
                 init = np.asarray(hints, dtype=np.float64)[js] if len(js) >= 2 else None
                 groups = _split(px, w[idx], int(k[i]), self._length, init)
                 m = len(groups)
@@ -664,6 +675,116 @@ class ClassicalDetector:
         return FrameDetections(
             b.points, scores, None, b.head_conf, b.hint if hints is not None else None
         )
+
+
+#: Median silhouette span of a single ant, as the classical detector measures it
+#: (pixels above ``peak_fraction`` of the blob's peak contrast), is
+#: ``SPAN_PER_LENGTH * length + SPAN_BLUR_PX``: fitted on our rendered ants at 2, 3.04
+#: and 5 px/mm (spans 17.4, 24.6 and 39.2 px for lengths 14.3, 21.7 and 35.7 px);
+#: ``SPAN_BLUR_PX`` is the blur's widening at both ends together.
+SPAN_PER_LENGTH = 1.02
+SPAN_BLUR_PX = 2.5
+
+#: Smallest blob (working px) that counts when the animals' size is unknown.
+_MIN_BLOB = 4.0
+
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """The animals' size measured from a video (:func:`estimate_length_px`).
+
+    ``length_px``: body length (px, full resolution); ``n_blobs``: blobs measured;
+    ``n_single``: blobs within a factor 2.5 of the typical area (taken as single
+    animals); ``threshold``: the relative contrast used.
+    """
+
+    length_px: float
+    n_blobs: int
+    n_single: int
+    threshold: float
+
+
+def estimate_length_px(
+    frames: Iterable[np.ndarray], options: Mapping[str, Any] | None = None, source: str = "video"
+) -> SizeEstimate:
+    """Measure the animals' body length (px) from a video's first frames, without a scale.
+
+    The classical detector's background (the ``bg_quantile`` of the frames) and
+    automatic threshold give the foreground blobs of up to 8 frames; the typical
+    single animal is the mode of the blob areas, found by trimming to a factor 2.5
+    around the median until it settles (specks of noise and clumps of touching
+    animals or clutter fall outside), and its body length follows from the median
+    silhouette span of those blobs (:data:`SPAN_PER_LENGTH`, :data:`SPAN_BLUR_PX`).
+
+    Parameters
+    ----------
+    frames
+        Frames (RGB or grey uint8) spanning a few seconds, in time order.
+    options
+        Classical detector options (:class:`ClassicalConfig`: ``polarity``,
+        ``channel``, ``threshold``, ...).
+    source
+        Name of the video, for error messages.
+
+    Raises
+    ------
+    InputError
+        When fewer than 3 blobs are found (no moving animals, too little contrast).
+    """
+    try:
+        cfg = from_mapping(ClassicalConfig, dict(options or {}), source="detector options")
+    except ConfigError as exc:
+        raise InputError(str(exc)) from None
+    det = ClassicalDetector(1.0, cfg)  # the scale is unused: background and spans only
+    grays = det._background(frames)
+    maps = [det._contrast_map(det._small(g)) for g in grays]
+    sample = np.concatenate([con[::3, ::3].ravel() for con, _ in maps])
+    med = float(np.median(sample))
+    sigma = 1.4826 * float(np.median(np.abs(sample - med)))
+    thr = max(cfg.min_threshold, cfg.threshold_sigmas * sigma)
+
+    def blobs(t: float) -> list[_Blobs]:
+        return [
+            det._measure(g, con, exp, t, _MIN_BLOB, split=False)
+            for g, (con, exp) in zip(grays, maps, strict=True)
+        ]
+
+    if cfg.threshold is not None:
+        thr = cfg.threshold
+    else:
+        peaks = np.concatenate([b.peak for b in blobs(thr)])
+        if peaks.size >= 3:
+            thr = max(thr, cfg.peak_fraction * float(np.median(peaks)))
+    found = blobs(thr)
+    area = np.concatenate([b.area for b in found])
+    span = np.concatenate([b.span for b in found])
+    if area.size < 3:
+        raise InputError(
+            f"{source}: cannot measure the animals' size: {area.size} moving blob(s) in "
+            f"the first {len(grays)} sampled frames; {NOTHING_FOUND_HINT}"
+        )
+    ref = float(np.median(area))
+    sel = np.ones(area.size, bool)
+    for _ in range(20):
+        sel = (area > ref / 2.5) & (area < ref * 2.5)
+        new = float(np.median(area[sel]))
+        if new == ref:
+            break
+        ref = new
+    span_px = float(np.median(span[sel]))
+    length = max(span_px - SPAN_BLUR_PX, 0.5 * span_px) / SPAN_PER_LENGTH
+    return SizeEstimate(length, int(area.size), int(sel.sum()), float(thr))
+
+
+#: The likely reasons when nothing is detected (appended to the one-line error).
+NOTHING_FOUND_HINT = (
+    "likely causes: the scale (--px-per-mm S expects animals about 7 S px long; "
+    "leave it out to measure the size from the video), the contrast (animals must "
+    "differ from the background: try --set detector.polarity=light for light "
+    "animals on a dark ground, or --set detector.channel=gray), animals that do not "
+    "move in the first seconds (the background is learned from them), or a --model "
+    "not trained on such footage"
+)
 
 
 def _moments_pose(

@@ -37,17 +37,35 @@ import numpy as np
 from thermoswarm.config import to_dict
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_json, prepare_output_dir
-from thermoswarm.tracking.detect import FrameDetections, make_detector
+from thermoswarm.tracking import anatomy
+from thermoswarm.tracking.detect import (
+    NOTHING_FOUND_HINT,
+    FrameDetections,
+    estimate_length_px,
+    make_detector,
+)
 from thermoswarm.tracking.tracker import Tracker, TrackerConfig, TrackResult
 
 __all__ = ["track_video", "track_detection_file", "detections_from_table"]
+
+
+def pixel_dataset(result: TrackResult, *, fps: float, source: str, attrs: dict[str, Any]) -> Any:
+    """The trajectory Dataset of ``result`` with positions in px (no scale known).
+
+    ``attrs["space_unit"]`` is ``"px"``; readers (:func:`thermoswarm.io.read_tracks`)
+    then need ``--px-per-mm`` to convert to mm, or the ``units`` option to keep px.
+    """
+    ds = result.dataset(px_per_mm=1.0, fps=fps, source_file=source, attrs=attrs)
+    del ds.attrs["px_per_mm"]
+    ds.attrs["space_unit"] = "px"
+    return ds
 
 
 def _write_outputs(
     result: TrackResult,
     out: Path,
     *,
-    px_per_mm: float,
+    px_per_mm: float | None,
     fps: float,
     source: str,
     det_rows: np.ndarray | None,
@@ -56,7 +74,10 @@ def _write_outputs(
     from thermoswarm.io.mot import write_mot_table
     from thermoswarm.io.netcdf import write as write_nc
 
-    ds = result.dataset(px_per_mm=px_per_mm, fps=fps, source_file=source, attrs=attrs)
+    if px_per_mm is None:
+        ds = pixel_dataset(result, fps=fps, source=source, attrs=attrs)
+    else:
+        ds = result.dataset(px_per_mm=px_per_mm, fps=fps, source_file=source, attrs=attrs)
     write_nc(ds, out / "tracks.nc")
     write_mot_table(out / "tracks_mot.txt", result.mot_table())
     names = ["tracks.nc", "tracks_mot.txt"]
@@ -78,17 +99,18 @@ def track_video(
     video: str | os.PathLike,
     out_dir: str | os.PathLike,
     *,
-    px_per_mm: float,
+    px_per_mm: float | None = None,
     fps: float | None = None,
     detector: str | None = None,
     model: str | os.PathLike | None = None,
     detector_options: dict[str, Any] | None = None,
     tracker_config: TrackerConfig | None = None,
     overlay: bool = True,
-    overlay_scale: float = 0.5,
+    overlay_scale: float = 1.0,
     max_frames: int | None = None,
     prepare_s: float = 3.0,
     progress: bool = False,
+    hints: bool = True,
 ) -> dict[str, Any]:
     """Track the ants of a video; write the outputs; return the summary.
 
@@ -99,7 +121,9 @@ def track_video(
     out_dir
         Output folder (created with its parents).
     px_per_mm
-        Image scale (px per mm).
+        Image scale (px per mm); ``None``: the animals' body length is measured from
+        the video (:func:`~thermoswarm.tracking.detect.estimate_length_px`) and
+        ``tracks.nc`` is written in px (``space_unit = "px"``).
     fps
         Frame rate; default the video's own (required for folders of frames).
     detector, model, detector_options
@@ -107,13 +131,21 @@ def track_video(
     tracker_config
         :class:`~thermoswarm.tracking.tracker.TrackerConfig`.
     overlay, overlay_scale
-        Write ``overlay.mp4`` at this fraction of the video's size.
+        Write ``overlay.mp4`` at this fraction of the video's size (1: full size).
     max_frames
         Stop after this many frames.
     prepare_s
         Seconds of video shown to the detector's ``prepare`` step.
     progress
         Show a progress bar (tqdm; silent when not on a terminal).
+    hints
+        Give the tracker's predicted poses to detectors that take them (splitting of
+        touching ants); ``False`` tracks exactly what ``thermoswarm detect`` writes.
+
+    Raises
+    ------
+    InputError
+        Bad input, or a video in which nothing is detected (nothing is written then).
     """
     from thermoswarm.tracking.video import OverlayWriter, open_video
 
@@ -125,19 +157,20 @@ def track_video(
         raise InputError(f"fps must be a positive number, got {rate!r}")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
-    out = prepare_output_dir(out_dir)
-    det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=detector_options)
-    tcfg = tracker_config or TrackerConfig()
-    tracker = Tracker(tcfg, px_per_mm=px_per_mm, fps=rate, frame_size=src.size)
+    if overlay and not (0 < overlay_scale <= 1):
+        raise InputError(f"overlay scale must be in (0, 1], got {overlay_scale!r}")
     t0 = time.perf_counter()
-    prepare = getattr(det, "prepare", None)
     n_prep = max(1, int(round(prepare_s * rate)))
     if max_frames is not None:
         n_prep = min(n_prep, max_frames)
-    if prepare is not None:
-        prepare(src.frames(n_prep, step=2 if n_prep >= 32 else 1, prefetch=4))
+    det, scale = build_detector(
+        src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model, options=detector_options
+    )
+    out = prepare_output_dir(out_dir)
+    tcfg = tracker_config or TrackerConfig()
+    tracker = Tracker(tcfg, px_per_mm=scale["px_per_mm"], fps=rate, frame_size=src.size)
     t_prep = time.perf_counter() - t0
-    takes_hints = bool(getattr(det, "accepts_hints", False))
+    takes_hints = hints and bool(getattr(det, "accepts_hints", False))
     writer = OverlayWriter(out / "overlay.mp4", rate, scale=overlay_scale) if overlay else None
     ring: collections.deque[tuple[int, np.ndarray]] = collections.deque()
     det_rows = []
@@ -165,6 +198,11 @@ def track_video(
                         writer.write(ring.popleft()[1], rows, shrunk=True)
         if k < 0:
             raise InputError(f"{video}: no frame could be decoded")
+        if n_det == 0:
+            raise InputError(
+                f"{video}: no animals detected in {k + 1} frames "
+                f"({getattr(det, 'name', 'the')} detector); nothing written; {NOTHING_FOUND_HINT}"
+            )
         if writer is not None:
             for f, rows in tracker.flush():
                 while ring and ring[0][0] < f:
@@ -180,7 +218,13 @@ def track_video(
     elapsed = time.perf_counter() - t0
     dets = np.concatenate(det_rows) if det_rows else np.zeros((0, 10))
     det_name = getattr(det, "name", detector or "classical")
-    attrs = {"detector": str(det_name), "frame_width": src.size[0], "frame_height": src.size[1]}
+    attrs = {
+        "detector": str(det_name),
+        "frame_width": src.size[0],
+        "frame_height": src.size[1],
+        "body_length_px": scale["length_px"],
+        "scale_source": scale["scale_source"],
+    }
     names = _write_outputs(
         result, out, px_per_mm=px_per_mm, fps=rate, source=str(video), det_rows=dets, attrs=attrs
     )
@@ -202,8 +246,52 @@ def track_video(
         outputs=names + ["summary.json"],
         detector_options=_detector_info(det, detector_options),
     )
+    summary.update(
+        length_px=scale["length_px"],
+        scale_source=scale["scale_source"],
+        space_unit="mm" if px_per_mm is not None else "px",
+    )
     atomic_write_json(out / "summary.json", summary)
     return summary
+
+
+def build_detector(
+    src: Any,
+    n_prep: int,
+    *,
+    px_per_mm: float | None,
+    detector: str | None,
+    model: str | os.PathLike | None,
+    options: dict[str, Any] | None,
+) -> tuple[Any, dict[str, Any]]:
+    """The detector for video ``src``, prepared on its first ``n_prep`` frames.
+
+    Without a scale the animals' body length is measured first from the same frames
+    (:func:`~thermoswarm.tracking.detect.estimate_length_px`, with the classical
+    detector's options when the detector is the classical one) and the detector is
+    built at the scale that makes the paper's ant that long.  Returns the detector
+    and ``{"px_per_mm", "length_px", "scale_source", "n_blobs"}`` (``px_per_mm`` the
+    scale used, ``length_px`` the body length in px).
+    """
+    step = 2 if n_prep >= 32 else 1
+    info: dict[str, Any] = {"scale_source": "user", "n_blobs": None}
+    if px_per_mm is None:
+        classical = (detector or ("classical" if model is None else "")) == "classical"
+        est = estimate_length_px(
+            src.frames(n_prep, step=step, prefetch=4),
+            options if classical else None,
+            source=str(src.path),
+        )
+        px_per_mm = est.length_px / anatomy.ANT_LENGTH_MM
+        info.update(scale_source="measured", n_blobs=est.n_blobs)
+    elif not (px_per_mm > 0 and np.isfinite(px_per_mm)):
+        raise InputError(f"px_per_mm must be a positive number, got {px_per_mm!r}")
+    det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
+    prepare = getattr(det, "prepare", None)
+    if prepare is not None:
+        prepare(src.frames(n_prep, step=step, prefetch=4))
+    info.update(px_per_mm=float(px_per_mm), length_px=float(anatomy.ANT_LENGTH_MM * px_per_mm))
+    return det, info
 
 
 def _detector_info(det: Any, options: dict[str, Any] | None) -> dict[str, Any]:
