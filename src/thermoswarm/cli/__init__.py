@@ -1,4 +1,5 @@
-"""``thermoswarm <verb>``: simulate, bench, analyze, track, evaluate, reproduce, sweep, study.
+"""``thermoswarm <verb>``: simulate, bench, analyze, track, detect, evaluate, reproduce, sweep,
+study.
 
 The CLI is thin: each verb parses its options, calls one library function and prints.
 Verbs live in modules of this package and are imported only when invoked, so that
@@ -26,6 +27,7 @@ _COMMANDS: dict[str, str] = {
     "bench": "thermoswarm.cli.bench:bench",
     "analyze": "thermoswarm.cli.analyze:analyze",
     "track": "thermoswarm.cli.track:track",
+    "detect": "thermoswarm.cli.detect:detect",
     "track-train": "thermoswarm.cli.track_train:track_train",
     "evaluate": "thermoswarm.cli.track:evaluate",
     "reproduce": "thermoswarm.cli.reproduce:reproduce",

@@ -79,8 +79,7 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     "--px-per-mm",
     "px_per_mm",
     help="Image scale in px per mm, or 'paper' (3.04).  Without it a video's animals "
-    "are measured from the video and tracks.nc is in px; with --detections, tracks.nc "
-    "is written only with a scale.",
+    "are measured from the video and tracks.nc is in px (its space_unit says so).",
 )
 @click.option("--fps", type=float, help="Frame rate (default: the video's own).")
 @click.option(
@@ -135,8 +134,9 @@ def track(
     space_unit), s, keypoints head/body/tail),
     OUT/tracks_mot.txt (MOTChallenge), OUT/detections.txt, OUT/overlay.mp4 and
     OUT/summary.json.  With --detections, tracks another detector's boxes without a
-    video (MOTChallenge, YOLO or COCO): the boxes written are the detections' own,
-    frames keep their numbering, and --px-per-mm is needed only for tracks.nc.
+    video (MOTChallenge, YOLO or COCO, e.g. what `thermoswarm detect` writes): the
+    boxes written are the detections' own, frames keep their numbering, and tracks.nc
+    is in px unless --px-per-mm is given.
     """
     from thermoswarm.fsutil import require_input
 
