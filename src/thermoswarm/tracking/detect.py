@@ -191,7 +191,8 @@ class ClassicalConfig:
     """Options of the classical detector.
 
     Contrast is *relative*: ``(background - frame) / background`` for dark ants (so a
-    shadow or a dimmer frame does not change it), in [0, 1].
+    shadow or a dimmer frame does not change it), ``(frame - background) / (255 -
+    background)`` for light ones (flies on a dark floor), in [0, 1].
 
     ``ant_length_mm``/``ant_width_mm``: expected ant size (the paper's 7.14 x 2.5 mm),
     a prior that the measured ants refine.  ``polarity``: ``"dark"`` ants on a lighter
@@ -270,6 +271,9 @@ def _classical_factory(
 
 
 _CHANNEL = {"red": 0, "green": 1, "blue": 2}
+
+#: Background grey level (0-255) below which a lighting cell is too dark to measure.
+_DARK_CELL = 8.0
 
 
 @dataclass
@@ -403,14 +407,26 @@ class ClassicalDetector:
                 cells = cv2.resize(bg, gs, interpolation=cv2.INTER_AREA)
                 self._bg_cells = [key, np.maximum(cells, 1.0), 0]
             self._bg_cells[2] += 1
-            ratio = cv2.resize(small, gs, interpolation=cv2.INTER_AREA) / self._bg_cells[1]
-            ratio = cv2.medianBlur(ratio.astype(np.float32), 3)
+            cells = self._bg_cells[1]
+            ratio = cv2.resize(small, gs, interpolation=cv2.INTER_AREA) / cells
+            # Near-black cells (dark backgrounds, black borders) carry no lighting
+            # information: their ratio is 0/0-like noise, and a gain of 0 would make
+            # the normalised background NaN.  They keep gain 1; all gains in [0.2, 5].
+            ratio = np.where(cells >= _DARK_CELL, ratio, 1.0)
+            ratio = cv2.medianBlur(np.clip(ratio, 0.2, 5.0).astype(np.float32), 3)
             return cv2.resize(ratio, (w, h), interpolation=cv2.INTER_LINEAR)
-        return float(np.median(small[::4, ::4] / np.maximum(bg[::4, ::4], 1.0)))
+        lit = bg[::4, ::4] >= _DARK_CELL
+        if not lit.any():
+            return 1.0
+        return float(np.clip(np.median(small[::4, ::4][lit] / bg[::4, ::4][lit]), 0.2, 5.0))
 
     def _contrast(self, img: np.ndarray, expected: np.ndarray) -> np.ndarray:
-        d = expected - img if self.config.polarity == "dark" else img - expected
-        return d / np.maximum(expected, 8.0)
+        # The fraction of the room left between the background and black (dark
+        # animals) or white (light animals): 1 for a black ant on any ground, and for
+        # light animals on a near-black ground faint texture stays small.
+        if self.config.polarity == "dark":
+            return (expected - img) / np.maximum(expected, 8.0)
+        return (img - expected) / np.maximum(255.0 - expected, 8.0)
 
     def _contrast_map(self, small: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         expected = (self._bg * self._gain(small, self._bg)).astype(np.float32)
@@ -712,8 +728,9 @@ def estimate_length_px(
     The classical detector's background (the ``bg_quantile`` of the frames) and
     automatic threshold give the foreground blobs of up to 8 frames; the typical
     single animal is the mode of the blob areas, found by trimming to a factor 2.5
-    around the median until it settles (specks of noise and clumps of touching
-    animals or clutter fall outside), and its body length follows from the median
+    around the median until it settles, starting from the area-weighted median (so
+    that specks of texture or noise do not outvote a few animals, and clumps of
+    touching animals or clutter fall outside), and its body length follows from the median
     silhouette span of those blobs (:data:`SPAN_PER_LENGTH`, :data:`SPAN_BLUR_PX`).
 
     Parameters
@@ -752,9 +769,11 @@ def estimate_length_px(
     if cfg.threshold is not None:
         thr = cfg.threshold
     else:
-        peaks = np.concatenate([b.peak for b in blobs(thr)])
+        first = blobs(thr)
+        peaks = np.concatenate([b.peak for b in first])
         if peaks.size >= 3:
-            thr = max(thr, cfg.peak_fraction * float(np.median(peaks)))
+            w = np.concatenate([b.area for b in first])
+            thr = max(thr, cfg.peak_fraction * _weighted_median(peaks, w))
     found = blobs(thr)
     area = np.concatenate([b.area for b in found])
     span = np.concatenate([b.span for b in found])
@@ -763,7 +782,9 @@ def estimate_length_px(
             f"{source}: cannot measure the animals' size: {area.size} moving blob(s) in "
             f"the first {len(grays)} sampled frames; {NOTHING_FOUND_HINT}"
         )
-    ref = float(np.median(area))
+    # Start from the blob that holds the median foreground pixel: many small specks
+    # (texture, reflections) then do not outvote a few large animals.
+    ref = _weighted_median(area, area)
     sel = np.ones(area.size, bool)
     for _ in range(20):
         sel = (area > ref / 2.5) & (area < ref * 2.5)
@@ -774,6 +795,13 @@ def estimate_length_px(
     span_px = float(np.median(span[sel]))
     length = max(span_px - SPAN_BLUR_PX, 0.5 * span_px) / SPAN_PER_LENGTH
     return SizeEstimate(length, int(area.size), int(sel.sum()), float(thr))
+
+
+def _weighted_median(x: np.ndarray, w: np.ndarray) -> float:
+    """The value below which half of the total weight ``w`` lies."""
+    order = np.argsort(x)
+    cw = np.cumsum(w[order])
+    return float(x[order][np.searchsorted(cw, 0.5 * cw[-1])])
 
 
 #: The likely reasons when nothing is detected (appended to the one-line error).
