@@ -199,3 +199,37 @@ def test_light_animals_on_a_black_floor():
     counts = np.array([len(det.detect(f)) for f in frames])
     assert np.median(counts) == 8 and np.all(np.isfinite(det._bg))
     assert np.mean(np.abs(counts - 8) <= 1) >= 0.9
+
+
+def test_unet_without_a_scale_gets_the_measured_one(tmp_path):
+    # The same size measurement serves every detector: the U-Net is built at the
+    # scale that makes the paper's ant as long as the measured animals (then it
+    # resizes frames by its training scale over that one).
+    torch = pytest.importorskip("torch")  # noqa: F841
+    from thermoswarm.tracking import unet
+    from thermoswarm.tracking.pipeline import build_detector
+    from thermoswarm.tracking.video import open_video
+
+    v = small_video(seed=17, n_ants=12, n_frames=40)
+    seq = write_sequence(v, tmp_path / "s")
+    model = unet.save_model(
+        unet.TopDownModel(
+            unet.ModelConfig(centroid_channels=(8, 16, 16), pose_channels=(12, 16, 16))
+        ),
+        tmp_path / "m.pt",
+    )
+    det, info = build_detector(
+        open_video(seq / "video.mp4"), 30, px_per_mm=None, detector=None, model=model, options=None
+    )
+    assert isinstance(det, unet.UNetDetector) and info["scale_source"] == "measured"
+    assert det.px_per_mm == pytest.approx(3.04, rel=0.06)
+    assert info["length_px"] == pytest.approx(anatomy.ANT_LENGTH_MM * det.px_per_mm)
+
+
+def test_analyze_refuses_to_call_pixels_mm(no_scale_run, tmp_path):
+    _, _, out = no_scale_run
+    res = CliRunner().invoke(
+        cli, ["analyze", str(out / "tracks.nc"), "--out", str(tmp_path / "a")]
+    )
+    line = _one_line_error(res)
+    assert "in pixels; pass --px-per-mm" in line

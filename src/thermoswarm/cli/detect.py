@@ -34,7 +34,7 @@ from thermoswarm.errors import InputError
     "--fps",
     type=float,
     help="Frame rate of folders and images (sets how many frames the detector learns "
-    "the background from: 3 s; default the video's own, else 1).",
+    "the background from: 3 s; default the video's own, else 30, i.e. 90 images).",
 )
 @click.option(
     "--config",

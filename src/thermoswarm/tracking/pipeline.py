@@ -523,7 +523,7 @@ def detect_inputs(
         As for :func:`track_video`.
     fps
         Frame rate of folders and images (only sets how many frames ``prepare_s``
-        spans; default the video's own, else 1).
+        spans; default the video's own, else 30: up to 90 images).
     max_frames
         Detect at most this many frames of each input.
     width_bl
@@ -546,7 +546,7 @@ def detect_inputs(
     results = []
     for name, src, is_video in sources:
         t0 = time.perf_counter()
-        rate = fps or src.fps or 1.0
+        rate = fps or src.fps or 30.0  # images: the background from up to 90 of them
         n_prep = max(1, int(round(prepare_s * rate)))
         if max_frames is not None:
             n_prep = min(n_prep, max_frames)
