@@ -106,8 +106,17 @@ def test_mot_file_from_frame_0_keeps_its_numbering(noisy_boxes, tmp_path):
     np.testing.assert_array_equal(t0[:, 1:6], t1[:, 1:6])
     # The boxes written are the detections' own, in their own frames.
     assert _own_boxes(t1, read_mot_table(tmp_path / "one.txt")).all()
-    # Without a scale only the MOT table is written.
-    assert not (tmp_path / "o1" / "tracks.nc").exists()
+    # Without a scale tracks.nc is written in px, and says so.
+    import xarray as xr
+
+    with xr.open_dataset(tmp_path / "o1" / "tracks.nc") as ds:
+        assert ds.attrs["space_unit"] == "px"
+        body = ds["position"].sel(keypoints="body").values  # (time, space, individuals)
+    first = t1[t1[:, 0] == 1]
+    centres = first[:, 2:4] + first[:, 4:6] / 2
+    got = body[0][:, np.isfinite(body[0, 0])].T
+    assert len(got) == len(centres)
+    np.testing.assert_allclose(np.sort(got[:, 0]), np.sort(centres[:, 0]), atol=2e-3)
 
 
 def test_a_missing_frame_is_an_empty_frame_not_a_shift(noisy_boxes, tmp_path):
@@ -234,12 +243,13 @@ def test_cli_tracks_boxes_without_a_scale(noisy_boxes, tmp_path):
         ["track", "--detections", str(tmp_path / "dets.txt"), "--fps", "30", "--out", str(out)],
     )
     assert r.exit_code == 0, r.output
-    assert "tracks_mot.txt" in r.output and not (out / "tracks.nc").exists()
+    assert "tracks.nc" in r.output and (out / "tracks_mot.txt").exists()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["px_per_mm"] is None and summary["detections_format"] == "mot"
+    assert summary["space_unit"] == "px"
     m = evaluate_tables(v.mot_gt, read_mot_table(out / "tracks_mot.txt"))
     assert m["mota"] > 0.8
-    # With a scale, tracks.nc is written too.
+    # With a scale, tracks.nc is in mm.
     r = CliRunner().invoke(
         cli,
         ["track", "--detections", str(tmp_path / "dets.txt"), "--fps", "30", "--out",

@@ -214,10 +214,6 @@ def test_cli_input_errors(tmp_path, tracked):
     )
     assert "empty.txt" in line and "empty" in line
     line = _one_line_error(
-        runner.invoke(cli, ["track", str(seq / "video.mp4"), "--out", str(tmp_path / "o")])
-    )
-    assert "--px-per-mm" in line
-    line = _one_line_error(
         runner.invoke(cli, ["track", "--out", str(tmp_path / "o"), "--px-per-mm", "3"])
     )
     assert "VIDEO or --detections" in line

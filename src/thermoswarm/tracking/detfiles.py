@@ -17,7 +17,18 @@ gives them, boxes ``left, top, width, height`` in px and scores in [0, 1].
     "score"}``, the frame number being ``image_id``) or a dataset with ``images`` and
     ``annotations`` (frame number: the image's ``frame_id``, else the last integer of
     its ``file_name``, else its ``id``; ``score`` 1 when absent).  ``bbox`` is
-    ``[x, y, width, height]`` in px.
+    ``[x, y, width, height]`` in px.  When the annotations' category names keypoints
+    ``head``, ``body`` and ``tail``, annotations with ``keypoints`` (``[x, y, v]`` each,
+    ``v = 0``: unknown) give the detections' poses, and ``head_confidence`` (ours)
+    how sure the detector was of the head-tail order.  What ``thermoswarm detect``
+    writes (:func:`coco_dataset`) also records the objects' length ``length_px`` and
+    that its boxes are the poses' own (``info.thermoswarm``), so that tracking the file
+    gives the same tracks as tracking the video with the same detections.
+
+Writing: :func:`coco_dataset` builds a COCO keypoints dataset from per-frame
+detections (``images``, ``annotations`` with ``bbox``, ``score``, ``keypoints``,
+``categories`` with the keypoint names and skeleton); :func:`mot_rows` the
+MOTChallenge detection rows of a video.
 
 Frame numbering is kept: the tracker runs from frame 0 when the file has a frame 0,
 else from frame 1 (or from ``first_frame``), frames without detections are empty,
@@ -28,6 +39,7 @@ are refused with a one-line :class:`~thermoswarm.errors.InputError`.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -45,7 +57,14 @@ __all__ = [
     "MAX_FRAMES",
     "read_detections",
     "parse_image_size",
+    "coco_dataset",
+    "mot_rows",
+    "KEYPOINT_NAMES",
 ]
+
+#: Keypoint names (COCO ``categories[].keypoints``) and skeleton (1-based pairs).
+KEYPOINT_NAMES = ("head", "body", "tail")
+SKELETON = [[1, 2], [2, 3]]
 
 #: Formats :func:`read_detections` reads.
 FORMATS = ("mot", "yolo", "coco")
@@ -62,7 +81,11 @@ class DetectionTable:
 
     ``frames`` (n,) int frame numbers as in the file; ``boxes`` (n, 4) ``left, top,
     width, height`` px; ``scores`` (n,) in [0, 1]; ``image_size`` ``(width, height)``
-    px if the file or the caller knows it; ``fmt`` the format read.
+    px if the file or the caller knows it; ``fmt`` the format read.  Optional
+    (COCO keypoints): ``points`` (n, 3, 2) head, body, tail px (NaN: unknown),
+    ``head_confidence`` (n,), ``object_length_px`` the objects' length recorded in
+    the file, and ``pose_boxes`` (the boxes are the poses' own, padded: the tracker
+    may recompute them from its corrected poses).
     """
 
     frames: np.ndarray
@@ -71,6 +94,10 @@ class DetectionTable:
     source: str
     fmt: str
     image_size: tuple[int, int] | None = None
+    points: np.ndarray | None = None
+    head_confidence: np.ndarray | None = None
+    object_length_px: float | None = None
+    pose_boxes: bool = False
 
     def __len__(self) -> int:
         return int(self.frames.size)
@@ -100,16 +127,31 @@ class DetectionTable:
         order = np.argsort(self.frames, kind="stable")
         bounds = np.searchsorted(self.frames[order], np.arange(first, first + n + 1))
         out = []
+        hc = self.head_confidence
         for f in range(n):
             rows = order[bounds[f] : bounds[f + 1]]
             b = self.boxes[rows]
-            pts = np.full((rows.size, 3, 2), np.nan)
-            pts[:, 1] = b[:, :2] + b[:, 2:] / 2
-            out.append(FrameDetections(pts, self.scores[rows], boxes=b))
+            if self.points is not None:
+                pts = self.points[rows]
+            else:
+                pts = np.full((rows.size, 3, 2), np.nan)
+                pts[:, 1] = b[:, :2] + b[:, 2:] / 2
+            full = self.pose_boxes and bool(np.all(np.isfinite(pts)))
+            out.append(
+                FrameDetections(
+                    pts,
+                    self.scores[rows],
+                    boxes=None if full else b,
+                    head_confidence=None if hc is None else hc[rows],
+                )
+            )
         return first, out
 
     def length_px(self) -> float | None:
-        """Median longer side of the boxes (px): the objects' size, None if empty."""
+        """The objects' size (px): the length the file records, else the median
+        longer side of the boxes; None if empty."""
+        if self.object_length_px is not None:
+            return self.object_length_px
         if len(self) == 0:
             return None
         return float(np.median(np.max(self.boxes[:, 2:], axis=1)))
@@ -213,6 +255,7 @@ def _read_coco(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
         raise InputError(f"{path}: not a JSON file ({e})") from None
     frame_of: dict[object, int] = {}
     sizes: set[tuple[int, int]] = set()
+    kp_index = _keypoint_index(data, path)
     if isinstance(data, dict):
         anns = data.get("annotations")
         if not isinstance(anns, list):
@@ -233,6 +276,8 @@ def _read_coco(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
     else:
         raise InputError(f"{path}: expected a COCO dataset (object) or results (list)")
     frames, rows, where = [], [], []
+    points: list[np.ndarray] = []
+    head_conf: list[float] = []
     for i, a in enumerate(anns):
         here = f"{path}: annotation {i}"
         if not isinstance(a, dict) or "bbox" not in a or "image_id" not in a:
@@ -254,10 +299,142 @@ def _read_coco(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
         frames.append(k)
         rows.append((x, y, w, h, s))
         where.append(here)
+        if kp_index is not None:
+            points.append(_pose(a, kp_index, (x + w / 2, y + h / 2), here))
+            head_conf.append(_number(a.get("head_confidence", 1.0), here, "head_confidence"))
     size = image_size
     if size is None and len(sizes) == 1:
         size = next(iter(sizes))
-    return _assemble(path, frames, rows, where, "coco", size)
+    table = _assemble(path, frames, rows, where, "coco", size)
+    if kp_index is None or not points:
+        return table
+    ours = data.get("info", {}).get("thermoswarm", {}) if isinstance(data, dict) else {}
+    length = ours.get("length_px") if isinstance(ours, dict) else None
+    if length is not None and not (isinstance(length, (int, float)) and length > 0):
+        raise InputError(f"{path}: info.thermoswarm.length_px must be positive, got {length!r}")
+    return dataclasses.replace(
+        table,
+        points=np.stack(points),
+        head_confidence=np.clip(np.asarray(head_conf), 0.0, 1.0),
+        object_length_px=None if length is None else float(length),
+        pose_boxes=bool(isinstance(ours, dict) and ours.get("boxes") == "pose"),
+    )
+
+
+def _keypoint_index(data: object, path: Path) -> list[int] | None:
+    """Indices of head, body and tail in the keypoints of the (one) category that
+    names them, or None when no category does."""
+    if not isinstance(data, dict):
+        return None
+    for cat in data.get("categories", []) or []:
+        names = cat.get("keypoints") if isinstance(cat, dict) else None
+        if isinstance(names, list) and all(k in names for k in KEYPOINT_NAMES):
+            return [names.index(k) for k in KEYPOINT_NAMES]
+    return None
+
+
+def _number(v: object, here: str, what: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise InputError(f"{here}: {what} must be a finite number, got {v!r}")
+    return float(v)
+
+
+def _pose(a: dict, index: list[int], centre: tuple[float, float], here: str) -> np.ndarray:
+    """Head, body, tail (3, 2) px of one annotation; the box centre as the body and
+    NaN head and tail when it has no keypoints."""
+    pts = np.full((3, 2), np.nan)
+    kp = a.get("keypoints")
+    if kp is None:
+        pts[1] = centre
+        return pts
+    if not isinstance(kp, list) or len(kp) % 3 or len(kp) < 3 * (max(index) + 1):
+        raise InputError(f"{here}: keypoints must be [x, y, v] for every named keypoint")
+    for j, i in enumerate(index):
+        x, y, v = (_number(q, here, "keypoints") for q in kp[3 * i : 3 * i + 3])
+        if v > 0:
+            pts[j] = (x, y)
+    if not np.all(np.isfinite(pts[1])):
+        pts[1] = centre
+    return pts
+
+
+def coco_dataset(
+    images: list[dict],
+    detections: list[FrameDetections],
+    *,
+    pad: float,
+    length_px: float | None = None,
+    description: str = "",
+) -> dict:
+    """A COCO keypoints dataset of per-image detections (what ``thermoswarm detect``
+    writes).
+
+    Parameters
+    ----------
+    images
+        One COCO ``images`` entry per element of ``detections`` (``id``,
+        ``file_name``, ``width``, ``height``, and ``frame_id`` for video frames).
+    detections
+        The detections of each image (px).
+    pad
+        Half the objects' width (px): boxes of poses are padded by it
+        (:meth:`FrameDetections.box_array`).
+    length_px
+        The objects' length (px), recorded for the tracker.
+    description
+        ``info.description``.
+    """
+    anns = []
+    for img, d in zip(images, detections, strict=True):
+        boxes = d.box_array(pad)
+        hc = d.head_confidence
+        for j in range(len(d)):
+            x, y, w, h = (float(v) for v in boxes[j])
+            kp: list[float] = []
+            for p in d.points[j]:
+                ok = bool(np.all(np.isfinite(p)))
+                kp += [float(p[0]), float(p[1]), 2] if ok else [0.0, 0.0, 0]
+            ann = {
+                "id": len(anns) + 1,
+                "image_id": img["id"],
+                "category_id": 1,
+                "bbox": [x, y, w, h],
+                "area": w * h,
+                "iscrowd": 0,
+                "score": float(d.scores[j]),
+                "keypoints": kp,
+                "num_keypoints": sum(1 for v in kp[2::3] if v),
+            }
+            if hc is not None:
+                ann["head_confidence"] = float(hc[j])
+            anns.append(ann)
+    info: dict = {"description": description}
+    info["thermoswarm"] = {
+        "boxes": "given" if any(d.boxes is not None for d in detections) else "pose"
+    }
+    if length_px is not None:
+        info["thermoswarm"]["length_px"] = float(length_px)
+    category = {
+        "id": 1,
+        "name": "animal",
+        "supercategory": "animal",
+        "keypoints": list(KEYPOINT_NAMES),
+        "skeleton": SKELETON,
+    }
+    return {"info": info, "images": images, "annotations": anns, "categories": [category]}
+
+
+def mot_rows(detections: list[FrameDetections], *, pad: float) -> np.ndarray:
+    """MOTChallenge detection rows ``frame, -1, left, top, width, height, score, -1,
+    -1, -1`` of a video's frames (numbered from 1)."""
+    blocks = [np.zeros((0, 10))]
+    for k, d in enumerate(detections):
+        rows = np.full((len(d), 10), -1.0)
+        rows[:, 0] = k + 1
+        rows[:, 2:6] = d.box_array(pad)
+        rows[:, 6] = d.scores
+        blocks.append(rows)
+    return np.concatenate(blocks)
 
 
 def _int(v: object, path: Path, what: str) -> int:

@@ -16,8 +16,13 @@ head and tail are then unknown (NaN), the body point is the box centre, the boxe
 written are the detections' own, the tracker's unit of length is the objects' size
 measured from the boxes, and the frames keep the input's numbering.
 
-Both write into ``out_dir``: ``tracks.nc`` (trajectory format, mm and s, keypoints
-head/body/tail; from detection files only when a scale ``px_per_mm`` is given),
+Without a scale ``px_per_mm`` the animals' body length is measured from the video
+(:func:`~thermoswarm.tracking.detect.estimate_length_px`); the tracker works in body
+lengths either way.  :func:`detect_inputs` runs the same detectors without the tracker
+and writes COCO keypoints and MOTChallenge detections (``thermoswarm detect``).
+
+Both tracking functions write into ``out_dir``: ``tracks.nc`` (trajectory format, s,
+keypoints head/body/tail; mm with a scale, else px with ``space_unit = "px"``),
 ``tracks_mot.txt`` (MOTChallenge boxes in px), ``detections.txt`` (video only: MOT
 detection rows, to re-track without the video), ``overlay.mp4`` (unless disabled) and
 ``summary.json``; every file is written atomically.
@@ -37,17 +42,42 @@ import numpy as np
 from thermoswarm.config import to_dict
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_json, prepare_output_dir
-from thermoswarm.tracking.detect import FrameDetections, make_detector
+from thermoswarm.tracking import anatomy
+from thermoswarm.tracking.detect import (
+    NOTHING_FOUND_HINT,
+    FrameDetections,
+    estimate_length_px,
+    make_detector,
+)
 from thermoswarm.tracking.tracker import Tracker, TrackerConfig, TrackResult
 
-__all__ = ["track_video", "track_detection_file", "detections_from_table"]
+__all__ = [
+    "track_video",
+    "track_detection_file",
+    "detections_from_table",
+    "detect_inputs",
+    "build_detector",
+    "pixel_dataset",
+]
+
+
+def pixel_dataset(result: TrackResult, *, fps: float, source: str, attrs: dict[str, Any]) -> Any:
+    """The trajectory Dataset of ``result`` with positions in px (no scale known).
+
+    ``attrs["space_unit"]`` is ``"px"``; readers (:func:`thermoswarm.io.read_tracks`)
+    then need ``--px-per-mm`` to convert to mm, or the ``units`` option to keep px.
+    """
+    ds = result.dataset(px_per_mm=1.0, fps=fps, source_file=source, attrs=attrs)
+    del ds.attrs["px_per_mm"]
+    ds.attrs["space_unit"] = "px"
+    return ds
 
 
 def _write_outputs(
     result: TrackResult,
     out: Path,
     *,
-    px_per_mm: float,
+    px_per_mm: float | None,
     fps: float,
     source: str,
     det_rows: np.ndarray | None,
@@ -56,7 +86,10 @@ def _write_outputs(
     from thermoswarm.io.mot import write_mot_table
     from thermoswarm.io.netcdf import write as write_nc
 
-    ds = result.dataset(px_per_mm=px_per_mm, fps=fps, source_file=source, attrs=attrs)
+    if px_per_mm is None:
+        ds = pixel_dataset(result, fps=fps, source=source, attrs=attrs)
+    else:
+        ds = result.dataset(px_per_mm=px_per_mm, fps=fps, source_file=source, attrs=attrs)
     write_nc(ds, out / "tracks.nc")
     write_mot_table(out / "tracks_mot.txt", result.mot_table())
     names = ["tracks.nc", "tracks_mot.txt"]
@@ -78,17 +111,18 @@ def track_video(
     video: str | os.PathLike,
     out_dir: str | os.PathLike,
     *,
-    px_per_mm: float,
+    px_per_mm: float | None = None,
     fps: float | None = None,
     detector: str | None = None,
     model: str | os.PathLike | None = None,
     detector_options: dict[str, Any] | None = None,
     tracker_config: TrackerConfig | None = None,
     overlay: bool = True,
-    overlay_scale: float = 0.5,
+    overlay_scale: float = 1.0,
     max_frames: int | None = None,
     prepare_s: float = 3.0,
     progress: bool = False,
+    hints: bool = True,
 ) -> dict[str, Any]:
     """Track the ants of a video; write the outputs; return the summary.
 
@@ -99,7 +133,9 @@ def track_video(
     out_dir
         Output folder (created with its parents).
     px_per_mm
-        Image scale (px per mm).
+        Image scale (px per mm); ``None``: the animals' body length is measured from
+        the video (:func:`~thermoswarm.tracking.detect.estimate_length_px`) and
+        ``tracks.nc`` is written in px (``space_unit = "px"``).
     fps
         Frame rate; default the video's own (required for folders of frames).
     detector, model, detector_options
@@ -107,13 +143,21 @@ def track_video(
     tracker_config
         :class:`~thermoswarm.tracking.tracker.TrackerConfig`.
     overlay, overlay_scale
-        Write ``overlay.mp4`` at this fraction of the video's size.
+        Write ``overlay.mp4`` at this fraction of the video's size (1: full size).
     max_frames
         Stop after this many frames.
     prepare_s
         Seconds of video shown to the detector's ``prepare`` step.
     progress
         Show a progress bar (tqdm; silent when not on a terminal).
+    hints
+        Give the tracker's predicted poses to detectors that take them (splitting of
+        touching ants); ``False`` tracks exactly what ``thermoswarm detect`` writes.
+
+    Raises
+    ------
+    InputError
+        Bad input, or a video in which nothing is detected (nothing is written then).
     """
     from thermoswarm.tracking.video import OverlayWriter, open_video
 
@@ -125,19 +169,20 @@ def track_video(
         raise InputError(f"fps must be a positive number, got {rate!r}")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
-    out = prepare_output_dir(out_dir)
-    det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=detector_options)
-    tcfg = tracker_config or TrackerConfig()
-    tracker = Tracker(tcfg, px_per_mm=px_per_mm, fps=rate, frame_size=src.size)
+    if overlay and not (0 < overlay_scale <= 1):
+        raise InputError(f"overlay scale must be in (0, 1], got {overlay_scale!r}")
     t0 = time.perf_counter()
-    prepare = getattr(det, "prepare", None)
     n_prep = max(1, int(round(prepare_s * rate)))
     if max_frames is not None:
         n_prep = min(n_prep, max_frames)
-    if prepare is not None:
-        prepare(src.frames(n_prep, step=2 if n_prep >= 32 else 1, prefetch=4))
+    det, scale = build_detector(
+        src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model, options=detector_options
+    )
+    out = prepare_output_dir(out_dir)
+    tcfg = tracker_config or TrackerConfig()
+    tracker = Tracker(tcfg, px_per_mm=scale["px_per_mm"], fps=rate, frame_size=src.size)
     t_prep = time.perf_counter() - t0
-    takes_hints = bool(getattr(det, "accepts_hints", False))
+    takes_hints = hints and bool(getattr(det, "accepts_hints", False))
     writer = OverlayWriter(out / "overlay.mp4", rate, scale=overlay_scale) if overlay else None
     ring: collections.deque[tuple[int, np.ndarray]] = collections.deque()
     det_rows = []
@@ -165,6 +210,11 @@ def track_video(
                         writer.write(ring.popleft()[1], rows, shrunk=True)
         if k < 0:
             raise InputError(f"{video}: no frame could be decoded")
+        if n_det == 0:
+            raise InputError(
+                f"{video}: no animals detected in {k + 1} frames "
+                f"({getattr(det, 'name', 'the')} detector); nothing written; {NOTHING_FOUND_HINT}"
+            )
         if writer is not None:
             for f, rows in tracker.flush():
                 while ring and ring[0][0] < f:
@@ -180,7 +230,13 @@ def track_video(
     elapsed = time.perf_counter() - t0
     dets = np.concatenate(det_rows) if det_rows else np.zeros((0, 10))
     det_name = getattr(det, "name", detector or "classical")
-    attrs = {"detector": str(det_name), "frame_width": src.size[0], "frame_height": src.size[1]}
+    attrs = {
+        "detector": str(det_name),
+        "frame_width": src.size[0],
+        "frame_height": src.size[1],
+        "body_length_px": scale["length_px"],
+        "scale_source": scale["scale_source"],
+    }
     names = _write_outputs(
         result, out, px_per_mm=px_per_mm, fps=rate, source=str(video), det_rows=dets, attrs=attrs
     )
@@ -202,8 +258,52 @@ def track_video(
         outputs=names + ["summary.json"],
         detector_options=_detector_info(det, detector_options),
     )
+    summary.update(
+        length_px=scale["length_px"],
+        scale_source=scale["scale_source"],
+        space_unit="mm" if px_per_mm is not None else "px",
+    )
     atomic_write_json(out / "summary.json", summary)
     return summary
+
+
+def build_detector(
+    src: Any,
+    n_prep: int,
+    *,
+    px_per_mm: float | None,
+    detector: str | None,
+    model: str | os.PathLike | None,
+    options: dict[str, Any] | None,
+) -> tuple[Any, dict[str, Any]]:
+    """The detector for video ``src``, prepared on its first ``n_prep`` frames.
+
+    Without a scale the animals' body length is measured first from the same frames
+    (:func:`~thermoswarm.tracking.detect.estimate_length_px`, with the classical
+    detector's options when the detector is the classical one) and the detector is
+    built at the scale that makes the paper's ant that long.  Returns the detector
+    and ``{"px_per_mm", "length_px", "scale_source", "n_blobs"}`` (``px_per_mm`` the
+    scale used, ``length_px`` the body length in px).
+    """
+    step = 2 if n_prep >= 32 else 1
+    info: dict[str, Any] = {"scale_source": "user", "n_blobs": None}
+    if px_per_mm is None:
+        classical = (detector or ("classical" if model is None else "")) == "classical"
+        est = estimate_length_px(
+            src.frames(n_prep, step=step, prefetch=4),
+            options if classical else None,
+            source=str(src.path),
+        )
+        px_per_mm = est.length_px / anatomy.ANT_LENGTH_MM
+        info.update(scale_source="measured", n_blobs=est.n_blobs)
+    elif not (px_per_mm > 0 and np.isfinite(px_per_mm)):
+        raise InputError(f"px_per_mm must be a positive number, got {px_per_mm!r}")
+    det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
+    prepare = getattr(det, "prepare", None)
+    if prepare is not None:
+        prepare(src.frames(n_prep, step=step, prefetch=4))
+    info.update(px_per_mm=float(px_per_mm), length_px=float(anatomy.ANT_LENGTH_MM * px_per_mm))
+    return det, info
 
 
 def _detector_info(det: Any, options: dict[str, Any] | None) -> dict[str, Any]:
@@ -294,15 +394,15 @@ def track_detection_file(
     fps
         Frame rate (frame numbers only in the files).
     px_per_mm
-        Image scale; only converts ``tracks.nc`` to mm, which is not written without it.
+        Image scale: ``tracks.nc`` in mm; without it in px (``space_unit = "px"``).
     fmt, image_size
         Format (default from the path) and ``(width, height)`` px (needed by YOLO).
     first_frame
         Number of the first frame (0 or 1; default 0 if the file has a frame 0, else 1);
         the tracks keep the input's numbering.
     length_px
-        The objects' length in px, the tracker's unit; default the median longer box
-        side of all detections.
+        The objects' length in px, the tracker's unit; default the length the file
+        records (``thermoswarm detect``'s COCO), else the median longer box side.
     """
     from thermoswarm.tracking.detfiles import read_detections
 
@@ -327,16 +427,17 @@ def track_detection_file(
     result.first_frame = first
     elapsed = time.perf_counter() - t0
     from thermoswarm.io.mot import write_mot_table
+    from thermoswarm.io.netcdf import write as write_nc
 
     write_mot_table(out / "tracks_mot.txt", result.mot_table())
-    names = ["tracks_mot.txt"]
-    if px_per_mm is not None:
-        from thermoswarm.io.netcdf import write as write_nc
-
-        attrs = {"detector": f"{table.fmt} detections file", "first_frame": first}
+    attrs = {"detector": f"{table.fmt} detections file", "first_frame": first}
+    attrs["body_length_px"] = float(tracker.length_px or 0)
+    if px_per_mm is None:
+        ds = pixel_dataset(result, fps=fps, source=str(path), attrs=attrs)
+    else:
         ds = result.dataset(px_per_mm=px_per_mm, fps=fps, source_file=str(path), attrs=attrs)
-        write_nc(ds, out / "tracks.nc")
-        names.insert(0, "tracks.nc")
+    write_nc(ds, out / "tracks.nc")
+    names = ["tracks.nc", "tracks_mot.txt"]
     summary = _summary(
         result,
         source=str(path),
@@ -354,7 +455,145 @@ def track_detection_file(
         detector_options=None,
     )
     summary.update(
-        detections_format=table.fmt, first_frame=first, length_px=float(tracker.length_px or 0)
+        detections_format=table.fmt,
+        first_frame=first,
+        length_px=float(tracker.length_px or 0),
+        space_unit="mm" if px_per_mm is not None else "px",
     )
     atomic_write_json(out / "summary.json", summary)
+    return summary
+
+
+def _detect_sources(inputs: list[Path]) -> list[tuple[str, Any, bool]]:
+    """``(name, source, is_video)`` per input: each video file or folder of frames is one
+    source; the image files given are one sequence together (sorted by name)."""
+    from thermoswarm.tracking.video import IMAGE_EXTS, VideoSource, open_video
+
+    images = sorted(p for p in inputs if p.is_file() and p.suffix.lower() in IMAGE_EXTS)
+    out: list[tuple[str, Any, bool]] = []
+    names: set[str] = set()
+    for p in inputs:
+        if p in images:
+            continue
+        name = p.stem if p.is_file() else p.name
+        if name in names:
+            raise InputError(f"{p}: two inputs are named {name!r}; rename one")
+        names.add(name)
+        out.append((name, open_video(p), True))
+    if images:
+        if "images" in names:
+            raise InputError("an input named 'images' clashes with the image files given")
+        out.append(("images", VideoSource.from_images(images, "images"), False))
+    return out
+
+
+def detect_inputs(
+    inputs: list[str | os.PathLike],
+    out_dir: str | os.PathLike,
+    *,
+    px_per_mm: float | None = None,
+    detector: str | None = None,
+    model: str | os.PathLike | None = None,
+    detector_options: dict[str, Any] | None = None,
+    fps: float | None = None,
+    max_frames: int | None = None,
+    prepare_s: float = 3.0,
+    width_bl: float | None = None,
+) -> dict[str, Any]:
+    """Detect the animals of videos, folders of frames or images; write COCO and MOT.
+
+    The detector is built and prepared exactly as :func:`track_video` does (the same
+    registry, the same size measurement without a scale), but without the tracker's
+    predictions, so ``thermoswarm track --detections NAME.json`` on the output gives
+    the tracks of ``track_video(..., hints=False)``.
+
+    Writes, per input ``NAME`` (a video's or folder's name; ``images`` for the image
+    files given, taken as one sequence): ``NAME.json`` (COCO keypoints: images,
+    annotations with ``bbox``, ``score``, head/body/tail ``keypoints``, categories
+    with the keypoint names and skeleton) and, for videos and folders,
+    ``NAME_det.txt`` (MOTChallenge detections, frames from 1); and ``summary.json``.
+
+    Parameters
+    ----------
+    inputs
+        Video files, folders of frames and image files.
+    out_dir
+        Output folder (created with its parents).
+    px_per_mm, detector, model, detector_options, prepare_s
+        As for :func:`track_video`.
+    fps
+        Frame rate of folders and images (only sets how many frames ``prepare_s``
+        spans; default the video's own, else 30: up to 90 images).
+    max_frames
+        Detect at most this many frames of each input.
+    width_bl
+        Object width in body lengths, half of which pads the boxes of poses (default
+        the tracker's ``width_bl``, so the boxes are those the tracker draws).
+    """
+    from thermoswarm.fsutil import atomic_write_json as write_json
+    from thermoswarm.io.mot import write_mot_table
+    from thermoswarm.tracking.detfiles import coco_dataset, mot_rows
+
+    if not inputs:
+        raise InputError("give at least one video, folder of frames or image")
+    if max_frames is not None and max_frames < 1:
+        raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
+    if fps is not None and not (fps > 0 and np.isfinite(fps)):
+        raise InputError(f"fps must be a positive number, got {fps!r}")
+    wbl = TrackerConfig().width_bl if width_bl is None else float(width_bl)
+    sources = _detect_sources([Path(p) for p in inputs])
+    out = prepare_output_dir(out_dir)
+    results = []
+    for name, src, is_video in sources:
+        t0 = time.perf_counter()
+        rate = fps or src.fps or 30.0  # images: the background from up to 90 of them
+        n_prep = max(1, int(round(prepare_s * rate)))
+        if max_frames is not None:
+            n_prep = min(n_prep, max_frames)
+        det, scale = build_detector(
+            src,
+            n_prep,
+            px_per_mm=px_per_mm,
+            detector=detector,
+            model=model,
+            options=detector_options,
+        )
+        dets = [det.detect(frame) for frame in src.frames(max_frames, prefetch=4)]
+        files = src.files
+        images = []
+        for k in range(len(dets)):
+            img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
+            img["file_name"] = files[k].name if files else f"{src.path.name}#{k + 1:06d}"
+            images.append(img)
+        pad = 0.5 * wbl * scale["length_px"]
+        coco = coco_dataset(
+            images,
+            dets,
+            pad=pad,
+            length_px=scale["length_px"],
+            description=f"thermoswarm detect {src.path} ({getattr(det, 'name', detector)})",
+        )
+        written = [f"{name}.json"]
+        write_json(out / f"{name}.json", coco)
+        if is_video:
+            write_mot_table(out / f"{name}_det.txt", mot_rows(dets, pad=pad))
+            written.append(f"{name}_det.txt")
+        n_det = sum(len(d) for d in dets)
+        results.append(
+            {
+                "input": str(src.path),
+                "n_frames": len(dets),
+                "n_detections": n_det,
+                "detections_per_frame": n_det / max(len(dets), 1),
+                "detector": str(getattr(det, "name", detector)),
+                "px_per_mm": px_per_mm,
+                "length_px": scale["length_px"],
+                "scale_source": scale["scale_source"],
+                "seconds": time.perf_counter() - t0,
+                "outputs": written,
+            }
+        )
+    summary = {"inputs": results, "outputs": [f for r in results for f in r["outputs"]]}
+    summary["outputs"].append("summary.json")
+    write_json(out / "summary.json", summary)
     return summary

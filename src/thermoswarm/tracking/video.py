@@ -86,6 +86,26 @@ class VideoSource:
         finally:
             cap.release()
 
+    @classmethod
+    def from_images(cls, files: list[Path], name: str = "images") -> VideoSource:
+        """A sequence of image files (in the order given) read as one video; all must
+        have the first one's size."""
+        if not files:
+            raise InputError(f"{name}: no image files")
+        self = cls.__new__(cls)
+        self.path = Path(name)
+        self._files = [Path(f) for f in files]
+        first = self._read_image(self._files[0])
+        self.size = (first.shape[1], first.shape[0])
+        self.fps = None
+        self.n_frames = len(self._files)
+        return self
+
+    @property
+    def files(self) -> list[Path] | None:
+        """The image files of a folder or image sequence (None for a video file)."""
+        return None if self._files is None else list(self._files)
+
     def _read_image(self, p: Path) -> np.ndarray:
         import cv2
 
