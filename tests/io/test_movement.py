@@ -196,6 +196,16 @@ def test_movement_loads_validates_and_exports_what_we_write(truth, tmp_path):
     # and our reader reads our movement file back exactly
     again = read_tracks(nc)
     assert_tracks(again, truth.mm, truth.times, truth.individuals, truth.keypoints, truth.conf)
+    # the same through the CLI, from our own netCDF
+    from thermoswarm.cli import cli
+
+    write_tracks(ours, tmp_path / "plain.nc")
+    res = CliRunner().invoke(
+        cli, ["convert", str(tmp_path / "plain.nc"), str(tmp_path / "cli.nc"), "--to", "movement"]
+    )
+    assert res.exit_code == 0, res.output
+    cli_ds = assert_movement_accepts(tmp_path / "cli.nc", "poses")
+    np.testing.assert_array_equal(cli_ds["position"].values, ds["position"].values)
 
 
 def test_boxes_round_trip_back_to_movement(boxes, tmp_path):
