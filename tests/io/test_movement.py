@@ -309,3 +309,12 @@ def test_analyze_accepts_movement_poses_and_boxes(synthetic, tmp_path):
     ):  # fmt: skip
         fits = analyze(tmp_path / name, tmp_path / f"out_{name}", "--px-per-mm", SCALE, *extra)
         assert_same_fits(fits, reference, name)
+
+
+def test_a_bad_file_is_one_error_naming_it(tmp_path):
+    bad = tmp_path / "bad.nc"
+    bad.write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 64)  # an HDF5 signature, then nothing
+    with pytest.raises(InputError, match="bad.nc: not a readable netCDF file"):
+        read_tracks(bad, "movement", px_per_mm=SCALE)
+    with pytest.raises(InputError, match="unknown option"):
+        read_tracks(bad, "movement", source="SLEAP")

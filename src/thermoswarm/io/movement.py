@@ -313,6 +313,25 @@ def to_movement(tracks: xr.Dataset, *, ds_type: str | None = None) -> xr.Dataset
     return out
 
 
+def _open_netcdf(path: Path) -> xr.Dataset:
+    """Load a netCDF-4 file; any failure is one InputError naming the file.
+
+    h5py opens it first: a file it cannot open never reaches h5netcdf, whose ``File``
+    leaves a half-built object behind when its constructor fails (see
+    :func:`thermoswarm.io.netcdf._open`, which this module must not import: the
+    netcdf reader imports this one).
+    """
+    import h5py
+
+    try:
+        with h5py.File(path, "r"):
+            pass
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            return ds.load()
+    except Exception as exc:  # h5py/xarray raise many types for a bad file
+        raise InputError(f"{path}: not a readable netCDF file ({type(exc).__name__})") from None
+
+
 def _load_with_movement(path: Path, software: str, fps: float | None) -> xr.Dataset:
     """A third-party file read by ``movement``'s own loader."""
     try:
@@ -335,9 +354,7 @@ def read(
         software = option_str(path, "source_software", options["source_software"])
         ds = _load_with_movement(path, software, fps)
     else:
-        from thermoswarm.io.netcdf import _open
-
-        ds = _open(path)
+        ds = _open_netcdf(path)
     return from_movement(ds, fps=fps, px_per_mm=px_per_mm, units=units, source=path)
 
 
