@@ -170,6 +170,8 @@ def test_movement_in_memory_without_scores_and_bad_datasets(truth):
         from_movement(ds)
     with pytest.raises(InputError, match="3-D positions"):
         from_movement(load_poses.from_numpy(np.zeros((3, 3, 1, 1))), units="mm")
+    with pytest.raises(InputError, match=r"further dimension\(s\) \['view'\]"):
+        from_movement(ds.expand_dims(view=["top", "side"]), px_per_mm=SCALE)
     with pytest.raises(InputError, match="contradicts"):
         from_movement(ds.assign_attrs(space_unit="cm"), units="mm")
 

@@ -92,6 +92,12 @@ def _ds_type(ds: xr.Dataset, where: str) -> str:
     if kind not in ("poses", "bboxes"):
         raise InputError(f"{where}: ds_type {kind!r} is neither 'poses' nor 'bboxes'")
     want = set(DIMS) if kind == "poses" else set(BBOX_DIMS)
+    extra = sorted(set(ds["position"].dims) - want)
+    if extra and ds["position"].ndim == len(want) + len(extra):
+        raise InputError(
+            f"{where}: 'position' has the further dimension(s) {extra} (several camera "
+            f"views?); select one first, e.g. ds.sel({extra[0]}=...)"
+        )
     if set(ds["position"].dims) != want:
         raise InputError(
             f"{where}: a movement {kind} 'position' needs dims {sorted(want)}, "
