@@ -19,12 +19,14 @@ prints one summary line and exits 0.
 
 from __future__ import annotations
 
+import csv
 import importlib.metadata as md
 import re
 import subprocess
 import sys
 from collections import defaultdict
 from collections.abc import Iterable
+from pathlib import PurePosixPath
 
 #: A requirement on the key is met by the value (same modules, another build).
 STANDS_IN = {"opencv-python": "opencv-python-headless"}
@@ -45,13 +47,17 @@ def provided_modules(dist: md.Distribution) -> set[str]:
     installs ``name.py`` or a compiled ``name.*.so`` / ``.pyd`` at the top level.
     Without a RECORD, ``top_level.txt`` is used.
     """
-    files = dist.files
-    if files is None:
+    record = dist.read_text("RECORD")
+    if record is None:
         text = dist.read_text("top_level.txt") or ""
         return {line.strip() for line in text.splitlines() if line.strip()}
     names = set()
-    for f in files:
-        parts = f.parts
+    # RECORD read here rather than through ``Distribution.files``, which was seen to
+    # drop a RECORD's first entry after other tests had run in the same process
+    for row in csv.reader(record.splitlines()):
+        if not row or not row[0]:
+            continue
+        parts = PurePosixPath(row[0]).parts
         top = parts[0]
         if top in _SKIP_TOP or top.endswith((".dist-info", ".egg-info", ".data")):
             continue
