@@ -6,8 +6,8 @@ a baseline that gets the same numbers into a NumPy array the usual way:
 
 * ``sleap_analysis_h5``: ``sleap_io.load_analysis_h5(...).numpy()``
 * ``sleap_analysis_h5_h5py``: ``h5py`` reads ``tracks`` and ``point_scores`` directly
-  and transposes them to (time, space, keypoints, individuals) -- what ``movement``'s
-  SLEAP loader does, the fastest route there is
+  and transposes them to (time, space, keypoints, individuals) -- the arrays
+  ``movement``'s SLEAP loader starts from, the fastest route there is (bare arrays)
 * ``sleap_analysis_h5_movement``: ``movement``'s own loader,
   ``movement.io.load_poses.from_sleap_file`` (its validated dataset, in pixels)
 * ``sleap_slp``: ``sleap_io.load_slp(...).numpy()`` (what ``movement`` does)
