@@ -44,6 +44,8 @@ $(1) -m pip install -q --no-deps --force-reinstall \
 endef
 
 # Resolve the newest allowed versions in a scratch venv and freeze them into the lock.
+# --all pins setuptools too: torch requires setuptools>=77, and an install with
+# --no-deps would otherwise keep the old one that `python -m venv` bundles.
 lock:
 	rm -rf .venv-lock
 	$(PYTHON) -m venv .venv-lock
@@ -56,7 +58,7 @@ lock:
 	  echo "# torch is the CPU build (pip takes it from local wheels where they exist)."; \
 	  echo "# One OpenCV: opencv-python (required by trackers and trackeval) is left out and"; \
 	  echo "# opencv-python-headless provides cv2; \`make install\` installs this file with --no-deps."; \
-	  .venv-lock/bin/python -m pip freeze --exclude-editable | sed -e 's/^torch==\([0-9.]*\)+cpu$$/torch==\1/'; \
+	  .venv-lock/bin/python -m pip freeze --all --exclude pip --exclude-editable | sed -e 's/^torch==\([0-9.]*\)+cpu$$/torch==\1/'; \
 	} > $(LOCK).tmp && mv $(LOCK).tmp $(LOCK)
 	rm -rf .venv-lock
 
