@@ -6,11 +6,14 @@ a baseline that gets the same numbers into a NumPy array the usual way:
 
 * ``sleap_analysis_h5``: ``sleap_io.load_analysis_h5(...).numpy()``
 * ``sleap_analysis_h5_h5py``: ``h5py`` reads ``tracks`` and ``point_scores`` directly
-  and transposes them to (time, space, keypoints, individuals) -- what ``movement``'s
-  SLEAP loader does, the fastest route there is
+  and transposes them to (time, space, keypoints, individuals) -- the arrays
+  ``movement``'s SLEAP loader starts from, the fastest route there is (bare arrays)
+* ``sleap_analysis_h5_movement``: ``movement``'s own loader,
+  ``movement.io.load_poses.from_sleap_file`` (its validated dataset, in pixels)
 * ``sleap_slp``: ``sleap_io.load_slp(...).numpy()`` (what ``movement`` does)
 * ``dlc_h5``: ``pandas.read_hdf`` + reshape to (time, space, keypoints, individuals)
   (what ``movement`` does; ``read_hdf`` unpickles the file's attributes)
+* ``dlc_h5_movement``: ``movement.io.load_poses.from_dlc_file``
 * ``tidy_csv``: ``pandas.read_csv`` + ``pivot`` to a (frame, individual) table
 
 Timings are the best of ``--repeat`` runs; the ratio is baseline / ours (> 1: ours
@@ -43,6 +46,17 @@ def best(fn: Callable[[], object], repeat: int) -> float:
         fn()
         times.append(time.perf_counter() - t0)
     return min(times)
+
+
+def movement_loader(name: str) -> Callable | None:
+    """A loader of ``movement.io.load_poses`` (the dev extra), quiet; None without it."""
+    try:
+        from loguru import logger
+        from movement.io import load_poses
+    except ImportError:
+        return None
+    logger.disable("movement")  # its INFO lines on stderr would fill the table
+    return getattr(load_poses, name)
 
 
 def make_positions(rng, n_frames: int, n_ind: int, n_kp: int) -> np.ndarray:
@@ -89,11 +103,15 @@ def case_sleap(tmp: Path, rng, n_frames: int, n_ind: int, repeat: int) -> list[d
             scores = f["point_scores"][:].transpose(2, 1, 0)
         return pos, scores
 
-    for name, path, baseline in (
+    cases = [
         ("sleap_analysis_h5", h5, lambda: sio.load_analysis_h5(str(h5)).numpy()),
         ("sleap_analysis_h5_h5py", h5, direct),
         ("sleap_slp", slp, lambda: sio.load_slp(str(slp), open_videos=False).numpy()),
-    ):
+    ]
+    loader = movement_loader("from_sleap_file")
+    if loader is not None:
+        cases.insert(2, ("sleap_analysis_h5_movement", h5, lambda: loader(h5, fps=30.0)))
+    for name, path, baseline in cases:
         ours = best(lambda p=path: read_tracks(p, fps=30.0, px_per_mm=3.04), repeat)
         base = best(baseline, repeat)
         out.append({"case": name, "size": size, "ours_s": ours, "baseline_s": base})
@@ -125,9 +143,13 @@ def case_dlc(tmp: Path, rng, n_frames: int, n_ind: int, repeat: int) -> list[dic
         return arr.reshape(n_frames, n_ind, 3, 3).transpose(0, 3, 2, 1)[:, :2] / 3.04
 
     ours = best(lambda: read_tracks(path, fps=30.0, px_per_mm=3.04), repeat)
-    base = best(baseline, repeat)
     size = f"{n_frames} frames x {n_ind} individuals x 3 bodyparts"
-    return [{"case": "dlc_h5", "size": size, "ours_s": ours, "baseline_s": base}]
+    rows = [{"case": "dlc_h5", "size": size, "ours_s": ours, "baseline_s": best(baseline, repeat)}]
+    loader = movement_loader("from_dlc_file")
+    if loader is not None:
+        base = best(lambda: loader(path, fps=30.0), repeat)
+        rows.append({"case": "dlc_h5_movement", "size": size, "ours_s": ours, "baseline_s": base})
+    return rows
 
 
 def case_tidy(tmp: Path, rng, n_frames: int, n_ind: int, repeat: int) -> list[dict]:

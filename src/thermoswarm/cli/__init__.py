@@ -39,6 +39,31 @@ _COMMANDS: dict[str, str] = {
 }
 
 
+#: top-level module of an optional library -> the extra that installs it
+EXTRA_OF_MODULE: dict[str, str] = {
+    "torch": "track",
+    "cv2": "track",
+    "imageio": "video",
+    "imageio_ffmpeg": "video",
+    "sleap_io": "io",
+    "tables": "io",
+    "pyarrow": "sweep",
+    "dask": "dask",
+    "distributed": "dask",
+    "pymunk": "bench",
+    "trackers": "bench",
+    "warp": "gpu",
+}
+
+
+def missing_extra(exc: ImportError) -> tuple[str, str] | None:
+    """``(module, extra)`` when ``exc`` is a missing optional library, else ``None``."""
+    name = (getattr(exc, "name", None) or "").split(".")[0]
+    if isinstance(exc, ModuleNotFoundError) and name in EXTRA_OF_MODULE:
+        return name, EXTRA_OF_MODULE[name]
+    return None
+
+
 class LazyGroup(click.Group):
     """A group whose sub-commands are imported on first use."""
 
@@ -73,6 +98,18 @@ class LazyGroup(click.Group):
         except ThermoswarmError as exc:
             click.echo(f"error: {exc}", err=True)
             ctx.exit(exc.exit_code)
+        except ImportError as exc:  # an optional library of an extra is not installed
+            extra = missing_extra(exc)
+            if extra is None:
+                raise
+            module, name = extra
+            verb = ctx.invoked_subcommand or "this command"
+            click.echo(
+                f"error: thermoswarm {verb} needs the {name!r} extra ({module} is not "
+                f"installed): pip install 'thermoswarm[{name}]'",
+                err=True,
+            )
+            ctx.exit(2)
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

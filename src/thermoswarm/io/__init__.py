@@ -350,6 +350,18 @@ register_format(
         can_write=True,
     )
 )
+# After netcdf, so that .nc files are written as netcdf by default; the netcdf reader
+# hands movement's own files to this module.
+register_format(
+    Format(
+        "movement",
+        "thermoswarm.io.movement",
+        (".nc", ".nc4", ".netcdf"),
+        "movement dataset (poses or boxes) as netCDF; any movement-loadable file "
+        "with --read-option source_software=NAME",
+        can_write=True,
+    )
+)
 register_format(
     Format(
         "zarr",

@@ -84,6 +84,10 @@ def read(
     ds = _open(path)
     if "position" not in ds:
         raise InputError(f"{path}: no 'position' variable; not a trajectory file")
+    from thermoswarm.io import movement
+
+    if movement.is_movement_dataset(ds):  # movement's units, boxes and clocks: one reader
+        return movement.from_movement(ds, fps=fps, px_per_mm=px_per_mm, source=path, **options)
     dims = set(ds["position"].dims)
     if dims == {"time", "space", "individuals"}:
         ds = ds.expand_dims(keypoints=["centroid"])
