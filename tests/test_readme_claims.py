@@ -202,3 +202,17 @@ def test_analysis_benchmark_compares_the_same_optimum(capsys):
     assert fit["n"] == out["n_energy_samples"]
     lr = out["same_work"]["lr_test_bootstrap"]
     assert lr["replicates"] == 9 and lr["statistic_gap_per_sample"] <= 1e-6
+
+
+def test_light_benchmark_runs_ours_on_numpys_single_thread():
+    """README, "Other benchmarks": the light benchmark times ours on one thread, as
+    NumPy, unless asked otherwise; its answer matches the NumPy shadow test."""
+    import numba
+
+    before = numba.get_num_threads()
+    try:
+        res = _benchmark("bench_light").run(sizes=(2000,), repeat=1)
+        assert res["numba_threads"] == 1
+        assert res["sizes"][0]["light_level_mismatches_vs_numpy"] == 0
+    finally:
+        numba.set_num_threads(before)
