@@ -101,7 +101,7 @@ STEPS = [
         [],
         ["--n-tracks", "200", "--n-frames", "5000", "--bootstrap", "50"],
         _analysis,
-    ),  # fmt: skip
+    ),
     Step("tracking", "bench_tracking", [], ["--seeds", "1"], _short),
     Step("unet", "bench_unet", [], ["--quick"], _short, needs="torch"),
     Step("light", "bench_light", [], ["--sizes", "100000"], lambda d: "   " + json.dumps(d)[:300]),
@@ -113,7 +113,7 @@ STEPS = [
         ["--runs", "100", "--tasks", "200", "--rounds", "2"],
         _short,
         needs="distributed",
-    ),  # fmt: skip
+    ),
     Step(
         "tracking_real",
         "bench_tracking_real",
@@ -121,7 +121,7 @@ STEPS = [
         ["--synthetic", "50", "--seeds", "0", "--levels", "moderate"],
         _tracking_real,
         needs="trackers",
-    ),  # fmt: skip
+    ),
     # GPU step: bench_gpu.py's CPU part (Warp's CPU device) goes here as one more Step.
 ]
 

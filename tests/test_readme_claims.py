@@ -152,3 +152,67 @@ def test_step_advances_the_state_in_place():
     assert np.all(np.isfinite(moved)) and moved.max() > 0
     # the state's arrays are reused: no new position array per step
     assert len({id(a) for a in arrays}) <= 2
+
+
+def _benchmark(name: str):
+    """Import ``benchmarks/NAME.py`` as a module."""
+    import importlib.util
+    import sys
+
+    path = REPO / "benchmarks" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"_bench_{name}", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses look their module up
+    sys.path.insert(0, str(path.parent))
+    try:
+        spec.loader.exec_module(mod)
+    finally:
+        sys.path.remove(str(path.parent))
+    return mod
+
+
+#: Benchmarks that ``make bench`` does not run, and why (anything else must be a step).
+ON_THEIR_OWN = {
+    "bench_gpu": "needs a GPU for its table (its CPU part is the GPU work's step)",
+    "bench_real_footage": "needs the user's own labelled footage",
+}
+
+
+def test_make_bench_runs_every_benchmark():
+    """README, "Performance": `make bench` runs every benchmark but the ones it names."""
+    run_all = _benchmark("run_all")
+    steps = {s.script for s in run_all.STEPS} | {"bench_engine"}
+    scripts = {p.stem for p in (REPO / "benchmarks").glob("bench_*.py")}
+    missing = scripts - steps - set(ON_THEIR_OWN)
+    assert not missing, f"benchmarks that make bench does not run: {sorted(missing)}"
+    assert steps <= scripts, f"steps without a script: {sorted(steps - scripts)}"
+
+
+def test_analysis_benchmark_compares_the_same_optimum(capsys):
+    """README, "Other benchmarks": ours and SciPy do the same work and reach the same
+    optimum (log-likelihoods per sample within 1e-6, LR p-values within their Monte
+    Carlo error); a tiny instance of the benchmark itself."""
+    bench = _benchmark("bench_analysis")
+    out = bench.main(["--n-tracks", "20", "--n-frames", "500", "--bootstrap", "9", "--json"])
+    capsys.readouterr()
+    assert out["same_optimum"] == {"two_phase_fit": True, "lr_statistic": True, "lr_p_value": True}
+    fit = out["same_work"]["two_phase_fit_all_energies"]
+    assert fit["loglik_gap_per_sample"] <= 1e-6
+    assert fit["n"] == out["n_energy_samples"]
+    lr = out["same_work"]["lr_test_bootstrap"]
+    assert lr["replicates"] == 9 and lr["statistic_gap_per_sample"] <= 1e-6
+
+
+def test_light_benchmark_runs_ours_on_numpys_single_thread():
+    """README, "Other benchmarks": the light benchmark times ours on one thread, as
+    NumPy, unless asked otherwise; its answer matches the NumPy shadow test."""
+    import numba
+
+    before = numba.get_num_threads()
+    try:
+        res = _benchmark("bench_light").run(sizes=(2000,), repeat=1)
+        assert res["numba_threads"] == 1
+        assert res["sizes"][0]["light_level_mismatches_vs_numpy"] == 0
+    finally:
+        numba.set_num_threads(before)
