@@ -122,6 +122,13 @@ STEPS = [
         _tracking_real,
         needs="trackers",
     ),
+    Step(
+        "viewer",
+        "bench_viewer",
+        [],
+        ["--sizes", "10000,100000", "--seconds", "3"],
+        lambda d: "   " + json.dumps(d)[:300],
+    ),
     # GPU step: bench_gpu.py's CPU part (Warp's CPU device) goes here as one more Step.
 ]
 

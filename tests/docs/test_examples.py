@@ -298,6 +298,8 @@ def run_page(page: Path, cwd: Path, *, slow: bool) -> list[str]:
 PYTHON_NOT_RUN = {
     ("README.md", "from controller import Config, Controller       # on the board"):
         "runs on the robot, with the board's hardware layer",
+    ("robot.md", "from controller import Config, Controller       # on the board"):
+        "runs on the robot, with the board's hardware layer",
     ("io.md", "from thermoswarm.io import read_tracks, write_tracks"):
         "reads the reader's SLEAP, idtracker.ai and CSV files",
     ("tracking_unet.md", "from thermoswarm.tracking.unet import load_model, UNetDetector"):

@@ -315,8 +315,11 @@ def run_study(
         ``seed=1``, ``smooth=0.1``, ``group_by=["region"]``, ...; each documented in
         :mod:`thermoswarm.analysis.options`); an unknown name is a :class:`ConfigError`.
 
-    Raises :class:`InputError` when no step is left to fit (every step missing, a
-    gap, resting or implausible): the message gives the counts.
+    Raises
+    ------
+    InputError
+        When no step is left to fit (every step missing, a gap, resting or
+        implausible): the message gives the counts.
     """
     opts = AnalysisOptions.from_keywords(options, **keywords)
     plan = plan_study(opts, regions)
