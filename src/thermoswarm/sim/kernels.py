@@ -111,6 +111,9 @@ class Numerics(NamedTuple):
     half_skin: float  # rebuild once any robot is farther than this from where it was
     min_sweeps: int
     max_sweeps: int
+    warm: bool  # keep each contact's accumulated correction and warm-start the next step
+    pull: float  # fraction of a held contact's opened gap closed per sweep (warm only)
+    slack_tol: float  # stop sweeping once no held push unneeded by more than this (mm)
 
 
 # --------------------------------------------------------------------------- grid
@@ -376,9 +379,10 @@ def _bodies_vs_static(bodies, seg, sdisc):
 
 # ------------------------------------------------------ phase 2: neighbour lists
 @njit(cache=True)
-def sort_rows(pos, fcols, icols, udir, scratch, grid, cell, cell_start, perm):
+def sort_rows(pos, fcols, icols, udir, lamw, lamid, scratch, grid, cell, cell_start, perm):
     """Re-order every per-robot array of the state by grid cell (in place, through the
-    (n, 2) float64 ``scratch``), so that neighbours are near in memory."""
+    (n, 2) float64 ``scratch``), so that neighbours are near in memory.  (The held pair
+    pushes are keyed by list slots: :func:`_restore_held` moves them.)"""
     n = pos.shape[0]
     _compute_cells(pos, grid, cell)
     _counting_sort(cell, grid.nx * grid.ny, cell_start, perm)
@@ -390,6 +394,9 @@ def sort_rows(pos, fcols, icols, udir, scratch, grid, cell, cell_start, perm):
         _permute(icols[j], perm, tmp)
     for j in range(udir.shape[0]):
         _permute(udir[j], perm, tmp)
+    for j in range(lamw.shape[0]):
+        _permute(lamw[j], perm, tmp)
+        _permute(lamid[j], perm, tmp)
 
 
 @njit(cache=True, parallel=True)
@@ -542,34 +549,141 @@ def _pair_push(px, py, src, i, j, c2, d_rr, half, mx, my, w):
     return mx, my, w
 
 
+@njit(cache=True, inline="always")
+def _seg_gap(px, py, x0, y0, x1, y1, r):
+    """Signed gap (centre distance minus r, mm) of a disc to a segment, and the unit
+    normal from the segment to the centre."""
+    ex = x1 - x0
+    ey = y1 - y0
+    l2 = ex * ex + ey * ey
+    t = 0.0
+    if l2 > 0.0:
+        t = ((px - x0) * ex + (py - y0) * ey) / l2
+        if t < 0.0:
+            t = 0.0
+        elif t > 1.0:
+            t = 1.0
+    dx = px - (x0 + t * ex)
+    dy = py - (y0 + t * ey)
+    d = math.sqrt(dx * dx + dy * dy)
+    if d > 1e-12:
+        return d - r, dx / d, dy / d
+    ln = math.sqrt(l2) if l2 > 0 else 1.0
+    return -r, -ey / ln, ex / ln
+
+
+@njit(cache=True)
+def _walls_held(px, py, r, i, lw, lid, pull, seg):
+    """Static segments with held pushes: every overlap is pushed out in full (as in
+    :func:`_walls_and_bodies`) and, for up to two segments per robot, accumulated in
+    ``lw[:, i]`` (mm) with the segment's index in ``lid[:, i]``; a held segment no longer
+    touched takes back up to ``pull`` x the gap of its push (a wall pushes, never pulls:
+    a held push it no longer needs is undone).  Writes only column ``i``.
+
+    Returns ``(mx, my, largest overlap, slack)``; ``slack = min(held push, gap)`` is how
+    far the robot stands off a wall on account of a push it no longer needs."""
+    mx = 0.0
+    my = 0.0
+    w = 0.0
+    slack = 0.0
+    for s in range(seg.shape[0]):
+        g, nxs, nys = _seg_gap(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
+        slot = 0 if lid[0, i] == s else (1 if lid[1, i] == s else -1)
+        if -g > SLOP:
+            mx -= g * nxs
+            my -= g * nys
+            if -g > w:
+                w = -g
+            if slot < 0:  # a free slot (nothing held) takes this segment
+                slot = 0 if lw[0, i] == 0.0 else (1 if lw[1, i] == 0.0 else -1)
+                if slot >= 0:
+                    lid[slot, i] = s
+            if slot >= 0:
+                lw[slot, i] = lw[slot, i] - g
+        elif slot >= 0 and lw[slot, i] > 0.0 and g > SLOP:
+            L = np.float64(lw[slot, i])
+            if min(L, g) > slack:
+                slack = min(L, g)
+            dl = min(L, pull * g)
+            mx -= dl * nxs
+            my -= dl * nys
+            lw[slot, i] = L - dl
+    return mx, my, w, slack
+
+
+@njit(cache=True, inline="always")
+def _pair_held(px, py, src, i, j, L, c2, d_rr, half, pull, mx, my, w, s):
+    """:func:`_pair_push` with the pair's held correction ``L`` (mm each robot moved
+    apart along the pair's normal, this step and the warm start): an overlap adds its
+    push to ``L``; a pair apart with ``L > 0`` takes back up to ``pull`` x half the gap
+    (the push it no longer needs), and ``s`` keeps the largest such unneeded push,
+    ``min(L, gap / 2)``.  Both robots of a pair compute the same update from the same
+    numbers, so the two copies of ``L`` stay equal.  Returns ``(mx, my, w, s, L)``."""
+    dx = px - src[j, 0]
+    dy = py - src[j, 1]
+    d2 = dx * dx + dy * dy
+    if d2 < c2:
+        d = math.sqrt(d2)
+        if d_rr - d > w:
+            w = d_rr - d
+        if d > 1e-12:
+            f = half * (d_rr - d) / d
+            mx += f * dx
+            my += f * dy
+            L += half * (d_rr - d)
+        else:  # coincident centres: separate along x by row order
+            mx += half * d_rr * (1.0 if i < j else -1.0)
+            L += half * d_rr
+    elif L > 0.0:
+        d = math.sqrt(d2)
+        g = 0.5 * (d - d_rr)
+        if g > SLOP:
+            if min(L, g) > s:
+                s = min(L, g)
+            dl = min(L, pull * g)
+            mx -= dl * dx / d
+            my -= dl * dy / d
+            L -= dl
+    return mx, my, w, s, L
+
+
 @njit(cache=True, parallel=True)
 def _sweep(
-    src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg, sdisc,
-    bodies, pistons, active, count, everyone, result,
+    src, dst, ref, nbr, nnb, lam, lamw, lamid, cell, cell_start, perm, cell_flag, grid, num,
+    seg, sdisc, bodies, pistons, active, count, everyone, any_overflow, result,
 ):  # fmt: skip
     """One Jacobi sweep: measure every overlap of ``src`` and write the corrected
     positions to ``dst``.
 
     Each overlapping pair moves apart by half its overlap each (times ``relax``); walls,
-    bodies and pistons as in :func:`_walls_and_bodies`.  The sweep visits every robot
-    (``everyone``) or the ``count`` robots ``active[:count]`` -- the others have no
-    overlap and ``dst`` already holds their position (see :func:`_next_active`).
+    bodies and pistons as in :func:`_walls_and_bodies`.  With ``num.warm`` each listed
+    pair's accumulated push is held in ``lam`` (row i, the slot of its neighbour) and
+    each robot's pushes off up to two walls in ``lamw`` (segment indices ``lamid``):
+    pushes add to them, and a pair or wall no longer touching takes back the push it no
+    longer needs
+    (:func:`_pair_held`, :func:`_walls_held`).  The sweep visits every robot
+    (``everyone``) or the ``count`` robots ``active[:count]`` -- the others have nothing
+    to correct and ``dst`` already holds their position (see :func:`_next_active`).
     ``result[k]`` gets the :data:`MOVED` and :data:`OVERLAPPING` bits of the k-th robot
     visited.
 
-    Returns the largest overlap of ``src`` (exact: the lists are valid) and the largest
-    squared distance from ``ref`` of any robot that moved.
+    Returns the largest overlap of ``src`` (exact: the lists are valid), the largest
+    squared distance from ``ref`` of any robot that moved, and the largest unneeded
+    held push (mm; 0 without ``num.warm``).
     """
     cap = nbr.shape[1]
     r = num.radius
     d_rr = 2.0 * r
     c2 = (d_rr - SLOP) * (d_rr - SLOP)
     half = 0.5 * num.relax
+    pull = num.pull
+    held = num.warm
     nx = grid.nx
     ny = grid.ny
     movables = bodies.shape[0] + pistons.shape[0] > 0
     worst = 0.0
     far = 0.0
+    slack = 0.0
     for k in prange(count):
         i = np.int64(k) if everyone else np.int64(active[k])
         fl = 0
@@ -580,14 +694,34 @@ def _sweep(
         mx = 0.0
         my = 0.0
         w = 0.0
-        if cell_flag[c] != 0 or movables:  # most robots are far from any wall
-            mx, my, w = _walls_and_bodies(
-                px, py, r, cell_flag[c] != 0, seg, sdisc, bodies, pistons
-            )
+        sl = 0.0
+        near = cell_flag[c] != 0
+        if held and (near or lamw[0, i] != 0.0 or lamw[1, i] != 0.0):
+            mx, my, w, sl = _walls_held(px, py, r, i, lamw, lamid, pull, seg)
+            if near or movables:
+                ax, ay, aw = _walls_and_bodies(px, py, r, near, seg[:0], sdisc, bodies, pistons)
+                mx += ax
+                my += ay
+                w = max(w, aw)
+        elif near or movables:  # most robots are far from any wall
+            mx, my, w = _walls_and_bodies(px, py, r, near, seg, sdisc, bodies, pistons)
         m = nnb[i]
         if m <= cap:
-            for kk in range(m):
-                mx, my, w = _pair_push(px, py, src, i, nbr[i, kk], c2, d_rr, half, mx, my, w)
+            if held:
+                for kk in range(m):
+                    j = nbr[i, kk]
+                    if any_overflow and nnb[j] > cap:  # j scans the grid: no held push
+                        lam[i, kk] = 0.0
+                        mx, my, w = _pair_push(px, py, src, i, j, c2, d_rr, half, mx, my, w)
+                        continue
+                    mx, my, w, sl, L = _pair_held(
+                        px, py, src, i, j, np.float64(lam[i, kk]), c2, d_rr, half, pull,
+                        mx, my, w, sl,
+                    )  # fmt: skip
+                    lam[i, kk] = L
+            else:
+                for kk in range(m):
+                    mx, my, w = _pair_push(px, py, src, i, nbr[i, kk], c2, d_rr, half, mx, my, w)
         else:  # overflowing list: the 3 x 3 cells around the cell it was listed in
             cy = c // nx
             cx = c - cy * nx
@@ -612,23 +746,111 @@ def _sweep(
         result[k] = fl
         worst = max(worst, w)
         far = max(far, fi)
-    return worst, far
+        slack = max(slack, sl)
+    return worst, far, slack
+
+
+@njit(cache=True, parallel=True)
+def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r):
+    """Every robot takes the pushes its contacts held at the end of the last step
+    (``lam`` along each listed pair's present normal, ``lamw`` off its held walls):
+    the starting guess of the projection (pushes no longer needed are taken back by the
+    sweeps).  Writes ``dst``; returns the largest squared distance from ``ref``."""
+    cap = nbr.shape[1]
+    far = 0.0
+    for i in prange(src.shape[0]):
+        px = src[i, 0]
+        py = src[i, 1]
+        mx = 0.0
+        my = 0.0
+        m = nnb[i]
+        if m <= cap:
+            for kk in range(m):
+                L = lam[i, kk]
+                if L != 0.0:
+                    j = nbr[i, kk]
+                    dx = px - src[j, 0]
+                    dy = py - src[j, 1]
+                    d = math.sqrt(dx * dx + dy * dy)
+                    if d > 1e-12:
+                        mx += L * dx / d
+                        my += L * dy / d
+        for slot in range(2):
+            lw = lamw[slot, i]
+            if lw != 0.0:
+                s = lamid[slot, i]
+                _, nxs, nys = _seg_gap(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
+                mx += lw * nxs
+                my += lw * nys
+        x = px + mx
+        y = py + my
+        dst[i, 0] = x
+        dst[i, 1] = y
+        ex = x - ref[i, 0]
+        ey = y - ref[i, 1]
+        far = max(far, ex * ex + ey * ey)
+    return far
+
+
+@njit(cache=True)
+def _stash_held(nbr, nnb, lam, held):
+    """The nonzero held pushes as ``(row, neighbour row, push)`` arrays (before the lists
+    are rebuilt); empty unless ``held``."""
+    n = nbr.shape[0] if held else 0
+    cap = nbr.shape[1]
+    m = 0
+    for i in range(n):
+        if nnb[i] <= cap:
+            for kk in range(nnb[i]):
+                m += lam[i, kk] != 0.0
+    si = np.empty(m, np.int32)
+    sj = np.empty(m, np.int32)
+    sl = np.empty(m, np.float32)
+    q = 0
+    for i in range(n):
+        if nnb[i] <= cap:
+            for kk in range(nnb[i]):
+                if lam[i, kk] != 0.0:
+                    si[q] = i
+                    sj[q] = nbr[i, kk]
+                    sl[q] = lam[i, kk]
+                    q += 1
+    return si, sj, sl
+
+
+@njit(cache=True)
+def _restore_held(si, sj, sl, new_row, renumber, nbr, nnb, lam):
+    """Held pushes back into the rebuilt lists' slots; rows renumbered by ``new_row``
+    (old row -> new row) when ``renumber``.  A pair no longer listed loses its push."""
+    cap = nbr.shape[1]
+    lam[:] = 0.0
+    for q in range(si.shape[0]):
+        i = new_row[si[q]] if renumber else si[q]
+        j = new_row[sj[q]] if renumber else sj[q]
+        if nnb[i] <= cap:
+            for kk in range(nnb[i]):
+                if nbr[i, kk] == j:
+                    lam[i, kk] = sl[q]
+                    break
 
 
 @njit(cache=True)
 def _next_active(
-    active, count, everyone, result, pos, contact2, nbr, nnb, near, use_near, mark, out
+    active, count, everyone, result, pos, contact2, nbr, nnb, lam, held, near, use_near, mark,
+    out,
 ):  # fmt: skip
     """The robots the next sweep must visit, into ``out``; returns how many.
 
     Those that moved in the last sweep, those that still overlap something, every robot
     on a mover's list that the mover now overlaps (squared distance below ``contact2`` at
-    ``pos``, the configuration the next sweep starts from), and (``use_near``) those near
-    a body or piston that moved.  Any other robot has no overlap: nothing it overlaps
-    moved (its pairs with robots that did not move, and with static walls, are as the
-    last sweep that visited it found them: free), so the next sweep would leave it where
-    it is and measure nothing.  Serial, over the robots visited last (a few per cent of
-    the swarm after the first sweep); ``mark`` (all zero) is scratch.
+    ``pos``, the configuration the next sweep starts from) or holds a push with (``lam``
+    nonzero: both copies of a held push must be updated in the same sweep), and
+    (``use_near``) those near a body or piston that moved.  Any other robot has no
+    overlap: nothing it overlaps moved (its pairs with robots that did not move, and
+    with static walls, are as the last sweep that visited it found them: free), so the
+    next sweep would leave it where it is and measure nothing.  Serial, over the robots
+    visited last (a few per cent of the swarm after the first sweep); ``mark`` (all
+    zero) is scratch.
     """
     k = 0
     for q in range(count):
@@ -649,7 +871,7 @@ def _next_active(
                     # the sweep's own test, from j's side (the same rounding)
                     dx = pos[j, 0] - px
                     dy = pos[j, 1] - py
-                    if dx * dx + dy * dy < contact2:
+                    if dx * dx + dy * dy < contact2 or (held and lam[i, kk] != 0.0):
                         mark[j] = 1
                         out[k] = j
                         k += 1
@@ -825,9 +1047,27 @@ def _near_moved(pos, bodies, moved_b, pistons, moved_p, r, reach, out):
 
 # ----------------------------------------------------------------- the whole step
 @njit(cache=True)
+def _rebuild(at, ref, grid, num, cell, cell_start, perm, nbr, nnb, lam, new_row, renumber):
+    """Rebuild the lists at ``at`` (recorded in ``ref``), carrying the held pushes over
+    (rows renumbered by ``new_row`` when ``renumber``).  Returns the overflow count."""
+    si, sj, sl = _stash_held(nbr, nnb, lam, num.warm)
+    overflows = build_lists(at, ref, grid, num.cutoff, cell, cell_start, perm, nbr, nnb)
+    if num.warm:
+        _restore_held(si, sj, sl, new_row, renumber, nbr, nnb, lam)
+    return overflows
+
+
+@njit(cache=True)
+def _inverse(perm, out):
+    for k in range(perm.shape[0]):
+        out[perm[k]] = k
+
+
+@njit(cache=True)
 def overdamped_step(
-    pos, scratch, ref, fcols, icols, udir, grid, num, lists_ready, cell, cell_start, perm,
-    nbr, nnb, overflows, visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons,
+    pos, scratch, ref, fcols, icols, udir, lam, lamw, lamid, grid, num, lists_ready, cell,
+    cell_start, perm, nbr, nnb, overflows, visits, result, mark, near, cell_flag, seg, sdisc,
+    bodies, pistons,
 ):  # fmt: skip
     """Advance the overdamped swarm by one step ``num.dt``.
 
@@ -836,36 +1076,48 @@ def overdamped_step(
     2. **Lists**: if any robot is now farther than ``skin / 2`` from ``ref``, the robots
        are re-sorted by cell and the Verlet lists rebuilt; if the lists are not in the
        workspace yet (``lists_ready`` false: a new or resumed state) they are rebuilt
-       from ``ref``, exactly as they were.
-    3. **Projection**: Jacobi sweeps (:func:`_sweep`), each measuring the exact largest
-       overlap of the current configuration, until it is below ``num.tol`` (after at
-       least ``num.min_sweeps`` sweeps) or ``num.max_sweeps`` sweeps were made.  The last
+       from ``ref``, exactly as they were.  Held pushes move to the new lists' slots.
+    3. **Warm start** (``num.warm``): every robot takes the pushes its contacts held at
+       the end of the last step (:func:`_warm_start`).  A jammed swarm pushed by the same
+       commands as in the last step then starts next to its solution instead of one
+       robot layer of it per sweep.
+    4. **Projection**: Jacobi sweeps (:func:`_sweep`), each measuring the exact largest
+       overlap of the current configuration (and, warm, the largest push held that is
+       no longer needed), until they are below ``num.tol`` and ``num.slack_tol`` (after
+       at least ``num.min_sweeps`` sweeps) or ``num.max_sweeps`` sweeps were made.  The last
        sweep only measures: the configuration it measured is the result, so the overlap
        returned is that of the final positions.  After each applied sweep the list
        validity is checked again and the lists rebuilt (without re-sorting) if needed.
        The first sweep (and the first after a rebuild) visits every robot, later ones
        only the robots whose surroundings changed (:func:`_next_active`).
 
-    ``scratch`` is an (n, 2) buffer that takes every other sweep's positions; the
-    final positions are in ``scratch`` when the last value returned is true (the caller
-    swaps the two arrays).  ``overflows`` (1,) int64 holds the number of overflowing
-    lists (kept with the lists); ``visits`` (2, n) int32 and ``result``, ``mark``, ``near``
-    (n,) uint8 are work arrays.  Returns ``(sweeps, overlap (mm), list builds,
-    in_scratch)``.
+    ``lam`` (n, capacity) float32 holds the push (mm) of each listed pair, ``lamw`` (2, n)
+    float32 those off up to two walls per robot, ``lamid`` (2, n) int32 those walls'
+    segment indices (state: they travel with it).  ``scratch`` is an
+    (n, 2) buffer that takes every other sweep's positions; the final positions are in
+    ``scratch`` when the last value returned is true (the caller swaps the two arrays).
+    ``overflows`` (1,) int64 holds the number of overflowing lists (kept with the
+    lists); ``visits`` (2, n) int32 and ``result``, ``mark``, ``near`` (n,) uint8 are
+    work arrays.  Returns ``(sweeps, overlap (mm), list builds, in_scratch)``.
     """
     n = pos.shape[0]
     r = num.radius
+    held = num.warm
     contact2 = (2.0 * r - SLOP) * (2.0 * r - SLOP)  # as in _sweep
     far = _move(pos, udir, fcols[SPEED], icols[TIMER], ref, num.dt)
     _move_bodies(bodies, pistons, seg, sdisc, num.dt)
 
     builds = 0
-    if not (far <= num.half_skin * num.half_skin):
-        sort_rows(pos, fcols, icols, udir, scratch, grid, cell, cell_start, perm)
-        overflows[0] = build_lists(pos, ref, grid, num.cutoff, cell, cell_start, perm, nbr, nnb)
-        builds += 1
-    elif not lists_ready:
+    new_row = visits[1]
+    if not lists_ready and (held or far <= num.half_skin * num.half_skin):
+        # the lists the state's held pushes belong to (or the ones the step will use)
         overflows[0] = build_lists(ref, ref, grid, num.cutoff, cell, cell_start, perm, nbr, nnb)
+        builds += 1
+    if not (far <= num.half_skin * num.half_skin):
+        sort_rows(pos, fcols, icols, udir, lamw, lamid, scratch, grid, cell, cell_start, perm)
+        _inverse(perm, new_row)
+        overflows[0] = _rebuild(pos, ref, grid, num, cell, cell_start, perm, nbr, nnb, lam,
+                                new_row, True)  # fmt: skip
         builds += 1
 
     nb = bodies.shape[0]
@@ -877,26 +1129,36 @@ def overdamped_step(
     visit_next = visits[1]
     src = pos
     dst = scratch
+    in_scratch = False
+    if held:
+        far = _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r)
+        src, dst = dst, src
+        in_scratch = True
+        if not (far <= num.half_skin * num.half_skin):
+            overflows[0] = _rebuild(src, ref, grid, num, cell, cell_start, perm, nbr, nnb,
+                                    lam, new_row, False)  # fmt: skip
+            builds += 1
     everyone = True
     count = n
     sweeps = 0
     overlap = 0.0
     while True:
         _bodies_pass(src, cell_start, perm, grid, r, num.drag, num.dt, bodies, pistons, contact)
-        overlap, far = _sweep(
-            src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg,
-            sdisc, bodies, pistons, visit, count, everyone, result,
+        overlap, far, slack = _sweep(
+            src, dst, ref, nbr, nnb, lam, lamw, lamid, cell, cell_start, perm, cell_flag, grid,
+            num, seg, sdisc, bodies, pistons, visit, count, everyone, overflows[0] > 0, result,
         )  # fmt: skip
         sweeps += 1
-        if (sweeps >= num.min_sweeps and overlap < num.tol) or sweeps >= num.max_sweeps:
+        done = overlap < num.tol and slack < num.slack_tol
+        if (sweeps >= num.min_sweeps and done) or sweeps >= num.max_sweeps:
             break  # src is the result; its overlaps were just measured
         # apply the sweep: dst is the configuration now, bodies and pistons take their steps
         any_moved = _apply_body_steps(bodies, pistons, contact, moved_b, moved_p, seg, sdisc)
         src, dst = dst, src
+        in_scratch = not in_scratch
         if not (far <= num.half_skin * num.half_skin):
-            overflows[0] = build_lists(
-                src, ref, grid, num.cutoff, cell, cell_start, perm, nbr, nnb
-            )
+            overflows[0] = _rebuild(src, ref, grid, num, cell, cell_start, perm, nbr, nnb,
+                                    lam, new_row, False)  # fmt: skip
             builds += 1
             everyone = True
             count = n
@@ -907,12 +1169,12 @@ def overdamped_step(
             if any_moved:
                 _near_moved(src, bodies, moved_b, pistons, moved_p, r, grid.cell_size, near)
             count = _next_active(
-                visit, count, everyone, result, src, contact2, nbr, nnb, near, any_moved,
-                mark, visit_next,
+                visit, count, everyone, result, src, contact2, nbr, nnb, lam, held, near,
+                any_moved, mark, visit_next,
             )  # fmt: skip
             visit, visit_next = visit_next, visit
             everyone = False
-    return sweeps, overlap, builds, sweeps % 2 == 0
+    return sweeps, overlap, builds, in_scratch
 
 
 @njit(cache=True, parallel=True)
