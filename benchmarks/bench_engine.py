@@ -325,6 +325,7 @@ def vmas_bench(n: int, phi: float, envs: int = 1, seed: int = 0) -> dict:
 
     torch.set_num_threads(1)
     m = n // envs
+    n = m * envs  # whole worlds (N rounded down to a multiple of the world size)
     side = _side(m, phi) / 1000.0
     r = R / 1000.0
     k = VMAS_SUBSTEPS
@@ -492,6 +493,70 @@ def table(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
+# ---------------------------------------------------------------------------- limit
+#: Bytes a robot-step must move at least (the arrays each phase streams, per robot; cell
+#: and neighbour data of the neighbours themselves are assumed cached, as the rows are
+#: in cell order): the commanded move (pos, ref, udir, speed, timer read; pos, timer
+#: written), the decision (heading, speed, udir written; two NumPy draws of 8 bytes read
+#: and written), the first sweep (pos, list, count, cell read; the second position
+#: buffer and a flag written), and per list build, the re-sort of every per-robot array
+#: and the new lists.  Later sweeps (a few per cent of the robots) are left out.
+BYTES_MOVE = 16 + 16 + 8 + 8 + 4 + 16 + 4
+BYTES_DECIDE = 8 + 8 + 8 + 2 * 16
+BYTES_FIRST_SWEEP = 16 + 40 + 4 + 4 + 16 + 1
+BYTES_PER_BUILD = 2 * (16 + 16 + 24 + 8) + 16 + 40 + 4 + 4 + 16
+
+
+def stream(mib: int = 256, reps: int = 5) -> dict:
+    """STREAM-style bandwidth of this process (one thread: NumPy), GB/s: ``copy``
+    (``b[:] = a``: 16 bytes an element) and ``triad`` (``a = b + s c``: counted as
+    STREAM counts it, 24 bytes an element; NumPy does it in two passes), best of
+    ``reps`` on arrays of ``mib`` MiB each (far beyond the caches)."""
+    m = mib * 2**20 // 8
+    a = np.ones(m)
+    b = np.full(m, 2.0)
+    c = np.full(m, 3.0)
+    best = {"copy": math.inf, "triad": math.inf}
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        np.copyto(b, a)
+        best["copy"] = min(best["copy"], time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        np.multiply(c, 3.0, out=a)
+        np.add(a, b, out=a)
+        best["triad"] = min(best["triad"], time.perf_counter() - t0)
+    return {"copy": 16 * m / best["copy"] / 1e9, "triad": 24 * m / best["triad"] / 1e9}
+
+
+def limit(ns: list[int], phi: float, settle: float) -> str:
+    """The engine's fraction of the measured bandwidth, one thread, one command."""
+    from thermoswarm.sim.bench import run_bench
+
+    set_threads(1)
+    bw = stream()
+    rows = [
+        f"STREAM-style, one thread, this command: copy {bw['copy']:.1f} GB/s, triad "
+        f"{bw['triad']:.1f} GB/s; instructions per robot-step: not measured (perf has no "
+        "hardware counters in this VM)",
+        "",
+        "| N | robot-steps/s (1 thread) | sweeps/step | builds/step | bytes/robot-step "
+        "(at least) | GB/s moved | of copy bandwidth |",
+        "|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for n in ns:
+        r = run_bench(n, phi, seconds=max(settle, 0.5), checks=0, memory_steps=1)
+        b = BYTES_MOVE + BYTES_DECIDE + BYTES_FIRST_SWEEP
+        b += r["list_builds_per_step"] * BYTES_PER_BUILD
+        gbs = b * r["robot_steps_per_second"] / 1e9
+        rows.append(
+            f"| {n:,} | {r['robot_steps_per_second'] / 1e6:.2f} M | "
+            f"{r['mean_sweeps_per_step']:.1f} | {r['list_builds_per_step']:.2f} | {b:.0f} | "
+            f"{gbs:.2f} | {100 * gbs / bw['copy']:.0f} % |"
+        )
+    set_threads(None)
+    return "\n".join(rows)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, action="append", help="robots (repeatable)")
@@ -517,11 +582,20 @@ def main(argv: list[str] | None = None) -> int:
         "the start, where contacts are still building up)",
     )  # fmt: skip
     ap.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    ap.add_argument(
+        "--limit", action="store_true",
+        help="print the bandwidth table instead (ours, 1 thread, against a STREAM-style "
+        "bandwidth measured in the same command; --settle = simulated seconds timed)",
+    )  # fmt: skip
     a = ap.parse_args(argv)
     global SETTLE_STEPS
     SETTLE_STEPS = max(0, round(a.settle / DT))
     ns = a.n or [1_200, 10_000, 100_000, 1_000_000]
     phis = a.phi or [0.18, 0.5]
+    if a.limit:
+        print(limit(ns, phis[-1], a.settle))
+        print(f"(load average at the end: {os.getloadavg()[0]:.1f})")
+        return 0
     tools = [t.strip() for t in a.tools.split(",") if t.strip()]
     import numba
 

@@ -475,6 +475,8 @@ def _auto_threads(n: int) -> int | None:
 
 #: Fraction of a held contact's opened gap taken back per sweep (warm start).
 PULL = 0.5
+#: Fraction of the last step's held pushes a step starts from (warm start).
+KEEP = 0.95
 #: Sweeping stops once no held push exceeds what its contact needs by more than this
 #: many times ``overlap_tol`` (warm start).
 SLACK = 1.0
@@ -542,7 +544,7 @@ class _Workspace:
             cutoff=float(self.cutoff), half_skin=0.5 * skin_mm,
             min_sweeps=params.iterations, max_sweeps=params.max_iterations,
             warm=bool(params.warm_start), pull=PULL,
-            slack_tol=SLACK * params.overlap_tol * 2 * r,
+            slack_tol=SLACK * params.overlap_tol * 2 * r, keep=KEEP,
         )  # fmt: skip
         ncell = nx * ny
         self.cell = np.empty(n, np.int32)  # each robot's cell when the lists were built
