@@ -1,4 +1,4 @@
-"""Engine benchmark: thermoswarm beside pymunk and NVIDIA Warp (CPU), one command.
+"""Engine benchmark: thermoswarm beside JAX-MD, VMAS, NumPy + cKDTree and pymunk (CPU).
 
 Workload: discs of 33 mm at packing fraction PHI in a square walled box, speeds from the
 Boltzmann (Rayleigh) law with mean 10 mm/s and uniform headings, both re-drawn every
@@ -14,10 +14,16 @@ Tools, each at its best as a user would run it:
   with its batch API (``pymunk.batch.set_space_bodies``), positions read with
   ``get_space_bodies``; 1 thread, and its threaded solver (``Space(threaded=True)``,
   ``threads = 2``);
-- **Warp** (NVIDIA Warp on its CPU device, what a user picks for large particle swarms
-  on a GPU): the same overdamped projection as ours written as Warp kernels -- a hash
-  grid rebuilt every step, ``--warp-sweeps`` Jacobi sweeps (fixed; Warp offers no
-  cheap early exit) -- one CPU thread (Warp runs CPU kernels serially).
+- **NumPy + SciPy cKDTree**: move, then Jacobi projection sweeps over the pairs
+  ``query_pairs`` finds until the largest overlap is below our tolerance (0.5 % of D);
+- **JAX-MD** (``energy.soft_sphere_neighbor_list``, its cell-list neighbour list, ``jit``
+  and ``lax.fori_loop``): overdamped Euler of soft discs under the commanded velocity,
+  ``--jaxmd-substeps`` sub-steps per 0.1 s step with the stiffness each sub-step allows
+  (``JAXMD_STIFFNESS``); its overlap falls with the sub-steps (about our 0.5 % at 50);
+  compile time excluded and reported; one XLA thread;
+- **VMAS** (its own penalty collisions, ``World.step``): as one world of N agents (up to
+  ``VMAS_ONE_WORLD_MAX_N``: it checks every pair) and as N / 12 batched worlds of 12
+  agents each; one torch thread.
 
 Measured for every tool: robot-steps per second of wall time (timed steps only, the
 fastest of 3 blocks; the first steps, which compile or warm up, are excluded and their
@@ -82,10 +88,12 @@ def _side(n: int, phi: float) -> float:
     return math.sqrt(n * math.pi * R * R / phi)
 
 
-def _timed(step, n: int, positions, side: float) -> dict:
+def _timed(step, n: int, positions, side: float, overlap=None) -> dict:
     """Warm up, run SETTLE_STEPS steps untimed, then BLOCKS blocks of steps (about BUDGET
     seconds in all); the exact overlap (KD-tree, not timed) before the first block and
-    after each block."""
+    after each block (``overlap(positions())``, default :func:`kd_overlap`)."""
+    if overlap is None:
+        overlap = functools.partial(kd_overlap, side=side)
     t0 = time.perf_counter()
     step()  # compiles / warms up
     first = time.perf_counter() - t0
@@ -95,14 +103,14 @@ def _timed(step, n: int, positions, side: float) -> dict:
     step()
     one = time.perf_counter() - t0
     per_block = max(MIN_STEPS, int(BUDGET / BLOCKS / max(one, 1e-6)))
-    worst = kd_overlap(positions(), side)
+    worst = overlap(positions())
     walls = []
     for _ in range(BLOCKS):
         t0 = time.perf_counter()
         for _ in range(per_block):
             step()
         walls.append(time.perf_counter() - t0)
-        worst = max(worst, kd_overlap(positions(), side))
+        worst = max(worst, overlap(positions()))
     best = min(walls)
     return {
         "steps": per_block * BLOCKS,
@@ -191,84 +199,221 @@ def pymunk_bench(n: int, phi: float, threads: int, seed: int = 0) -> dict:
     return out
 
 
-# ----------------------------------------------------------------------------- Warp
-def warp_bench(n: int, phi: float, sweeps: int, seed: int = 0) -> dict:
-    import warp as wp
-
-    wp.config.quiet = True
-    wp.init()
-
-    @wp.kernel
-    def move(pos: wp.array(dtype=wp.vec3), vel: wp.array(dtype=wp.vec3), dt: float):
-        i = wp.tid()
-        pos[i] = pos[i] + vel[i] * dt
-
-    @wp.kernel
-    def project(
-        grid: wp.uint64,
-        src: wp.array(dtype=wp.vec3),
-        dst: wp.array(dtype=wp.vec3),
-        r: float,
-        reach: float,
-        side: float,
-    ):
-        tid = wp.tid()
-        i = wp.hash_grid_point_id(grid, tid)
-        p = src[i]
-        corr = wp.vec3(0.0, 0.0, 0.0)
-        query = wp.hash_grid_query(grid, p, reach)
-        j = int(0)  # noqa: UP018 (Warp: a mutable int, assigned by the query)
-        while wp.hash_grid_query_next(query, j):
-            if j != i:
-                d = p - src[j]
-                dist = wp.length(d)
-                if dist < 2.0 * r and dist > 1.0e-6:
-                    corr = corr + d * (0.5 * (2.0 * r - dist) / dist)
-        x = p + corr
-        dst[i] = wp.vec3(wp.clamp(x[0], r, side - r), wp.clamp(x[1], r, side - r), 0.0)
-
+# ------------------------------------------------------------------- NumPy + cKDTree
+def numpy_bench(n: int, phi: float, seed: int = 0) -> dict:
+    """The baseline a researcher writes in an afternoon: move, then Jacobi projection
+    sweeps over the pairs ``cKDTree.query_pairs`` finds (half the overlap each, walls by
+    clipping) until the largest overlap is below our tolerance (0.5 % of D), at most
+    500 sweeps; one thread."""
     side = _side(n, phi)
     rng = np.random.default_rng(seed + 1)
-    p0 = _start(n, phi)
     law = SpeedLaw(kT_for_mean_speed(MEAN_SPEED))
-    dev = "cpu"
-    host = np.zeros((n, 3), np.float32)
-    host[:, :2] = p0
-    bufs = [wp.array(host, dtype=wp.vec3, device=dev), wp.zeros(n, dtype=wp.vec3, device=dev)]
-    vel_host = np.zeros((n, 3), np.float32)
-    vel = wp.array(vel_host, dtype=wp.vec3, device=dev)
-    vel_view = vel.numpy()  # CPU arrays share memory with NumPy
-    dims = max(1, min(1024, int(side / (2.5 * R))))
-    grid = wp.HashGrid(dims, dims, 1, device=dev)
-    reach = 2 * R * 1.5  # candidates within 1.5 D of a disc (robots move < D/4 a step)
+    pos = _start(n, phi).copy()
+    tol = 0.005 * DIAMETER
+    sweeps = [0]
 
     def step() -> None:
         v = law.sample(rng, n)
         th = rng.uniform(-np.pi, np.pi, n)
-        vel_view[:, 0] = v * np.cos(th)
-        vel_view[:, 1] = v * np.sin(th)
-        wp.launch(move, dim=n, inputs=[bufs[0], vel, DT], device=dev)
-        grid.build(bufs[0], reach)
-        for _ in range(sweeps):
-            wp.launch(project, dim=n, inputs=[grid.id, bufs[0], bufs[1], R, reach, side])
-            bufs.reverse()
-        wp.synchronize_device(dev)
+        pos[:, 0] += v * np.cos(th) * DT
+        pos[:, 1] += v * np.sin(th) * DT
+        for _ in range(500):
+            np.clip(pos, R, side - R, out=pos)
+            sweeps[0] += 1
+            pairs = cKDTree(pos).query_pairs(DIAMETER, output_type="ndarray")
+            if not len(pairs):
+                break
+            d = pos[pairs[:, 0]] - pos[pairs[:, 1]]
+            dist = np.hypot(d[:, 0], d[:, 1])
+            ov = DIAMETER - dist
+            if ov.max() < tol:
+                break
+            corr = d * (0.5 * ov / np.maximum(dist, 1e-12))[:, None]
+            for c in range(2):
+                pos[:, c] += np.bincount(pairs[:, 0], corr[:, c], n)
+                pos[:, c] -= np.bincount(pairs[:, 1], corr[:, c], n)
+
+    out = _timed(step, n, lambda: pos, side)
+    out.update(threads=1, mean_sweeps_per_step=sweeps[0] / max(out["steps"], 1))
+    return out
+
+
+# ---------------------------------------------------------------------------- JAX-MD
+#: JAX-MD's soft discs: ``U = eps / 2 (1 - r / D)^2`` (``energy.soft_sphere``, alpha 2),
+#: overdamped Euler with the commanded velocity, ``SUBSTEPS`` sub-steps per 0.1 s step
+#: and ``eps = STIFFNESS D^2 / dt_sub`` (each sub-step removes ``2 STIFFNESS`` of a lone
+#: pair's overlap: the most explicit Euler takes stably in a crowd of six neighbours).
+JAXMD_STIFFNESS = 0.25
+JAXMD_SUBSTEPS = 50
+
+
+def jaxmd_bench(n: int, phi: float, substeps: int, seed: int = 0) -> dict:
+    # one CPU thread, as every other column (XLA reads this when jax is first imported)
+    os.environ.setdefault(
+        "XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+    )
+    import jax
+    import jax.numpy as jnp
+    from jax_md import energy, partition, space
+
+    side = _side(n, phi)
+    pad = DIAMETER  # the cell list needs every disc inside [0, box): walls are soft
+    box = side + 2 * pad
+    dts = DT / substeps
+    eps = JAXMD_STIFFNESS * DIAMETER**2 / dts
+    disp, _ = space.free()
+    neighbor_fn, energy_fn = energy.soft_sphere_neighbor_list(
+        disp, box, sigma=DIAMETER, epsilon=eps, alpha=2.0, dr_threshold=0.25 * DIAMETER,
+        format=partition.Sparse,
+    )  # fmt: skip
+    force_fn = jax.grad(lambda x, nb: -energy_fn(x, nb))
+    k_wall = eps / DIAMETER**2  # the same stiffness against the walls
+    lo, hi = pad + R, pad + side - R
+
+    def walls(x):
+        return k_wall * (jnp.maximum(lo - x, 0.0) - jnp.maximum(x - hi, 0.0))
+
+    @jax.jit
+    def step(x, nbrs, v):
+        def sub(_, carry):
+            x, nbrs = carry
+            nbrs = nbrs.update(x)
+            x = x + dts * (v + force_fn(x, nbrs) + walls(x))
+            return x, nbrs
+
+        return jax.lax.fori_loop(0, substeps, sub, (x, nbrs))
+
+    rng = np.random.default_rng(seed + 1)
+    law = SpeedLaw(kT_for_mean_speed(MEAN_SPEED))
+    x = jnp.asarray(_start(n, phi) + pad, dtype=jnp.float32)
+    holder = {"x": x, "nbrs": neighbor_fn.allocate(x)}
+
+    def one_step() -> None:
+        sp = law.sample(rng, n)
+        th = rng.uniform(-np.pi, np.pi, n)
+        v = jnp.asarray(np.column_stack([sp * np.cos(th), sp * np.sin(th)]), jnp.float32)
+        x1, nb1 = step(holder["x"], holder["nbrs"], v)
+        if nb1.did_buffer_overflow:  # JAX-MD's fixed capacity: reallocate and redo
+            holder["nbrs"] = neighbor_fn.allocate(holder["x"])
+            x1, nb1 = step(holder["x"], holder["nbrs"], v)
+        x1.block_until_ready()
+        holder["x"], holder["nbrs"] = x1, nb1
 
     def positions() -> np.ndarray:
-        return bufs[0].numpy()[:, :2].astype(np.float64)
+        return np.asarray(holder["x"], dtype=np.float64) - pad
 
-    out = _timed(step, n, positions, side)
-    out["threads"] = 1
-    out["sweeps_per_step"] = sweeps
+    out = _timed(one_step, n, positions, side)
+    out.update(substeps=substeps, epsilon=eps, threads=1)
+    return out
+
+
+# ----------------------------------------------------------------------------- VMAS
+#: VMAS sub-steps per 0.1 s step and its contact stiffness (``collision_force``).
+VMAS_SUBSTEPS = 10
+VMAS_COLLISION_FORCE = 2000.0
+
+
+def vmas_bench(n: int, phi: float, envs: int = 1, seed: int = 0) -> dict:
+    """VMAS as a user writes a scenario: ``envs`` batched worlds of ``n // envs`` sphere
+    agents (radius 16.5 mm, in metres), each in its own walled square of the same
+    packing (``x_semidim``/``y_semidim`` keep the centres ``R`` off the walls), its own
+    penalty collisions; force actions with full drag, sized so that an agent alone moves
+    ``v dt`` in a step; one torch thread."""
+    import torch
+    from vmas.simulator.core import Agent, Sphere, World
+    from vmas.simulator.scenario import BaseScenario
+
+    torch.set_num_threads(1)
+    m = n // envs
+    n = m * envs  # whole worlds (N rounded down to a multiple of the world size)
+    side = _side(m, phi) / 1000.0
+    r = R / 1000.0
+    k = VMAS_SUBSTEPS
+
+    class Swarm(BaseScenario):
+        def make_world(self, batch_dim, device, **kwargs):
+            world = World(batch_dim, device, dt=DT, substeps=k, drag=1.0,
+                          x_semidim=side / 2 - r, y_semidim=side / 2 - r,
+                          collision_force=VMAS_COLLISION_FORCE, contact_margin=1e-4)  # fmt: skip
+            for a in range(m):
+                world.add_agent(Agent(f"a{a}", shape=Sphere(r), rotatable=False, u_range=1e9))
+            return world
+
+        def reset_world_at(self, env_index=None):
+            start = torch.tensor(_start(m, phi) / 1000.0 - side / 2, dtype=torch.float32)
+            for a, agent in enumerate(self.world.agents):
+                agent.set_pos(start[a].expand(self.world.batch_dim, 2), batch_index=env_index)
+
+        def observation(self, agent):
+            return agent.state.pos
+
+        def reward(self, agent):
+            return torch.zeros(self.world.batch_dim)
+
+    scen = Swarm()
+    world = scen.env_make_world(envs, "cpu")
+    scen.reset_world_at()
+    rng = np.random.default_rng(seed + 1)
+    law = SpeedLaw(kT_for_mean_speed(MEAN_SPEED))
+    # velocity accumulates over the sub-steps (drag acts at the first): this force moves
+    # a free agent by v dt in a step
+    gain = 2.0 * k / (DT * (k + 1))
+
+    def step() -> None:
+        sp = law.sample(rng, n) / 1000.0
+        th = rng.uniform(-np.pi, np.pi, n)
+        f = torch.tensor(np.stack([sp * np.cos(th), sp * np.sin(th)], -1) * gain,
+                         dtype=torch.float32).reshape(envs, m, 2)  # fmt: skip
+        for a, agent in enumerate(world.agents):
+            agent.action.u = f[:, a]
+            agent.state.force = f[:, a]
+        world.step()
+
+    def positions() -> np.ndarray:
+        p = torch.stack([a.state.pos for a in world.agents], 1).numpy().astype(np.float64)
+        return p.reshape(envs, m, 2) * 1000.0 + side * 500.0
+
+    def step_and_check() -> None:
+        step()
+
+    def overlap_of(p: np.ndarray) -> float:
+        return max(kd_overlap(p[e], side * 1000.0) for e in range(envs))
+
+    out = _timed(step_and_check, n, positions, side * 1000.0, overlap=overlap_of)
+    out.update(threads=1, envs=envs, agents_per_env=m, substeps=k,
+               collision_force=VMAS_COLLISION_FORCE)  # fmt: skip
     return out
 
 
 # ---------------------------------------------------------------------------- table
-def one(n: int, phi: float, tools: list[str], warp_sweeps: int, threaded_max: int) -> dict:
+#: Agents per world in VMAS's batched column (E worlds of this many, E x n = N).
+VMAS_AGENTS_PER_ENV = 12
+#: Largest swarm VMAS runs as one world: its collision check is over every pair of
+#: entities (N^2 / 2 per sub-step): 14 agent-steps per second at 120 agents here.
+VMAS_ONE_WORLD_MAX_N = 120
+#: Largest swarm JAX-MD and NumPy run (time on the shared machine; both are one thread).
+PEER_MAX_N = 100_000
+
+
+def one(n: int, phi: float, tools: list[str], threaded_max: int, substeps: int) -> dict:
     row: dict = {"n": n, "phi": phi}
     for t in (1, 2):
         if f"ours{t}" in tools:
             row[f"ours_{t}_thread"] = ours(n, phi, t)
+    too_big = {"skipped": "time"}
+    if "numpy" in tools:
+        row["numpy"] = numpy_bench(n, phi) if n <= PEER_MAX_N else too_big
+    if "jaxmd" in tools:
+        row["jaxmd"] = jaxmd_bench(n, phi, substeps) if n <= PEER_MAX_N else too_big
+    if "vmas" in tools:
+        row["vmas_one"] = (
+            vmas_bench(n, phi, 1)
+            if n <= VMAS_ONE_WORLD_MAX_N
+            else {"skipped": "every pair checked: N^2"}
+        )
+    if "vmas_batched" in tools:
+        envs = max(1, n // VMAS_AGENTS_PER_ENV)
+        row["vmas_batched"] = vmas_bench(n, phi, envs) if n <= PEER_MAX_N else too_big
     for t in (1, 2):
         if f"pymunk{t}" in tools:
             row[f"pymunk_{t}_thread"] = (
@@ -276,17 +421,18 @@ def one(n: int, phi: float, tools: list[str], warp_sweeps: int, threaded_max: in
                 if t == 1 or n <= threaded_max
                 else {"skipped": "setup takes minutes"}
             )
-    if "warp" in tools:
-        row["warp_1_thread"] = warp_bench(n, phi, warp_sweeps)
     return row
 
 
 COLUMNS = [
     ("ours_1_thread", "ours, 1 thread"),
     ("ours_2_thread", "ours, 2 threads"),
+    ("numpy", "NumPy + cKDTree, 1 thread"),
+    ("jaxmd", "JAX-MD soft discs, 1 thread"),
+    ("vmas_one", "VMAS, one world, 1 thread"),
+    ("vmas_batched", f"VMAS, worlds of {VMAS_AGENTS_PER_ENV}, 1 thread"),
     ("pymunk_1_thread", "pymunk batch, 1 thread"),
     ("pymunk_2_thread", "pymunk batch, threaded (2)"),
-    ("warp_1_thread", "Warp CPU (1 thread)"),
 ]
 
 
@@ -295,27 +441,34 @@ def _cell(r: dict | None) -> str:
         return "not run"
     if "skipped" in r:
         return f"skipped ({r['skipped']})"
-    return f"{r['robot_steps_per_second'] / 1e6:.2f} M/s, {100 * r['max_overlap_fraction']:.2f} %"
+    return (
+        f"{r['simulated_robot_seconds_per_second'] / 1e3:.3g} k, "
+        f"{r['robot_steps_per_second'] / 1e6:.3g} M/s, {100 * r['max_overlap_fraction']:.2f} %"
+    )
 
 
 def _ratio(row: dict, a: str, b: str) -> str:
     ra, rb = row.get(a), row.get(b)
     if not ra or not rb or "skipped" in ra or "skipped" in rb:
         return "-"
-    return f"{ra['robot_steps_per_second'] / rb['robot_steps_per_second']:.1f}x"
+    x = ra["simulated_robot_seconds_per_second"] / rb["simulated_robot_seconds_per_second"]
+    return f"{x:.3g}x" if x >= 1 else f"{x:.3g}x (peer {1 / x:.3g}x)"
 
 
 def table(rows: list[dict]) -> str:
     cols = [c for c in COLUMNS if any(c[0] in r for r in rows)]
+    peers = [c for c in cols if not c[0].startswith("ours")]
     head = " | ".join(name for _, name in cols)
     out = [
-        "robot-steps per wall second (fastest of 3 blocks), exact max overlap (KD-tree "
-        "after the first step and each block, % of D); ratio = ours / peer at the same "
-        "thread count",
+        "each cell: simulated robot-seconds per wall second (k), robot-steps per wall "
+        "second (M, each step 0.1 s), exact max overlap (KD-tree after the first step "
+        "and each block, % of D); ratios: ours (1 thread) / peer in simulated "
+        "robot-seconds per second, the peer's own ratio in brackets where it is faster",
         "",
-        f"| N | phi | {head} | ours/pymunk (1 thr) | ours/pymunk (2 thr) | ours/Warp (1 thr) "
-        "| ours sim. robot-s/s (2 thr) | ours bytes/robot | ours cost vs N=1,200 |",
-        "|---:|---:|" + "---:|" * (len(cols) + 6),
+        f"| N | phi | {head} | "
+        + " | ".join(f"ours / {name}" for _, name in peers)
+        + " | ours bytes/robot | ours cost vs N=1,200 |",
+        "|---:|---:|" + "---:|" * (len(cols) + len(peers) + 2),
     ]
     base = {}
     for r in rows:
@@ -323,22 +476,85 @@ def table(rows: list[dict]) -> str:
         if o and r["n"] == 1200:
             base[r["phi"]] = o["robot_steps_per_second"]
     for r in rows:
-        o1, o2 = r.get("ours_1_thread"), r.get("ours_2_thread")
+        o1 = r.get("ours_1_thread")
         rel = (
             f"{base[r['phi']] / o1['robot_steps_per_second']:.2f}x"
             if o1 and r["phi"] in base
             else "-"
         )
-        sim_rs = f"{o2['simulated_robot_seconds_per_second'] / 1e3:.0f} k" if o2 else "-"
         mem = f"{r['bytes_per_robot']:.0f}" if "bytes_per_robot" in r else "-"
         out.append(
             f"| {r['n']:,} | {r['phi']} | "
             + " | ".join(_cell(r.get(k)) for k, _ in cols)
-            + f" | {_ratio(r, 'ours_1_thread', 'pymunk_1_thread')}"
-            f" | {_ratio(r, 'ours_2_thread', 'pymunk_2_thread')}"
-            f" | {_ratio(r, 'ours_1_thread', 'warp_1_thread')} | {sim_rs} | {mem} | {rel} |"
+            + " | "
+            + " | ".join(_ratio(r, "ours_1_thread", k) for k, _ in peers)
+            + f" | {mem} | {rel} |"
         )
     return "\n".join(out)
+
+
+# ---------------------------------------------------------------------------- limit
+#: Bytes a robot-step must move at least (the arrays each phase streams, per robot; cell
+#: and neighbour data of the neighbours themselves are assumed cached, as the rows are
+#: in cell order): the commanded move (pos, ref, udir, speed, timer read; pos, timer
+#: written), the decision (heading, speed, udir written; two NumPy draws of 8 bytes read
+#: and written), the first sweep (pos, list, count, cell read; the second position
+#: buffer and a flag written), and per list build, the re-sort of every per-robot array
+#: and the new lists.  Later sweeps (a few per cent of the robots) are left out.
+BYTES_MOVE = 16 + 16 + 8 + 8 + 4 + 16 + 4
+BYTES_DECIDE = 8 + 8 + 8 + 2 * 16
+BYTES_FIRST_SWEEP = 16 + 40 + 4 + 4 + 16 + 1
+BYTES_PER_BUILD = 2 * (16 + 16 + 24 + 8) + 16 + 40 + 4 + 4 + 16
+
+
+def stream(mib: int = 256, reps: int = 5) -> dict:
+    """STREAM-style bandwidth of this process (one thread: NumPy), GB/s: ``copy``
+    (``b[:] = a``: 16 bytes an element) and ``triad`` (``a = b + s c``: counted as
+    STREAM counts it, 24 bytes an element; NumPy does it in two passes), best of
+    ``reps`` on arrays of ``mib`` MiB each (far beyond the caches)."""
+    m = mib * 2**20 // 8
+    a = np.ones(m)
+    b = np.full(m, 2.0)
+    c = np.full(m, 3.0)
+    best = {"copy": math.inf, "triad": math.inf}
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        np.copyto(b, a)
+        best["copy"] = min(best["copy"], time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        np.multiply(c, 3.0, out=a)
+        np.add(a, b, out=a)
+        best["triad"] = min(best["triad"], time.perf_counter() - t0)
+    return {"copy": 16 * m / best["copy"] / 1e9, "triad": 24 * m / best["triad"] / 1e9}
+
+
+def limit(ns: list[int], phi: float, settle: float) -> str:
+    """The engine's fraction of the measured bandwidth, one thread, one command."""
+    from thermoswarm.sim.bench import run_bench
+
+    set_threads(1)
+    bw = stream()
+    rows = [
+        f"STREAM-style, one thread, this command: copy {bw['copy']:.1f} GB/s, triad "
+        f"{bw['triad']:.1f} GB/s; instructions per robot-step: not measured (perf has no "
+        "hardware counters in this VM)",
+        "",
+        "| N | robot-steps/s (1 thread) | sweeps/step | builds/step | bytes/robot-step "
+        "(at least) | GB/s moved | of copy bandwidth |",
+        "|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for n in ns:
+        r = run_bench(n, phi, seconds=max(settle, 0.5), checks=0, memory_steps=1)
+        b = BYTES_MOVE + BYTES_DECIDE + BYTES_FIRST_SWEEP
+        b += r["list_builds_per_step"] * BYTES_PER_BUILD
+        gbs = b * r["robot_steps_per_second"] / 1e9
+        rows.append(
+            f"| {n:,} | {r['robot_steps_per_second'] / 1e6:.2f} M | "
+            f"{r['mean_sweeps_per_step']:.1f} | {r['list_builds_per_step']:.2f} | {b:.0f} | "
+            f"{gbs:.2f} | {100 * gbs / bw['copy']:.0f} % |"
+        )
+    set_threads(None)
+    return "\n".join(rows)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -347,10 +563,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--phi", type=float, action="append", help="packing fraction (repeatable)")
     ap.add_argument(
         "--tools",
-        default="ours1,ours2,pymunk1,pymunk2,warp",
-        help="comma-separated subset of ours1,ours2,pymunk1,pymunk2,warp",
+        default="ours1,ours2,numpy,jaxmd,vmas,vmas_batched,pymunk1,pymunk2",
+        help="comma-separated subset of ours1,ours2,numpy,jaxmd,vmas,vmas_batched,pymunk1,pymunk2",
     )
-    ap.add_argument("--warp-sweeps", type=int, default=8, help="Jacobi sweeps per step in Warp")
+    ap.add_argument(
+        "--jaxmd-substeps", type=int, default=JAXMD_SUBSTEPS,
+        help="JAX-MD sub-steps per 0.1 s step (its stiffness follows: see JAXMD_STIFFNESS)",
+    )  # fmt: skip
     ap.add_argument(
         "--pymunk-threaded-max-n",
         type=int,
@@ -363,18 +582,30 @@ def main(argv: list[str] | None = None) -> int:
         "the start, where contacts are still building up)",
     )  # fmt: skip
     ap.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    ap.add_argument(
+        "--limit", action="store_true",
+        help="print the bandwidth table instead (ours, 1 thread, against a STREAM-style "
+        "bandwidth measured in the same command; --settle = simulated seconds timed)",
+    )  # fmt: skip
     a = ap.parse_args(argv)
     global SETTLE_STEPS
     SETTLE_STEPS = max(0, round(a.settle / DT))
     ns = a.n or [1_200, 10_000, 100_000, 1_000_000]
     phis = a.phi or [0.18, 0.5]
+    if a.limit:
+        print(limit(ns, phis[-1], a.settle))
+        print(f"(load average at the end: {os.getloadavg()[0]:.1f})")
+        return 0
     tools = [t.strip() for t in a.tools.split(",") if t.strip()]
     import numba
 
     if numba.config.NUMBA_NUM_THREADS < 2 and "ours2" in tools:
         print("only one Numba thread: the 2-thread column is skipped", file=sys.stderr)
         tools.remove("ours2")
-    for mod, names in (("pymunk", ("pymunk1", "pymunk2")), ("warp", ("warp",))):
+    for mod, names in (
+        ("pymunk", ("pymunk1", "pymunk2")), ("jax_md", ("jaxmd",)),
+        ("vmas", ("vmas", "vmas_batched")),
+    ):  # fmt: skip
         try:
             __import__(mod)
         except ImportError:
@@ -385,7 +616,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for phi in phis:
         for n in ns:
-            row = one(n, phi, tools, a.warp_sweeps, a.pymunk_threaded_max_n)
+            row = one(n, phi, tools, a.pymunk_threaded_max_n, a.jaxmd_substeps)
             from thermoswarm.sim.bench import run_bench
 
             mem = run_bench(n, phi, seconds=DT, checks=0, memory_steps=2)

@@ -33,7 +33,16 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-FILES = ("__init__", "engine", "kernels", "world")
+FILES = (
+    "__init__",
+    "engine",
+    "kernels",
+    "kernels_grid",
+    "kernels_walls",
+    "kernels_sweep",
+    "kernels_held",
+    "world",
+)  # fmt: skip (a revision without one of them is exported without it)
 
 CHILD = r"""
 import hashlib, importlib, json, math, sys, time
@@ -93,12 +102,16 @@ def export(rev: str, dest: Path, pkg: str) -> None:
     for f in FILES:
         rel = f"src/thermoswarm/sim/{f}.py"
         if rev == "WORKTREE":
+            if not (ROOT / rel).exists():
+                continue
             text = (ROOT / rel).read_text()
         else:
-            text = subprocess.run(
-                ["git", "show", f"{rev}:{rel}"], cwd=ROOT, capture_output=True, text=True,
-                check=True,
-            ).stdout  # fmt: skip
+            res = subprocess.run(
+                ["git", "show", f"{rev}:{rel}"], cwd=ROOT, capture_output=True, text=True
+            )
+            if res.returncode:  # not in that revision (the kernels were split later)
+                continue
+            text = res.stdout
         text = re.sub(r"\bthermoswarm\.sim\b(?!\.light|\.geometry|\.recorder)", pkg, text)
         (d / f"{f}.py").write_text(text)
 

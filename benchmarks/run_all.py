@@ -1,11 +1,11 @@
 """``make bench``: every benchmark, one after the other, each against its own baseline.
 
-Prints the engine table (thermoswarm on 1 and 2 threads beside pymunk's batch API,
-single-threaded and threaded, and NVIDIA Warp on the CPU) and a summary per other
-benchmark (analysis, tracking, U-Net, light, readers, sweeps, tracking on real ant
-boxes); the full JSON of each goes to ``bench-out/<name>.json``.  Every figure is a
-ratio against a baseline measured in the same process (these machines are noisy); the
-load average is printed with each result.
+Prints the engine tables (thermoswarm on 1 and 2 threads beside NumPy + cKDTree, JAX-MD,
+VMAS and pymunk's batch API; its fraction of a STREAM-style bandwidth; the jammed
+mechanism run with and without the warm start) and a summary line per other benchmark;
+the full JSON of each goes to ``bench-out/<name>.json``.  Every figure is a ratio
+against a baseline measured in the same process (these machines are noisy); the load
+average is printed with each result.
 
 The real-tracking step needs the ANTS ground truth (``--tracking-data DIR``, see
 docs/tracking.md); without it, it runs its synthetic box sequences only.
@@ -146,10 +146,17 @@ def main(argv: list[str] | None = None) -> int:
         from bench_engine import table
 
         ns = ["--n", "1200", "--n", "10000", "--n", "100000"] if a.quick else []
-        print("## engine (thermoswarm, pymunk and Warp: same workload, same command)\n")
+        print("## engine (thermoswarm, NumPy + cKDTree, JAX-MD, VMAS, pymunk: same workload)")
+        print(f"command: python benchmarks/bench_engine.py {' '.join(ns)}\n")
         d = _run("bench_engine", ns)
         if d:
             print(table(d["engine"]))
+        lim = ["--limit", "--settle", "2", "--phi", "0.5", "--n", "10000", "--n", "100000"]
+        lim += [] if a.quick else ["--n", "1000000"]
+        jam = [[], ["--set", "engine.warm_start=true"]]
+        for script, args in [("bench_engine", lim)] + [("engine_jam", j) for j in jam]:
+            print(f"\ncommand: python benchmarks/{script}.py {' '.join(args)}")
+            subprocess.run([sys.executable, str(HERE / f"{script}.py"), *args], check=False)
         print()
     with tempfile.TemporaryDirectory() as empty:
         for step in STEPS:

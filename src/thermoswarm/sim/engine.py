@@ -133,6 +133,18 @@ class EngineParams:
         ``max(2 r (1 + skin), sqrt(area / n))``.
     desync : bool
         Stagger the robots' control periods (real robots are not synchronised).
+    warm_start : bool
+        Keep each contact's accumulated push (per listed pair and off the nearest wall)
+        from step to step: a step starts from the last step's pushes, and a push that a
+        pair or wall no longer needs is taken back within the step.  A jammed swarm
+        (robots that keep pushing into a wall or a crowd) then needs a few sweeps a
+        step instead of one per robot layer of the jam (``docs/engine_performance.md``).
+        ``False`` (default): every step starts from the commanded motion and pushes
+        are never taken back (the engine before the warm start, bit for bit).
+        *Experimental, off by default*: in the mechanism study's jam it cuts the sweeps
+        5x at the same exact overlap, but its Jacobi pulls can ratchet the held pushes
+        up in dense uniform-heading jams (packing 0.75, 33 mm/s, tau 1 s: a robot was
+        pushed through a wall), see ``docs/engine_performance.md``.
     """
 
     dt: float = 0.1
@@ -147,6 +159,7 @@ class EngineParams:
     skin: float = 0.5
     cell_size: float | None = None
     desync: bool = True
+    warm_start: bool = False
 
     def __post_init__(self) -> None:
         check(self.dt > 0 and math.isfinite(self.dt), "dt", "a positive number (s)", self.dt)
@@ -223,6 +236,11 @@ class SwarmState:
     ref : (n, 2) mm, where each robot was when the neighbour lists were last built (the
         lists are a function of it, so it travels with the state: a resumed run rebuilds
         exactly the lists it had).  Default: a copy of ``pos``.
+    held_pairs : (n, capacity) float32 mm, the push each listed pair held at the end of
+        the last step (row i, the slot of its neighbour in i's list; overdamped with
+        ``warm_start``); ``held_walls`` : (2, n) float32 mm, each robot's pushes off up
+        to two static segments, whose indices are in ``held_wall_ids`` (2, n) int32.
+        None: no pushes held yet.
     """
 
     pos: np.ndarray
@@ -237,6 +255,9 @@ class SwarmState:
     rng: np.random.Generator
     counters: np.ndarray = field(default_factory=lambda: np.zeros(2, np.int64))
     ref: np.ndarray | None = None
+    held_pairs: np.ndarray | None = None
+    held_walls: np.ndarray | None = None
+    held_wall_ids: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.ref is None or self.ref.shape != self.pos.shape:
@@ -294,12 +315,17 @@ class SwarmState:
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         """Arrays for a checkpoint (the generator's state is saved separately)."""
-        return {
+        out = {
             "pos": self.pos, "fcols": self.fcols, "icols": self.icols, "udir": self.udir,
             "vel": self.vel,
             "bodies": self.bodies, "pistons": self.pistons, "counters": self.counters,
             "step": np.array(self.step), "time": np.array(self.time), "ref": self.ref,
         }  # fmt: skip
+        if self.held_pairs is not None:
+            out["held_pairs"] = self.held_pairs
+            out["held_walls"] = self.held_walls
+            out["held_wall_ids"] = self.held_wall_ids
+        return out
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], rng: np.random.Generator) -> SwarmState:
@@ -311,6 +337,9 @@ class SwarmState:
             counters=np.array(arrays["counters"]), step=int(arrays["step"]),
             time=float(arrays["time"]), rng=rng,
             ref=c(arrays["ref"]) if "ref" in arrays else None,
+            held_pairs=c(arrays["held_pairs"]) if "held_pairs" in arrays else None,
+            held_walls=c(arrays["held_walls"]) if "held_walls" in arrays else None,
+            held_wall_ids=c(arrays["held_wall_ids"]) if "held_wall_ids" in arrays else None,
         )  # fmt: skip
 
 
@@ -444,6 +473,40 @@ def _auto_threads(n: int) -> int | None:
     return current
 
 
+#: Fraction of a held contact's opened gap taken back per sweep (warm start).
+PULL = 0.5
+#: Fraction of the last step's held pushes a step starts from (warm start).
+KEEP = 0.95
+#: Sweeping stops once no held push exceeds what its contact needs by more than this
+#: many times ``overlap_tol`` (warm start).
+SLACK = 1.0
+
+
+def _held(
+    state: SwarmState, ws: _Workspace, warm: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The state's held pushes (pairs, walls, wall indices), made (nothing held) where
+    missing or of another shape; empty arrays when the warm start is off."""
+    n, cap = state.n, ws.neighbours.shape[1]
+    if not warm:
+        return _NO_PAIRS, _NO_WALLS, _NO_IDS
+    ok = (
+        state.held_pairs is not None and state.held_pairs.shape == (n, cap)
+        and state.held_walls is not None and state.held_walls.shape == (2, n)
+        and state.held_wall_ids is not None and state.held_wall_ids.shape == (2, n)
+    )  # fmt: skip
+    if not ok:
+        state.held_pairs = np.zeros((n, cap), np.float32)
+        state.held_walls = np.zeros((2, n), np.float32)
+        state.held_wall_ids = np.full((2, n), -1, np.int32)
+    return state.held_pairs, state.held_walls, state.held_wall_ids
+
+
+_NO_PAIRS = np.zeros((0, 0), np.float32)
+_NO_WALLS = np.zeros((0, 0), np.float32)
+_NO_IDS = np.zeros((0, 0), np.int32)
+
+
 def neighbour_capacity(skin: float) -> int:
     """Neighbour-list capacity from geometry, for discs of diameter d listed within
     ``(1 + skin) d``: they fit in a circle of radius ``(1.5 + skin) d``, so there are at
@@ -480,6 +543,8 @@ class _Workspace:
             tol=params.overlap_tol * 2 * r, relax=float(params.relax),
             cutoff=float(self.cutoff), half_skin=0.5 * skin_mm,
             min_sweeps=params.iterations, max_sweeps=params.max_iterations,
+            warm=bool(params.warm_start), pull=PULL,
+            slack_tol=SLACK * params.overlap_tol * 2 * r, keep=KEEP,
         )  # fmt: skip
         ncell = nx * ny
         self.cell = np.empty(n, np.int32)  # each robot's cell when the lists were built
@@ -751,11 +816,13 @@ class Simulator:
                 self._decide(state, None)
             elif due.size:
                 self._decide(state, due)
+            lam, lamw, lamid = _held(state, ws, p.warm_start)
             restore = _auto_threads(state.n)
             try:
                 sweeps, overlap, builds, in_scratch = K.overdamped_step(
                     state.pos, ws.scratch, state.ref, state.fcols, state.icols, state.udir,
-                    ws.grid, ws.numerics, ws.lists_of is state.ref, ws.cell, ws.cell_start,
+                    lam, lamw, lamid, ws.grid, ws.numerics, ws.lists_of is state.ref, ws.cell,
+                    ws.cell_start,
                     ws.perm, ws.neighbours, ws.n_neighbours, ws.overflows, ws.visits,
                     ws.result, ws.mark, ws.near_moved, ws.cell_near_static, w.segments,
                     w.static_discs, state.bodies, state.pistons,

@@ -1,0 +1,158 @@
+"""Kernels of the engine: the Jacobi projection sweep and the choice of the robots the
+next sweep visits (see :mod:`thermoswarm.sim.kernels`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from thermoswarm.sim.kernels_grid import MOVED, OVERLAPPING, SLOP
+from thermoswarm.sim.kernels_walls import _walls_and_bodies
+
+
+@njit(cache=True, inline="always")
+def _pair_push(px, py, src, i, j, c2, d_rr, half, mx, my, w):
+    """Robot ``i`` at ``(px, py)`` against robot ``j`` of ``src``: if they overlap, ``i``'s
+    share of the separation added to ``(mx, my)`` and the overlap to the running maximum
+    ``w``; returns the three."""
+    dx = px - src[j, 0]
+    dy = py - src[j, 1]
+    d2 = dx * dx + dy * dy
+    if d2 < c2:
+        d = math.sqrt(d2)
+        if d_rr - d > w:
+            w = d_rr - d
+        if d > 1e-12:
+            f = half * (d_rr - d) / d
+            mx += f * dx
+            my += f * dy
+        else:  # coincident centres: separate along x by row order
+            mx += half * d_rr * (1.0 if i < j else -1.0)
+    return mx, my, w
+
+
+@njit(cache=True, parallel=True)
+def _sweep(
+    src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg, sdisc,
+    bodies, pistons, active, count, everyone, result,
+):  # fmt: skip
+    """One Jacobi sweep: measure every overlap of ``src`` and write the corrected
+    positions to ``dst``.
+
+    Each overlapping pair moves apart by half its overlap each (times ``relax``); walls,
+    bodies and pistons as in :func:`_walls_and_bodies`.  The sweep visits every robot
+    (``everyone``) or the ``count`` robots ``active[:count]`` -- the others have no
+    overlap and ``dst`` already holds their position (see :func:`_next_active`).
+    ``result[k]`` gets the :data:`MOVED` and :data:`OVERLAPPING` bits of the k-th robot
+    visited.
+
+    Returns the largest overlap of ``src`` (exact: the lists are valid) and the largest
+    squared distance from ``ref`` of any robot that moved.
+    """
+    cap = nbr.shape[1]
+    r = num.radius
+    d_rr = 2.0 * r
+    c2 = (d_rr - SLOP) * (d_rr - SLOP)
+    half = 0.5 * num.relax
+    nx = grid.nx
+    ny = grid.ny
+    movables = bodies.shape[0] + pistons.shape[0] > 0
+    worst = 0.0
+    far = 0.0
+    for k in prange(count):
+        i = np.int64(k) if everyone else np.int64(active[k])
+        fl = 0
+        fi = 0.0  # squared distance from ref, if it moves
+        px = src[i, 0]
+        py = src[i, 1]
+        c = cell[i]
+        mx = 0.0
+        my = 0.0
+        w = 0.0
+        if cell_flag[c] != 0 or movables:  # most robots are far from any wall
+            mx, my, w = _walls_and_bodies(
+                px, py, r, cell_flag[c] != 0, seg, sdisc, bodies, pistons
+            )
+        m = nnb[i]
+        if m <= cap:
+            for kk in range(m):
+                mx, my, w = _pair_push(px, py, src, i, nbr[i, kk], c2, d_rr, half, mx, my, w)
+        else:  # overflowing list: the 3 x 3 cells around the cell it was listed in
+            cy = c // nx
+            cx = c - cy * nx
+            for ccy in range(max(cy - 1, 0), min(cy + 2, ny)):
+                for ccx in range(max(cx - 1, 0), min(cx + 2, nx)):
+                    cc = ccy * nx + ccx
+                    for kj in range(cell_start[cc], cell_start[cc + 1]):
+                        j = perm[kj]
+                        if j != i:
+                            mx, my, w = _pair_push(px, py, src, i, j, c2, d_rr, half, mx, my, w)
+        x = px + mx
+        y = py + my
+        dst[i, 0] = x
+        dst[i, 1] = y
+        if x != px or y != py:
+            fl = MOVED
+            ex = x - ref[i, 0]
+            ey = y - ref[i, 1]
+            fi = ex * ex + ey * ey
+        if w > 0.0:
+            fl |= OVERLAPPING
+        result[k] = fl
+        worst = max(worst, w)
+        far = max(far, fi)
+    return worst, far
+
+
+@njit(cache=True)
+def _next_active(
+    active, count, everyone, result, pos, contact2, nbr, nnb, lam, held, near, use_near, mark,
+    out,
+):  # fmt: skip
+    """The robots the next sweep must visit, into ``out``; returns how many.
+
+    Those that moved in the last sweep, those that still overlap something, every robot
+    on a mover's list that the mover now overlaps (squared distance below ``contact2`` at
+    ``pos``, the configuration the next sweep starts from) or holds a push with (``lam``
+    nonzero: both copies of a held push must be updated in the same sweep), and
+    (``use_near``) those near a body or piston that moved.  Any other robot has no
+    overlap: nothing it overlaps moved (its pairs with robots that did not move, and
+    with static walls, are as the last sweep that visited it found them: free), so the
+    next sweep would leave it where it is and measure nothing.  Serial, over the robots
+    visited last (a few per cent of the swarm after the first sweep); ``mark`` (all
+    zero) is scratch.
+    """
+    k = 0
+    for q in range(count):
+        fl = result[q]
+        if fl == 0:
+            continue
+        i = np.int64(q) if everyone else np.int64(active[q])
+        if mark[i] == 0:
+            mark[i] = 1
+            out[k] = i
+            k += 1
+        if fl & MOVED:
+            px = pos[i, 0]
+            py = pos[i, 1]
+            for kk in range(nnb[i]):  # lists never overflow here (see the caller)
+                j = nbr[i, kk]
+                if mark[j] == 0:
+                    # the sweep's own test, from j's side (the same rounding)
+                    dx = pos[j, 0] - px
+                    dy = pos[j, 1] - py
+                    if dx * dx + dy * dy < contact2 or (held and lam[i, kk] != 0.0):
+                        mark[j] = 1
+                        out[k] = j
+                        k += 1
+    if use_near:
+        for i in range(near.shape[0]):
+            if near[i] and mark[i] == 0:
+                mark[i] = 1
+                out[k] = i
+                k += 1
+    for q in range(k):
+        mark[out[q]] = 0
+    return k
