@@ -8,7 +8,7 @@ ends; compilation and the first step excluded), ``max_overlap_fraction`` (the la
 overlap left by any step's sweeps, and the exact overlap of checked states: the device's
 exhaustive pair search, and -- with ``exact_check`` -- an independent SciPy k-d tree on
 the host), ``device_bytes_per_robot`` (every device array of the engine, divided by n),
-``device`` (the Warp device's name), ``mean_sweeps_per_step``.
+``device`` (the GPU's name, or numba-cuda's simulator), ``mean_sweeps_per_step``.
 """
 
 from __future__ import annotations
@@ -18,13 +18,13 @@ import time
 from typing import Any
 
 import numpy as np
-import warp as wp
 
 from thermoswarm.maxent import kT_for_mean_speed
 from thermoswarm.policy import BoltzmannUniform
 from thermoswarm.sim.engine import EngineParams, place_lattice
 from thermoswarm.sim.gpu.check import exact_max_overlap
 from thermoswarm.sim.gpu.engine import GpuSimulator
+from thermoswarm.sim.gpu.runtime import cuda, device_name, simulated
 from thermoswarm.sim.world import box_world
 
 __all__ = ["run_bench_gpu"]
@@ -47,7 +47,7 @@ def run_bench_gpu(
     host_policy: bool = False,
 ) -> dict[str, Any]:
     """Run the workload for ``seconds`` simulated seconds (default: 2e9 robot-steps on
-    a CUDA device, 1e7 on Warp's CPU device; 20 to 2,000 steps)."""
+    a CUDA GPU, 2e4 in numba-cuda's simulator; 20 to 2,000 steps)."""
     r = DIAMETER / 2
     side = math.sqrt(n * math.pi * r * r / phi)
     world = box_world(side, side)
@@ -57,10 +57,10 @@ def run_bench_gpu(
     rng = np.random.default_rng(seed)
     state = sim.init(place_lattice(world.bounds, n, r, rng), rng)
     sim.step(state)  # warm-up: compilation (or cache load) excluded
-    wp.synchronize_device(sim.device)
+    cuda.synchronize()
     state.counters[:] = 0
     if seconds is None:
-        budget = 2e9 if sim.device.is_cuda else 1e7
+        budget = 2e4 if simulated() else 2e9
         steps = min(2000, max(20, int(budget / max(n, 1))))
     else:
         steps = max(1, round(seconds / dt))
@@ -71,7 +71,7 @@ def run_bench_gpu(
     for k in range(steps):
         t0 = time.perf_counter()
         sim.step(state)
-        wp.synchronize_device(sim.device)
+        cuda.synchronize()
         wall += time.perf_counter() - t0
         if k in check_at:
             worst_device = max(worst_device, sim.max_overlap(state))
@@ -81,8 +81,8 @@ def run_bench_gpu(
     seen = float(state.counters[1]) / 1e6
     return {
         "backend": "gpu",
-        "device": str(sim.device.name),
-        "device_alias": str(sim.device.alias),
+        "device": device_name(),
+        "device_alias": sim.device,
         "n": n,
         "phi": phi,
         "dt": dt,
