@@ -290,7 +290,10 @@ def robot_contacts(i, px, py, src_x, src_y, xr, yr, cell_start, nx, ny, geo, d_b
     of each overlap added to ``(mx, my)``, the largest overlap to ``w``; returns the
     three.  Scans the build cell and ``k`` rings around it (robots are sorted by build
     cell, so each row of cells is one contiguous range of robots)."""
-    d_rr = 2.0 * geo[G_R]
+    # float32 pair arithmetic (positions are float32; float64 is slow on most GPUs)
+    d_rr = geo[G_R] + geo[G_R]
+    c2 = d_rr * d_rr
+    half = np.float32(half)
     bx, by = cell_of(xr[i], yr[i], geo[G_X0], geo[G_Y0], geo[G_CS], nx, ny)
     k = rings_for(d_bound, geo, max(nx, ny))
     xa = max(bx - k, 0)
@@ -302,7 +305,7 @@ def robot_contacts(i, px, py, src_x, src_y, xr, yr, cell_start, nx, ny, geo, d_b
             dx = px - src_x[j]
             dy = py - src_y[j]
             d2 = dx * dx + dy * dy
-            if d2 < d_rr * d_rr:
+            if d2 < c2:
                 d = math.sqrt(d2)
                 w = max(w, d_rr - d)
                 if d > 1.0e-12:

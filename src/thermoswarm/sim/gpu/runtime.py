@@ -54,7 +54,7 @@ from numba import cuda  # noqa: E402
 
 #: Threads per block on a GPU; the simulator runs a few Python threads in one block.
 THREADS = 256
-SIM_THREADS = 4
+SIM_THREADS = 2
 
 
 def simulated() -> bool:
