@@ -52,7 +52,7 @@ class Numerics:
     desync : bool
         Stagger the robots' control periods (real robots are not synchronised).
     backend : str
-        ``"cpu"`` (Numba) or ``"gpu"`` (NVIDIA Warp: :mod:`thermoswarm.sim.gpu`).
+        ``"cpu"`` (Numba) or ``"gpu"`` (numba-cuda: :mod:`thermoswarm.sim.gpu`).
     """
 
     dt: float = 0.1
