@@ -1,68 +1,144 @@
-"""The GPU engine at scale, beside JAX-MD and the CPU engine: one command, one table.
+"""The GPU engine at scale, beside JAX-MD, the CPU engine and the U-Net: one JSON.
 
-    python benchmarks/bench_gpu.py                 # on a CUDA GPU: 1e5, 1e6, 1e7 (1e8 if it fits)
-    python benchmarks/bench_gpu.py --sizes 10000 30000 --device cpu   # Warp's CPU device
+    python benchmarks/bench_gpu.py --out gpu.json            # on a CUDA GPU (gpu_run.sh)
+    python benchmarks/bench_gpu.py --out r.json --rehearse   # numba-cuda's simulator, tiny N
 
-Workload (the engine benchmark's, :mod:`thermoswarm.sim.bench`): discs of 33 mm at
-packing fraction 0.18 and 0.5 in a walled square box, mean speed 10 mm/s, heading and
-speed re-drawn every 0.1 s, ``dt = 0.1 s``; compilation and the first step excluded.
+Sections of the JSON (written again after each part, atomically, so that a run cut
+short keeps what it measured):
 
-Columns: robot-steps per second of the Warp engine (``gpu``), its exact largest overlap as
-a fraction of the diameter (SciPy k-d tree on the host up to ``--kdtree-max`` robots, the
-device's exhaustive pair search above), device bytes per robot, the CPU engine (Numba;
-one thread below 60,000 robots, all cores above: the engine's own choice) on the same
-workload and its overlap, JAX-MD (Brownian dynamics of soft
-discs with a cell-list neighbour list on the same device: a throughput peer, not the same
-contact model) and its largest overlap, and the speed-up of the Warp engine over each.
-A baseline that cannot run says why in its column.  The goal on one H100 is at least
-1e9 robot-steps/s at 1e7 robots, overlap below 1 % of the diameter and at most 100
-bytes per robot.
+- ``meta``: device, commit, versions, host, whether the simulator ran the kernels;
+- ``engine``: one row per (N, packing fraction): our engine (robot-steps per second,
+  the exact largest overlap of its final state by SciPy's k-d tree on the host up to
+  ``--kdtree-max`` robots, the device's exhaustive pair search above, bytes per robot
+  on the device), JAX-MD on the same device where it imports (Brownian dynamics of
+  soft discs with a cell-list neighbour list: a throughput peer, not the same contact
+  model) and the CPU engine (Numba; one thread below 60,000 robots, both cores above:
+  its own choice) up to ``--cpu-max``.  Workload: discs of
+  33 mm in a walled square box, mean speed 10 mm/s, heading and speed re-drawn every
+  0.1 s, ``dt = 0.1 s``; compilation and the first step excluded;
+- ``unet``: the U-Net detector's frames per second on 1920x1080 frames (untrained
+  weights of the shipped architecture: the same arithmetic; at most 40 detections per
+  frame, the benchmark video's ant count), and with the pose network run on 40 crops
+  per frame (``frames_per_second_with_40_poses``: untrained weights may find no ant);
+- ``tests``: the GPU engine's tests (``tests/sim/test_gpu_backend.py``) on this device;
+- ``goals``: the goal figures and whether this run met them.
+
+A baseline that cannot run says why in its entry.  ``--budget`` (seconds) stops
+starting new parts once spent, so the run fits a lent machine's time.
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import math
 import os
 import platform
+import subprocess
 import sys
 import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 
 DIAMETER = 33.0
+ROOT = Path(__file__).resolve().parent.parent
+GOALS = {
+    "robot_steps_per_second_at_1e7": 1e9,
+    "max_overlap_fraction": 0.01,
+    "device_bytes_per_robot": 100.0,
+}
 
 
-def _gpu(n: int, phi: float, device: str | None, kdtree_max: int) -> dict:
+def _write(path: Path, doc: dict) -> None:
+    """Write ``doc`` as JSON atomically (a temporary file renamed over the old one)."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(doc, indent=1, default=str))
+    os.replace(tmp, path)
+
+
+def _version(mod: str) -> str | None:
+    from importlib import metadata
+
+    try:
+        return metadata.version(mod)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def _meta(rehearse: bool) -> dict:
+    from thermoswarm.sim.gpu.runtime import device_name, simulated
+
+    commit = os.environ.get("THERMOSWARM_COMMIT")
+    if not commit:
+        try:
+            commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, text=True,
+                                    capture_output=True, check=True).stdout.strip()  # fmt: skip
+        except (OSError, subprocess.CalledProcessError):
+            commit = None
+    return {
+        "device": device_name(),
+        "simulated": simulated(),
+        "rehearse": rehearse,
+        "commit": commit,
+        "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "host": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cpus",
+        "load_average": os.getloadavg(),
+        "python": sys.version.split()[0],
+        "versions": {
+            m: _version(m)
+            for m in ("numba", "numba-cuda", "numpy", "scipy", "torch", "jax", "jax-md")
+        },  # fmt: skip
+    }
+
+
+def _free_device_memory() -> tuple[int, int] | None:
+    """(free, total) bytes of the GPU, or None in the simulator."""
+    from thermoswarm.sim.gpu.runtime import cuda, simulated
+
+    if simulated():
+        return None
+    ctx = cuda.current_context()
+    ctx.deallocations.clear()  # release arrays freed by Python but not yet by CUDA
+    return ctx.get_memory_info()
+
+
+def _ours(n: int, phi: float, kdtree_max: int, seconds: float | None) -> dict:
     from thermoswarm.sim.gpu.bench import run_bench_gpu
 
-    return run_bench_gpu(n, phi, device=device, exact_check=n <= kdtree_max)
+    mem = _free_device_memory()
+    need = 80 * n  # ~66 bytes per robot on the device, plus margin
+    if mem is not None and need > 0.9 * mem[0]:
+        return {"skipped": f"needs ~{need / 2**30:.1f} GiB, {mem[0] / 2**30:.1f} GiB free"}
+    out = run_bench_gpu(n, phi, seconds, exact_check=n <= kdtree_max)
+    gc.collect()
+    return out
 
 
-def _cpu(n: int, phi: float) -> dict:
+def _cpu(n: int, phi: float, seconds: float | None) -> dict:
     from thermoswarm.sim.bench import run_bench
 
-    return run_bench(n, phi)
+    return run_bench(n, phi, seconds)
 
 
-def _jax_md(n: int, phi: float, steps: int = 20) -> dict:
+def _jax_md(n: int, phi: float, steps: int) -> dict:
     """Brownian dynamics of soft discs (JAX-MD's soft sphere, cell-list neighbour list)
     in a periodic square of the same size (JAX-MD has no walls)."""
-    try:
-        import jax
-        import jax.numpy as jnp
-        from jax_md import energy, partition, simulate, space
-    except ImportError as exc:
-        return {"skipped": f"jax / jax-md not installed ({exc.name})"}
     import warnings
 
+    import jax
+    import jax.numpy as jnp
+    from jax_md import energy, partition, simulate, space
+
     warnings.filterwarnings("ignore", message="Explicitly requested dtype")
-    jax.config.update("jax_enable_x64", False)
-    side = math.sqrt(n * math.pi * (DIAMETER / 2) ** 2 / phi)
-    rng = np.random.default_rng(0)
+    from scipy.spatial import cKDTree
+
     from thermoswarm.sim.engine import place_lattice
 
+    side = math.sqrt(n * math.pi * (DIAMETER / 2) ** 2 / phi)
+    rng = np.random.default_rng(0)
     pos = jnp.asarray(place_lattice((0, 0, side, side), n, DIAMETER / 2, rng), jnp.float32)
     displacement, shift = space.periodic(side)
     neighbor_fn, energy_fn = energy.soft_sphere_neighbor_list(
@@ -80,12 +156,10 @@ def _jax_md(n: int, phi: float, steps: int = 20) -> dict:
     def step(carry, _):
         state, nbrs = carry
         state = apply_fn(state, neighbor=nbrs)
-        nbrs = nbrs.update(state.position)
-        return (state, nbrs), None
+        return (state, nbrs.update(state.position)), None
 
     def run(k, carry):
-        carry, _ = jax.lax.scan(step, carry, None, length=k)
-        return carry
+        return jax.lax.scan(step, carry, None, length=k)[0]
 
     for _ in range(3):  # a neighbour list that overflowed is re-allocated and re-run
         carry = run(steps, (state, nbrs))  # compile (the scan length is static)
@@ -98,138 +172,228 @@ def _jax_md(n: int, phi: float, steps: int = 20) -> dict:
         if not overflow:
             break
         nbrs = neighbor_fn.allocate(carry[0].position)
-    state = carry[0]
-    from scipy.spatial import cKDTree  # the overlap: the same k-d tree check as ours
-
-    p = np.asarray(state.position, dtype=np.float64)
-    dist, _ = cKDTree(p, boxsize=side).query(p, k=2)
+    p = np.asarray(carry[0].position, dtype=np.float64)
+    dist, _ = cKDTree(p, boxsize=side).query(p, k=2, workers=-1)
     return {
         "robot_steps_per_second": n * steps / wall,
+        "steps": steps,
         "max_overlap_fraction": max(0.0, DIAMETER - float(dist[:, 1].min())) / DIAMETER,
         "device": str(jax.devices()[0]),
         "neighbour_overflow": overflow,
     }
 
 
-def _fits(n: int, device: str | None) -> tuple[bool, str]:
-    """Whether a swarm of n robots fits on the device (about 72 bytes per robot plus
-    the host's copy of the initial positions)."""
-    import warp as wp
+def _unet(frames: int) -> dict:
+    """Frames per second of the U-Net detector on 1920x1080 RGB frames."""
+    import torch
 
-    from thermoswarm.sim.gpu import default_device
+    from thermoswarm.tracking.unet import (
+        TopDownModel,
+        UNetDetector,
+        UNetOptions,
+        to_model_scale,
+    )
 
-    dev = wp.get_device(device or default_device())
-    need = 80 * n
-    if dev.is_cuda:
-        free = getattr(dev, "free_memory", None) or dev.total_memory
-        if need > 0.9 * free:
-            return False, f"needs ~{need / 2**30:.1f} GiB, {free / 2**30:.1f} GiB free"
-    return True, ""
+    torch.manual_seed(0)
+    det = UNetDetector(TopDownModel(), px_per_mm=3.04, options=UNetOptions(max_detections=40))
+    rng = np.random.default_rng(0)
+    imgs = [rng.integers(0, 256, (1080, 1920, 3), dtype=np.uint8) for _ in range(2)]
+    det.detect(imgs[0])  # warm-up (cuDNN autotuning, allocations)
+    sync = torch.cuda.synchronize if det.device.type == "cuda" else (lambda: None)
+    sync()
+    t0 = time.perf_counter()
+    found = 0
+    for k in range(frames):
+        found += len(det.detect(imgs[k % 2]).scores)
+    sync()
+    wall = time.perf_counter() - t0
+    # the pose network on 40 crops (untrained weights may find no ant): its time per frame
+    frame_m, _ = to_model_scale(imgs[0], det.ratio)
+    h, w = frame_m.shape[:2]
+    anchors = np.column_stack([rng.uniform(20, w - 20, 40), rng.uniform(20, h - 20, 40)])
+    det.poses(frame_m, anchors)
+    sync()
+    t0 = time.perf_counter()
+    for _ in range(frames):
+        det.poses(frame_m, anchors)
+    sync()
+    pose = (time.perf_counter() - t0) / frames
+    name = torch.cuda.get_device_name(0) if det.device.type == "cuda" else platform.machine()
+    weights = "untrained (shipped architecture; at most 40 detections per frame)"
+    return {"frames_per_second": frames / wall, "pose_40_seconds_per_frame": pose,
+            "frames_per_second_with_40_poses": 1.0 / (wall / frames + pose), "frames": frames,
+            "frame": "1920x1080 RGB",
+            "device": f"{det.device.type}: {name}", "detections_per_frame": found / frames,
+            "weights": weights}  # fmt: skip
 
 
-def _fmt(x, spec):
-    return "-" if x is None else format(x, spec)
+def _tests(out_dir: Path, select: str | None, sites: list[str]) -> dict:
+    """Run the GPU engine's tests on this process's device; counts from JUnit XML."""
+    xml = out_dir / "gpu_tests.xml"
+    args = ["tests/sim/test_gpu_backend.py", "-q", "-m", "not slow", "-p", "no:cacheprovider",
+            f"--junitxml={xml}"]  # fmt: skip
+    if select:
+        args += ["-k", select]
+    # pytest in a child process, with the extra folders at the end of its sys.path
+    code = f"import sys; sys.path += {sites!r}; import pytest; sys.exit(pytest.main({args!r}))"
+    cmd = [sys.executable, "-c", code]
+    t0 = time.perf_counter()
+    res = subprocess.run(cmd, cwd=ROOT, text=True, capture_output=True)
+    out = {"command": "pytest " + " ".join(args), "exit_code": res.returncode,
+           "wall_seconds": time.perf_counter() - t0, "tail": res.stdout[-1500:]}  # fmt: skip
+    if xml.exists():
+        suite = ET.parse(xml).getroot()
+        suite = suite if suite.tag == "testsuite" else suite[0]
+        for k in ("tests", "failures", "errors", "skipped"):
+            out[k] = int(suite.get(k, 0))
+    return out
 
 
-def main(argv: list[str] | None = None) -> int:
+def _guard(fn, *args) -> dict:
+    """``fn(*args)``, or the one-line reason it could not run."""
+    try:
+        return fn(*args)
+    except ImportError as exc:
+        return {"skipped": f"not importable: {exc.name or exc}"}
+    except Exception as exc:  # a baseline's failure must not lose the other figures
+        return {"skipped": f"{type(exc).__name__}: {exc}"[:300]}
+
+
+def _goals(rows: list[dict]) -> dict:
+    """The goal figures and whether this run met them (None where not measured)."""
+    at = [r["gpu"] for r in rows if r["n"] == 10**7 and "robot_steps_per_second" in r["gpu"]]
+    ok = [r["gpu"] for r in rows if "robot_steps_per_second" in r["gpu"]]
+    return {
+        "goal": GOALS,
+        "robot_steps_per_second_at_1e7": min(
+            (g["robot_steps_per_second"] for g in at), default=None
+        ),  # fmt: skip
+        "max_overlap_fraction": max((g["max_overlap_fraction"] for g in ok), default=None),
+        "device_bytes_per_robot": max((g["device_bytes_per_robot"] for g in ok), default=None),
+    }
+
+
+def _table(doc: dict) -> str:
+    """The engine rows as a Markdown table."""
+
+    def rate(d: dict) -> str:
+        v = d.get("robot_steps_per_second")
+        if not v:
+            return f"skipped: {d.get('skipped', '-')}"
+        return f"{v / 1e6:,.1f} M" if v >= 1e5 else f"{v:,.0f}"
+
+    def pct(d: dict, key: str) -> str:
+        v = d.get(key)
+        return "-" if v is None else f"{100 * v:.2f} %"
+
+    lines = ["| N | phi | ours robot-steps/s | exact max overlap (final state) | bytes/robot "
+             "(device) | JAX-MD robot-steps/s | JAX-MD overlap | CPU engine robot-steps/s |",
+             "|" + "---:|" * 8]  # fmt: skip
+    for r in doc["engine"]:
+        g, j, c = r["gpu"], r.get("jax_md", {}), r.get("cpu", {})
+        bpr = g.get("device_bytes_per_robot")
+        lines.append("| " + " | ".join([
+            f"{r['n']:,}", str(r["phi"]), rate(g),
+            pct(g, "exact_max_overlap_fraction") + f" ({g.get('exact_check', '-')})",
+            "-" if bpr is None else f"{bpr:.0f}", rate(j), pct(j, "max_overlap_fraction"),
+            rate(c),
+        ]) + " |")  # fmt: skip
+    return "\n".join(lines)
+
+
+def _parse(argv: list[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", type=Path, required=True, help="the JSON file to write")
+    ap.add_argument(
+        "--rehearse",
+        action="store_true",
+        help="tiny sizes, few steps, a subset of the tests (for the simulator)",
+    )
     ap.add_argument(
         "--sizes",
         type=float,
         nargs="+",
         default=None,
-        help="swarm sizes (default: 1e5 1e6 1e7 1e8 on a GPU, 1e4 3e4 on a CPU)",
+        help="swarm sizes (default 1e5 1e6 1e7 1e8; rehearsal 300 1000)",
     )
     ap.add_argument("--phis", type=float, nargs="+", default=[0.18, 0.5])
-    ap.add_argument("--device", default=None, help="Warp device (default: cuda:0 if present)")
-    ap.add_argument(
-        "--cpu-max",
-        type=float,
-        default=1e7,
-        help="largest size the CPU engine runs (it needs ~190 bytes per robot)",
-    )
     ap.add_argument(
         "--kdtree-max",
         type=float,
         default=1e7,
-        help="largest size checked with the host k-d tree (device check above)",
+        help="largest N whose final state the host k-d tree checks",
     )
-    ap.add_argument("--no-cpu", action="store_true")
-    ap.add_argument("--no-jax", action="store_true")
-    ap.add_argument("--json", action="store_true", help="also print the rows as JSON lines")
-    args = ap.parse_args(argv)  # fmt: skip
+    ap.add_argument("--cpu-max", type=float, default=1e6, help="largest N for the CPU engine")
+    ap.add_argument("--jax-max", type=float, default=1e7, help="largest N for JAX-MD")
+    ap.add_argument("--unet-frames", type=int, default=None, help="default 50 (rehearsal 2)")
+    ap.add_argument(
+        "--budget", type=float, default=420.0, help="seconds after which no new part starts"
+    )
+    ap.add_argument(
+        "--extra-site",
+        action="append",
+        default=[],
+        help="folder appended to sys.path (wheels gpu_run.sh installed)",
+    )
+    ap.add_argument(
+        "--skip",
+        nargs="*",
+        default=[],
+        choices=["cpu", "jax", "unet", "tests"],
+        help="parts to leave out",
+    )
+    return ap.parse_args(argv)  # fmt: skip
 
-    from thermoswarm.sim.gpu import default_device
 
-    device = args.device or default_device()
-    on_gpu = device.startswith("cuda")
-    sizes = [int(s) for s in (args.sizes or ([1e5, 1e6, 1e7, 1e8] if on_gpu else [1e4, 3e4]))]
-    rows = []
-    for n in sizes:
-        for phi in args.phis:
-            row: dict = {"n": n, "phi": phi}
-            ok, why = _fits(n, device)
-            if not ok:
-                row["gpu"] = {"skipped": why}
-                rows.append(row)
-                continue
-            row["gpu"] = _gpu(n, phi, device, int(args.kdtree_max))
-            if args.no_cpu:
-                row["cpu"] = {"skipped": "--no-cpu"}
-            elif n > args.cpu_max:
-                row["cpu"] = {"skipped": f"n > --cpu-max {args.cpu_max:.0e}"}
-            else:
-                row["cpu"] = _cpu(n, phi)
-            if args.no_jax:
-                row["jax_md"] = {"skipped": "--no-jax"}
-            else:
-                try:
-                    row["jax_md"] = _jax_md(n, phi)
-                except Exception as exc:  # a baseline's failure must not lose our rows
-                    row["jax_md"] = {"skipped": f"{type(exc).__name__}: {exc}"[:120]}
-            rows.append(row)
-            if args.json:
-                print(json.dumps(row), flush=True)
-    g0 = next((r["gpu"] for r in rows if "device" in r["gpu"]), {})
-    print()
-    note = "" if on_gpu else "  -- Warp's CPU device: CPU numbers, not GPU figures"
-    print(f"Warp device: {g0.get('device', device)} ({device}){note}")
-    print(f"host: {platform.processor() or platform.machine()}, {os.cpu_count()} cpus; "
-          f"python {sys.version.split()[0]}")  # fmt: skip
-    print()
-    head = ("| N | phi | Warp robot-steps/s | exact max overlap | bytes/robot (device) | "
-            "CPU engine robot-steps/s | CPU overlap | JAX-MD robot-steps/s | JAX-MD overlap | "
-            "vs CPU | vs JAX-MD |")  # fmt: skip
-    print(head)
-    print("|" + "---:|" * 11)
+def main(argv: list[str] | None = None) -> int:
+    a = _parse(argv)
+    for site in a.extra_site:  # after the image's own packages: theirs win
+        sys.path.append(site)
+    t_start = time.perf_counter()
+    a.out.parent.mkdir(parents=True, exist_ok=True)
+    doc: dict = {"meta": _meta(a.rehearse), "engine": [], "unet": None, "tests": None}
+    sizes = [int(s) for s in (a.sizes or ([300, 1000] if a.rehearse else [1e5, 1e6, 1e7, 1e8]))]
+    seconds = 0.5 if a.rehearse else None
+    left = lambda: a.budget - (time.perf_counter() - t_start)  # noqa: E731
 
-    def pct(d: dict, key: str, spec: str) -> str:
-        v = d.get(key)
-        return "-" if v is None else format(100 * v, spec) + " %"
+    def save() -> None:
+        doc["goals"] = _goals(doc["engine"])
+        doc["meta"]["elapsed_seconds"] = time.perf_counter() - t_start
+        _write(a.out, doc)
 
-    def rate(d: dict) -> str:
-        v = d.get("robot_steps_per_second")
-        return f"{v / 1e6:.2f} M" if v else f"skipped: {d.get('skipped')}"
-
-    for r in rows:
-        g, c, j = r["gpu"], r.get("cpu", {}), r.get("jax_md", {})
-        gs = g.get("robot_steps_per_second")
-        cs_ = c.get("robot_steps_per_second")
-        js = j.get("robot_steps_per_second")
-        cells = [
-            f"{r['n']:,}",
-            str(r["phi"]),
-            rate(g),
-            pct(g, "exact_max_overlap_fraction", ".2f") + f" ({g.get('exact_check', '-')})",
-            _fmt(g.get("device_bytes_per_robot"), ".0f"),
-            rate(c),
-            pct(c, "max_overlap_fraction", ".2f"),
-            rate(j),
-            pct(j, "max_overlap_fraction", ".1f"),
-            _fmt(gs / cs_ if gs and cs_ else None, ".1f") + "x",
-            _fmt(gs / js if gs and js else None, ".1f") + "x",
-        ]
-        print("| " + " | ".join(cells) + " |")
+    for n in sizes:  # our engine first: the figures that matter
+        for phi in a.phis:
+            row = {"n": n, "phi": phi}
+            row["gpu"] = _guard(_ours, n, phi, int(a.kdtree_max), seconds) if left() > 0 else {
+                "skipped": "time budget spent"}  # fmt: skip
+            doc["engine"].append(row)
+            print(json.dumps(row), flush=True)
+            save()
+    if "tests" not in a.skip:
+        sel = "dispatch or draws or rebuild" if a.rehearse else None
+        tests = _guard(_tests, a.out.parent, sel, a.extra_site) if left() > 0 else None
+        doc["tests"] = tests or {"skipped": "time budget spent"}
+        save()
+    if "unet" not in a.skip:
+        frames = a.unet_frames or (2 if a.rehearse else 50)
+        doc["unet"] = _guard(_unet, frames) if left() > 0 else {"skipped": "time budget spent"}
+        save()
+    for row in doc["engine"]:
+        n, phi = row["n"], row["phi"]
+        if "jax" in a.skip or n > a.jax_max:
+            row["jax_md"] = {"skipped": "--skip jax" if "jax" in a.skip else "n > --jax-max"}
+        else:
+            steps = 5 if a.rehearse else max(10, min(200, int(2e9 / n)))
+            row["jax_md"] = _guard(_jax_md, n, phi, steps) if left() > 0 else {
+                "skipped": "time budget spent"}  # fmt: skip
+        if "cpu" in a.skip or n > a.cpu_max:
+            row["cpu"] = {"skipped": "--skip cpu" if "cpu" in a.skip else "n > --cpu-max"}
+        else:
+            row["cpu"] = _guard(_cpu, n, phi, seconds) if left() > 0 else {"skipped": "budget"}
+        save()
+    print(_table(doc))
+    print(json.dumps({"goals": doc["goals"], "unet": doc["unet"], "tests": {
+        k: v for k, v in (doc["tests"] or {}).items() if k != "tail"}}, indent=1))  # fmt: skip
     return 0
 
 

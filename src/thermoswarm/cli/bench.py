@@ -48,9 +48,9 @@ import click
     type=click.Choice(["cpu", "gpu"]),
     default="cpu",
     show_default=True,
-    help="cpu: the Numba engine; gpu: the Warp engine (a CUDA GPU, else Warp's CPU device).",
+    help="cpu: the Numba engine; gpu: the numba-cuda engine (a CUDA GPU, else its simulator).",
 )
-@click.option("--device", default=None, help="Warp device for --backend gpu (cuda:0, cpu).")
+@click.option("--device", default=None, help="Device for --backend gpu (cuda:0, simulator).")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def bench(scenario, n, phi, seconds, threads, backend, device, seed, as_json):

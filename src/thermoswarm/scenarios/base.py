@@ -63,7 +63,7 @@ class Numerics:
         Start each step's contact solve from the last step's contact pushes (see
         :class:`EngineParams`; experimental, off by default).
     backend : str
-        ``"cpu"`` (Numba) or ``"gpu"`` (NVIDIA Warp: :mod:`thermoswarm.sim.gpu`).
+        ``"cpu"`` (Numba) or ``"gpu"`` (numba-cuda: :mod:`thermoswarm.sim.gpu`).
     """
 
     dt: float = 0.1

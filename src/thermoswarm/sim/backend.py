@@ -1,4 +1,4 @@
-"""Choose the engine's backend: the CPU engine (Numba) or the GPU engine (NVIDIA Warp).
+"""Choose the engine's backend: the CPU engine (Numba) or the GPU engine (numba-cuda).
 
 ``make_simulator(world, params, policy, sensing, backend="gpu")`` returns a
 :class:`thermoswarm.sim.gpu.GpuSimulator`, which has the interface of
@@ -17,8 +17,8 @@ from thermoswarm.sim.world import World
 
 __all__ = ["BACKENDS", "make_simulator"]
 
-#: ``"cpu"``: the Numba engine; ``"gpu"``: the Warp engine (a CUDA GPU when Warp sees
-#: one, else Warp's CPU device).
+#: ``"cpu"``: the Numba engine; ``"gpu"``: the numba-cuda engine (a CUDA GPU when a
+#: driver is present, else numba-cuda's simulator).
 BACKENDS = ("cpu", "gpu")
 
 
@@ -31,7 +31,8 @@ def make_simulator(
     backend: str = "cpu",
     device: str | None = None,
 ) -> Any:
-    """A simulator for ``backend`` (``device`` picks the Warp device of the GPU backend)."""
+    """A simulator for ``backend`` (``device``: the GPU backend's device, see
+    :mod:`thermoswarm.sim.gpu.runtime`)."""
     if backend == "cpu":
         return Simulator(world, params, policy, sensing)
     if backend == "gpu":

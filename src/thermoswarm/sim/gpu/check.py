@@ -39,7 +39,7 @@ def exact_max_overlap(
     pos = np.asarray(pos, dtype=np.float64).reshape(-1, 2)
     out = {"robots": 0.0, "walls": 0.0, "bodies": 0.0, "pistons": 0.0}
     if pos.shape[0] >= 2:
-        d, _ = cKDTree(pos).query(pos, k=2)
+        d, _ = cKDTree(pos).query(pos, k=2, workers=-1)
         out["robots"] = max(0.0, 2 * radius - float(d[:, 1].min()))
     if pos.shape[0]:
         w = _segment_overlap(pos, world.segments, radius)

@@ -1,4 +1,4 @@
-"""The GPU engine: the overdamped robot engine on NVIDIA Warp (GPU or Warp's CPU device).
+"""The GPU engine: the overdamped robot engine in numba-cuda (a CUDA GPU or its simulator).
 
 :class:`GpuSimulator` has the interface of :class:`thermoswarm.sim.engine.Simulator`
 (``init``, ``step``, ``max_overlap``, ``workspace_bytes``, ``world``, ``params``,
@@ -23,8 +23,8 @@ Policies
 --------
 Algorithm 3 and 4 (:class:`~thermoswarm.policy.BoltzmannUniform`,
 :class:`~thermoswarm.policy.ConnectedTransport`) with the default light direction run on
-the device: their draws are made by a kernel (Warp's counter-based generator, keyed by
-one 31-bit integer drawn per step from the run's NumPy generator and by the robot id),
+the device: their draws are made by a kernel (a counter-based hash generator, keyed by one 31-bit
+integer drawn per step from the run's NumPy generator and by the robot id),
 so their output never leaves the device.  Every other policy, and any sensing model
 (light field, shadows, photoresistors), runs on the host as on the CPU: each step the
 robots whose control period ends are found from the timers (copied to the host), the
@@ -38,11 +38,9 @@ Precision: positions are float32 relative to the world's centre (rounding step
 from __future__ import annotations
 
 import math
-import os
 from typing import Any
 
 import numpy as np
-import warp as wp
 
 from thermoswarm.errors import ConfigError
 from thermoswarm.policy import (
@@ -59,26 +57,13 @@ from thermoswarm.sim.engine import (
     policy_action,
 )
 from thermoswarm.sim.gpu import kernels as G
+from thermoswarm.sim.gpu.runtime import check_device, cuda, default_device, grid
 from thermoswarm.sim.world import World
 
 __all__ = ["GpuSimulator", "GpuSwarmState", "default_device", "device_policy"]
 
 _ROBOT_FIELDS = ("pos", "fcols", "icols", "udir")
-
-
-def _init_warp() -> None:
-    wp.config.quiet = True  # no banner; wp.init() is idempotent
-    wp.init()
-
-
-def default_device() -> str:
-    """``"cuda:0"`` when Warp sees a CUDA device, else ``"cpu"``;
-    the environment variable ``THERMOSWARM_GPU_DEVICE`` overrides it."""
-    _init_warp()
-    want = os.environ.get("THERMOSWARM_GPU_DEVICE")
-    if want:
-        return want
-    return "cuda:0" if wp.is_cuda_available() else "cpu"
+SCAN_CHUNK = 256  # entries per thread of the prefix sum over grid cells
 
 
 def device_policy(
@@ -176,7 +161,6 @@ class _Device:
     """The device arrays of one swarm (struct of arrays, float32 positions)."""
 
     def __init__(self, sim: GpuSimulator, n: int) -> None:
-        dev = sim.device
         p = sim.params
         w = sim.world
         r = p.radius
@@ -201,38 +185,45 @@ class _Device:
         self.rebuild_at = max(0.0, (cs / (1 + eps) - 2 * r) / 2)
 
         def z(shape, dtype):
-            return wp.zeros(shape, dtype=dtype, device=dev)
+            return cuda.to_device(np.zeros(shape, dtype))
 
-        self.x = [z(n, wp.float32), z(n, wp.float32)]
-        self.y = [z(n, wp.float32), z(n, wp.float32)]
+        f4, i4 = np.float32, np.int32
+        self.x = [z(n, f4), z(n, f4)]
+        self.y = [z(n, f4), z(n, f4)]
         self.cur = 0
-        self.xr = z(n, wp.float32)
-        self.yr = z(n, wp.float32)
-        self.heading = z(n, wp.float32)
-        self.speed = z(n, wp.float32)
-        self.timer = z(n, wp.int32)
-        self.ids = z(n, wp.int32)
-        self.group = z(n, wp.int32)
-        self.keys = z(2 * max(n, 1), wp.int32)  # radix sort buffers, scratch otherwise
-        self.vals = z(2 * max(n, 1), wp.int32)
-        self.fscratch = z(n, wp.float32)
-        self.cell_start = z(ncell + 1, wp.int32)
-        self.cell_flag = wp.array(self._cell_flags(w, r * (1 + p.skin)), dtype=wp.uint8,
-                                  device=dev)  # fmt: skip
-        self.geo = wp.array(np.array([gx0, gy0, cs, r, eps], np.float32), device=dev)
-        self.ctrl_f = z(G.N_CTRL_F, wp.float32)
-        self.ctrl_i = z(G.N_CTRL_I, wp.int32)
+        self.xr = z(n, f4)
+        self.yr = z(n, f4)
+        self.heading = z(n, f4)
+        self.speed = z(n, f4)
+        self.timer = z(n, i4)
+        self.ids = z(n, i4)
+        self.group = z(n, i4)
+        # counting-sort buffers (cell, rank in cell, permutation), scratch otherwise
+        self.keys = z(n, i4)
+        self.slot = z(n, i4)
+        self.perm = z(n, i4)
+        self.fscratch = z(n, f4)
+        self.cell_start = z(ncell + 1, i4)
+        self.scan = []  # the prefix sum's chunk sums, one array per level
+        m = ncell + 1
+        while m > SCAN_CHUNK:
+            m = -(-m // SCAN_CHUNK)
+            self.scan.append(z(m, i4))
+        self.cell_flag = cuda.to_device(self._cell_flags(w, r * (1 + p.skin)))
+        self.geo = cuda.to_device(np.array([gx0, gy0, cs, r, eps], f4))
+        self.ctrl_f = z(G.N_CTRL_F, f4)
+        self.ctrl_i = z(G.N_CTRL_I, i4)
         o = self.origin
         seg = w.segments - np.concatenate([o, o])
-        self.seg = wp.array(seg.astype(np.float32).reshape(-1, 4), device=dev)
+        self.seg = cuda.to_device(np.ascontiguousarray(seg.astype(f4).reshape(-1, 4)))
         sd = w.static_discs.copy()
         sd[:, :2] -= o
-        self.sdisc = wp.array(sd.astype(np.float32).reshape(-1, 3), device=dev)
+        self.sdisc = cuda.to_device(np.ascontiguousarray(sd.astype(f4).reshape(-1, 3)))
         nb, npis = len(w.bodies), len(w.pistons)
-        self.bodies = z((nb, K.B_COLS), wp.float32)
-        self.pistons = z((npis, K.P_COLS), wp.float32)
-        self.acc_b = z((nb, 3), wp.float64)
-        self.acc_p = z((npis, 2), wp.float64)
+        self.bodies = z((nb, K.B_COLS), f4)
+        self.pistons = z((npis, K.P_COLS), f4)
+        self.acc_b = z((nb, 3), np.float64)
+        self.acc_p = z((npis, 2), np.float64)
         self.has_bodies = nb + npis > 0
         self.need_rebuild = True
 
@@ -275,25 +266,23 @@ class _Device:
         total = 0
         for v in vars(self).values():
             for a in v if isinstance(v, list) else [v]:
-                if isinstance(a, wp.array):
-                    total += a.capacity
+                if hasattr(a, "copy_to_host"):  # a device array
+                    total += a.size * a.dtype.itemsize
         return total
 
 
-@wp.kernel
-def _set_float(a: wp.array(dtype=wp.float32), i: int, v: float):
-    a[i] = v
-
-
 class GpuSimulator:
-    """The overdamped engine on a Warp device; the interface of ``Simulator``.
+    """The overdamped engine on a CUDA GPU (or numba-cuda's simulator); the interface
+    of ``Simulator``.
 
     Parameters
     ----------
     world, params, policy, sensing
         As for :class:`thermoswarm.sim.engine.Simulator` (overdamped mode only).
     device : str, optional
-        Warp device (``"cuda:0"``, ``"cpu"``); default :func:`default_device`.
+        ``"cuda:0"`` or ``"simulator"`` (``"cpu"`` is a synonym); default
+        :func:`default_device`, the only device the process can use (numba-cuda picks
+        GPU or simulator once per process: :mod:`thermoswarm.sim.gpu.runtime`).
     host_policy : bool
         Run the policy on the host even when it has a device version (to measure what
         copying the decisions costs, or to compare).
@@ -316,12 +305,11 @@ class GpuSimulator:
             )
         if policy is None:
             raise ConfigError("an overdamped (robot) simulation needs a policy")
-        _init_warp()
         self.world = world
         self.params = params
         self.policy = policy
         self.sensing = sensing
-        self.device = wp.get_device(device or default_device())
+        self.device = check_device(device)
         self._on_device = None if host_policy else device_policy(policy, sensing)
         self._dev: _Device | None = None
         self._n = 0
@@ -330,23 +318,26 @@ class GpuSimulator:
 
     # ------------------------------------------------------------------ transfers
     def _launch(self, kernel, dim: int, inputs: list[Any]) -> None:
-        wp.launch(kernel, dim=dim, inputs=inputs, device=self.device)
+        """Launch a grid-stride kernel over ``dim`` items (one thread if ``dim`` is 1)."""
+        blocks, threads = (1, 1) if dim == 1 else grid(dim)
+        kernel[blocks, threads](*inputs)
 
     def _download(self, name: str) -> np.ndarray:
         d = self._dev
         assert d is not None
         if name == "pos":
             out = np.empty((self._n, 2))
-            out[:, 0] = d.x[d.cur].numpy()
-            out[:, 1] = d.y[d.cur].numpy()
+            out[:, 0] = d.x[d.cur].copy_to_host()
+            out[:, 1] = d.y[d.cur].copy_to_host()
             out += d.origin
             return out
         if name == "fcols":
-            return np.stack([d.heading.numpy(), d.speed.numpy()]).astype(np.float64)
+            return np.stack([d.heading.copy_to_host(), d.speed.copy_to_host()]).astype(np.float64)
         if name == "icols":
-            return np.stack([d.ids.numpy(), d.group.numpy(), d.timer.numpy()]).astype(np.int32)
+            cols = (d.ids, d.group, d.timer)
+            return np.stack([a.copy_to_host() for a in cols]).astype(np.int32)
         if name == "udir":
-            h = d.heading.numpy()
+            h = d.heading.copy_to_host()
             return np.stack([np.cos(h), np.sin(h)]).astype(np.float32)
         raise KeyError(name)
 
@@ -356,21 +347,21 @@ class GpuSimulator:
         n = self._n
         if name == "pos":
             v = np.asarray(value, dtype=np.float64).reshape(n, 2) - d.origin
-            d.x[d.cur].assign(v[:, 0].astype(np.float32))
-            d.y[d.cur].assign(v[:, 1].astype(np.float32))
+            d.x[d.cur].copy_to_device(np.ascontiguousarray(v[:, 0], np.float32))
+            d.y[d.cur].copy_to_device(np.ascontiguousarray(v[:, 1], np.float32))
             d.need_rebuild = True  # the displacement bound no longer holds
         elif name == "fcols":
             v = np.asarray(value, dtype=np.float64).reshape(2, n)
             h = v[0]
             if h.size and float(np.abs(h).max()) > 64.0:  # keep float32 precision; as
                 h = _wrap(h)  # the CPU engine, wrap only large headings (exact round trip)
-            d.heading.assign(h.astype(np.float32))
-            d.speed.assign(v[1].astype(np.float32))
+            d.heading.copy_to_device(np.ascontiguousarray(h, np.float32))
+            d.speed.copy_to_device(np.ascontiguousarray(v[1], np.float32))
         elif name == "icols":
             v = np.asarray(value).reshape(3, n).astype(np.int32)
-            d.ids.assign(v[0])
-            d.group.assign(v[1])
-            d.timer.assign(v[2])
+            d.ids.copy_to_device(np.ascontiguousarray(v[0]))
+            d.group.copy_to_device(np.ascontiguousarray(v[1]))
+            d.timer.copy_to_device(np.ascontiguousarray(v[2]))
         # udir is derived from the heading on the device
 
     def _sync_from_host(self, state: SwarmState) -> None:
@@ -422,14 +413,14 @@ class GpuSimulator:
         if b.size:
             b[:, K.BX] -= o[0]
             b[:, K.BY] -= o[1]
-            d.bodies.assign(b.astype(np.float32))
+            d.bodies.copy_to_device(np.ascontiguousarray(b, np.float32))
         p = np.array(state.pistons, dtype=np.float64)
         if p.size:
             for k in range(p.shape[0]):
                 a = int(p[k, K.PA])
                 p[k, [K.PP, K.PLL, K.PLH]] -= o[a]
                 p[k, [K.PLO, K.PHI]] -= o[1 - a]
-            d.pistons.assign(p.astype(np.float32))
+            d.pistons.copy_to_device(np.ascontiguousarray(p, np.float32))
 
     def _download_bodies(self, state: SwarmState) -> None:
         d = self._dev
@@ -437,12 +428,12 @@ class GpuSimulator:
             return
         o = d.origin
         if state.bodies.size:
-            b = d.bodies.numpy().astype(np.float64)
+            b = d.bodies.copy_to_host().astype(np.float64)
             b[:, K.BX] += o[0]
             b[:, K.BY] += o[1]
             state.bodies[:] = b
         if state.pistons.size:
-            p = d.pistons.numpy().astype(np.float64)
+            p = d.pistons.copy_to_host().astype(np.float64)
             for k in range(p.shape[0]):
                 a = int(p[k, K.PA])
                 p[k, [K.PP, K.PLL, K.PLH]] += o[a]
@@ -457,36 +448,49 @@ class GpuSimulator:
             self._n = n
 
     def _rebuild(self) -> None:
-        """Sort the robots by grid cell (radix sort), re-order every robot array, and
-        make the current positions the new build positions."""
+        """Sort the robots by grid cell (counting sort, stable), re-order every robot
+        array, and make the current positions the new build positions."""
         d = self._dev
         assert d is not None
-        n = self._n
+        n, ncell = self._n, d.nx * d.ny
+        self._launch(G.fill_int, ncell + 1, [d.cell_start, 0])
         if n:
             cur, oth = d.cur, 1 - d.cur
-            self._launch(
-                G.compute_keys, n, [d.x[cur], d.y[cur], d.geo, d.nx, d.ny, d.keys, d.vals]
-            )
-            bits = max(1, int(d.nx * d.ny).bit_length())
-            wp.utils.radix_sort_pairs(d.keys, d.vals, n, 0, bits)
-            self._launch(G.cell_bounds, n + 1, [d.keys, n, d.nx * d.ny, d.cell_start])
-            perm = d.vals[:n]
-            self._launch(
-                G.gather_xy, n, [perm, d.x[cur], d.y[cur], d.x[oth], d.y[oth], d.xr, d.yr]
-            )
+            self._launch(G.cell_keys, n, [d.x[cur], d.y[cur], d.geo, d.nx, d.ny, d.keys,
+                                          d.slot, d.cell_start])  # fmt: skip
+            self._scan(d.cell_start, ncell + 1, 0)  # counts -> starts; the last is n
+            self._launch(G.scatter, n, [d.keys, d.slot, d.cell_start, d.perm])
+            self._launch(G.order_cells, ncell, [d.cell_start, d.perm])
+            self._launch(G.gather_xy, n, [d.perm, d.x[cur], d.y[cur], d.x[oth], d.y[oth],
+                                          d.xr, d.yr])  # fmt: skip
             d.cur = oth
-            for a in (d.heading, d.speed):
-                self._launch(G.gather_f, n, [perm, a, d.fscratch])
-                wp.copy(a, d.fscratch)
-            scratch = d.keys[:n]
-            for a in (d.timer, d.ids, d.group):
-                self._launch(G.gather_i, n, [perm, a, scratch])
-                wp.copy(a, scratch)
-        else:
-            d.cell_start.zero_()
+            # gather into a scratch array, then swap the two (no copy back)
+            self._launch(G.gather, n, [d.perm, d.heading, d.fscratch])
+            d.heading, d.fscratch = d.fscratch, d.heading
+            self._launch(G.gather, n, [d.perm, d.speed, d.fscratch])
+            d.speed, d.fscratch = d.fscratch, d.speed
+            for name in ("timer", "ids", "group"):
+                self._launch(G.gather, n, [d.perm, getattr(d, name), d.keys])
+                old = getattr(d, name)
+                setattr(d, name, d.keys)
+                d.keys = old
         for slot in (G.D_IN, G.D_OUT):
-            self._launch(_set_float, 1, [d.ctrl_f, slot, 0.0])
+            self._launch(G.set_float, 1, [d.ctrl_f, slot, 0.0])
         d.need_rebuild = False
+
+    def _scan(self, a, m: int, level: int) -> None:
+        """Exclusive prefix sum of ``a[:m]`` in place: chunk sums, their prefix sum (the
+        same, one level up), then each chunk's own prefix."""
+        d = self._dev
+        assert d is not None
+        if m <= SCAN_CHUNK:
+            self._launch(G.scan_serial, 1, [a, m])
+            return
+        sums = d.scan[level]
+        nch = sums.shape[0]
+        self._launch(G.chunk_sums, nch, [a, m, SCAN_CHUNK, sums])
+        self._scan(sums, nch, level + 1)
+        self._launch(G.chunk_apply, nch, [a, m, SCAN_CHUNK, sums])
 
     # ------------------------------------------------------------------ init
     def init(
@@ -608,10 +612,10 @@ class GpuSimulator:
                                               p.iterations, p.max_iterations, tol, d.ctrl_f,
                                               d.ctrl_i])  # fmt: skip
                 launched += 1
-            ci = d.ctrl_i.numpy()  # the step's one read back (more only if not converged)
+            ci = d.ctrl_i.copy_to_host()  # the step's one read back (more only if not converged)
             if ci[G.DONE] or launched >= p.max_iterations:
                 break
-        cf = d.ctrl_f.numpy()
+        cf = d.ctrl_f.copy_to_host()
         sweeps = int(ci[G.SWEEPS])
         d.cur = (cur0 + sweeps) % 2
         # next step's first batch: what this one needed (no extra read back if steady)
@@ -635,10 +639,10 @@ class GpuSimulator:
         assert d is not None
         if d.need_rebuild:  # positions were set from the host: no displacement bound
             self._rebuild()
-        self._launch(_set_float, 1, [d.ctrl_f, G.OVERLAP, 0.0])
+        self._launch(G.set_float, 1, [d.ctrl_f, G.OVERLAP, 0.0])
         if self._n:
             self._launch(G.max_overlap, self._n, [
                 d.x[d.cur], d.y[d.cur], d.xr, d.yr, d.cell_start, d.nx, d.ny, d.geo, d.seg,
                 d.sdisc, d.bodies, d.pistons, d.ctrl_f,
             ])  # fmt: skip
-        return float(d.ctrl_f.numpy()[G.OVERLAP])
+        return float(d.ctrl_f.copy_to_host()[G.OVERLAP])
