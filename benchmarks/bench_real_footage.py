@@ -292,6 +292,35 @@ def run_unet(
     return m, dets
 
 
+def write_gt_mot(path: Path, nodes: list[str] | None, length: float, out: Path) -> int:
+    """The tracked labelled animals of a SLEAP file as MOTChallenge ground truth
+    (frame = video frame + 1, id = track + 1, boxes as :func:`gt_boxes`; images are not
+    read), for ``thermoswarm evaluate`` against ``thermoswarm track`` on the video."""
+    import sleap_io as sio
+
+    from thermoswarm.fsutil import atomic_write_text
+    from thermoswarm.tracking.train_data import node_map
+
+    labels = sio.load_slp(str(path))
+    track_no = {id(t): k for k, t in enumerate(labels.tracks)}
+    pad = 0.5 * anatomy.ANT_WIDTH_MM / anatomy.ANT_LENGTH_MM * length
+    rows = []
+    for lf in labels.labeled_frames:
+        for inst in lf.user_instances:
+            if inst.track is None:
+                continue
+            nm = node_map(inst.skeleton.node_names, nodes, str(path))
+            p = nm.apply(np.asarray(inst.numpy(), dtype=np.float64)[:, :2])
+            if np.all(np.isfinite(p[1])):
+                box = anatomy.pose_boxes(p[None], pad)[0]
+                rows.append([lf.frame_idx + 1, track_no[id(inst.track)] + 1, *box, 1, 1, 1])
+    rows.sort()
+    text = "".join(",".join(f"{v:g}" for v in r) + "\n" for r in rows)
+    atomic_write_text(out, text)
+    print(f"{out}: {len(rows)} boxes")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("labels", type=Path, help="SLEAP .slp or COCO keypoint .json")
@@ -316,6 +345,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="TrainConfig override for fine-tuning, e.g. patch_size=128")  # fmt: skip
     ap.add_argument("--json", type=Path, help="write the results here too")
+    ap.add_argument("--gt-mot", type=Path,
+                    help="only write the labels as MOT ground truth here")  # fmt: skip
     args = ap.parse_args(argv)
 
     from thermoswarm.config import apply_overrides, from_mapping, parse_overrides
@@ -324,6 +355,9 @@ def main(argv: list[str] | None = None) -> int:
     tmpdir = tempfile.TemporaryDirectory(prefix="bench-real-keep-")
     try:
         nodes = None if args.nodes is None else [n.strip() for n in args.nodes.split(",")]
+        if args.gt_mot is not None:
+            L = anatomy.ANT_LENGTH_MM * args.px_per_mm
+            return write_gt_mot(args.labels, nodes, L, args.gt_mot)
         labels_path = args.labels
         if args.keep:
             labels_path = keep_frames(args.labels, args.keep, Path(tmpdir.name))
