@@ -427,10 +427,15 @@ def main(argv: list[str] | None = None) -> int:
             m, d = run_unet(out, data, test, length, args.threads)
             add("unet fine-tuned", n, m, d, {"train_seconds": t_train, "steps": rep["steps"]})
 
+    held = (
+        f"frames {args.test_from} on"
+        if args.test_from is not None
+        else f"last {args.held_out:.0%} of each video"
+    )
     print(
         f"{args.labels.name}: {split['n_frames']} labelled frames; training pool "
-        f"{split['pool']}, held out {split['held_out']} (last {args.held_out:.0%} of each "
-        f"video, {n_test_ants} ants, {split['held_out_ignored']} unlabelled ants ignored); "
+        f"{split['pool']}, held out {split['held_out']} ({held}, "
+        f"{n_test_ants} ants, {split['held_out_ignored']} unlabelled ants ignored); "
         f"body length L {length:.1f} px (labelled head-tail {labelled / length:.2f} L), "
         f"match radius {0.5 * length:.1f} px; "
         f"fine-tuning {args.steps} steps from "
