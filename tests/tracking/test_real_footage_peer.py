@@ -95,3 +95,39 @@ def test_a_peer_that_swaps_identities_is_charged_for_it(bench, tmp_path):
     assert t["n_gt"] == 16 and t["idsw"] == 2
     assert t["mota"] == pytest.approx(1 - 2 / 16)
     assert t["idf1"] < 0.8
+
+
+def _user_file(path: Path, n_frames: int) -> Path:
+    """SLEAP user labels (head, thorax, abdomen, a wing) of two tracked animals; the
+    second animal of frame 3 has no track (not ground truth for MOT)."""
+    skel = sio.Skeleton(["head", "thorax", "abdomen", "wingL"])
+    video = sio.Video(filename="clip.mp4", open_backend=False)
+    tracks = [sio.Track("female"), sio.Track("male")]
+    lfs = []
+    for k in range(n_frames):
+        insts = []
+        for j in range(2):
+            p = np.vstack([_ant(60 + 2 * k, 100 + 200 * j), [[50.0, 90.0]]])
+            trk = None if (k, j) == (3, 1) else tracks[j]
+            insts.append(sio.Instance.from_numpy(p, skeleton=skel, track=trk))
+        lfs.append(sio.LabeledFrame(video=video, frame_idx=k, instances=insts))
+    labels = sio.Labels(labeled_frames=lfs, videos=[video], skeletons=[skel], tracks=tracks)
+    sio.save_slp(labels, str(path), embed=False, verbose=False)
+    return path
+
+
+def test_keep_frames_and_ground_truth_of_tracked_labels(bench, tmp_path):
+    src = _user_file(tmp_path / "clip.slp", 10)
+    (tmp_path / "sub").mkdir()
+    sub = bench.keep_frames(src, "0:4:2,8:", tmp_path / "sub")
+    kept = [lf.frame_idx for lf in sio.load_slp(str(sub)).labeled_frames]
+    assert kept == [0, 2, 8, 9]
+    out = tmp_path / "gt.txt"
+    assert bench.write_gt_mot(src, ["head", "thorax", "abdomen"], L_PX, out) == 0
+    gt = np.loadtxt(out, delimiter=",")
+    assert gt.shape == (19, 9)  # 2 x 10 boxes less the untracked one
+    assert not ((gt[:, 0] == 4) & (gt[:, 1] == 2)).any()
+    # the box is centred on the thorax: frame 1 (video frame 0), track 1 at (60, 100)
+    row = gt[(gt[:, 0] == 1) & (gt[:, 1] == 1)][0]
+    assert row[2] + row[4] / 2 == pytest.approx(60.0)
+    assert row[3] + row[5] / 2 == pytest.approx(100.0)
