@@ -6,6 +6,17 @@ the held-out frames are consecutive and carry track identities.
     python benchmarks/bench_real_footage.py LABELS.slp --px-per-mm S --model synth.pt \\
         [--nodes HEAD,BODY,TAIL] [--image-root DIR] [--frames 1,2,4,8,16,31] \\
         [--steps 300] [--held-out 0.3] [--threads 2] [--json OUT.json]
+        [--keep 0:1050:10,1350:1500] [--test-from 1350] [--polarity light]
+        [--peer PREDICTIONS.slp] [--gt-mot GT.txt]
+
+On real fly footage (SLEAP's tests/data/tracks, the commands and numbers in
+docs/real_footage.md): ``--keep`` reads only those labelled frames of a long file,
+``--test-from`` holds out the frames from that number on (instead of the last share),
+``--polarity light`` for light animals on a dark floor, ``--peer`` scores a peer's
+SLEAP predictions on the same held-out frames (its tracks for MOTA, IDF1, HOTA; a
+skeleton without tail node is scored on head and body, its boxes and the labels'
+from those two), and ``--gt-mot`` only writes the tracked labels as MOTChallenge
+ground truth for ``thermoswarm evaluate``.  ``--model`` may be left out (no U-Net rows).
 
 ``LABELS``: a SLEAP ``.slp`` (images embedded, or its videos beside it or in
 ``--image-root``) or COCO keypoints ``.json``, read as ``thermoswarm track train
