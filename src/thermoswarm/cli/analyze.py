@@ -298,6 +298,9 @@ def analyze(
     if fps is not None and not fps > 0:
         raise ConfigError(f"--fps must be a positive number, got {fps!r}")
     require_input(*inputs)  # before the heavy imports
+    from thermoswarm.tracking.batch import expand_batch_dirs
+
+    inputs = tuple(expand_batch_dirs(inputs))  # a `track` batch folder: its videos
     from thermoswarm.analysis.explain import explain_phases, trend_statement
     from thermoswarm.io import parse_read_options
     from thermoswarm.report.analysis_run import analyze_file
