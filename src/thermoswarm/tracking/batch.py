@@ -115,7 +115,7 @@ def find_videos(paths: Sequence[str | os.PathLike]) -> list[Path]:
             found += _videos_in(p)
         else:
             found.append(p)
-    unique = list(dict.fromkeys(p.absolute() for p in found))
+    unique = list(dict.fromkeys(Path(os.path.abspath(p)) for p in found))  # "a/../b" once
     if not unique:
         raise InputError(f"{', '.join(map(str, paths))}: no videos found")
     return unique
@@ -170,6 +170,7 @@ def track_one(video: str, out: str, options: dict[str, Any], key: str, attempt: 
     from thermoswarm.tracking.tracker import TrackerConfig
 
     folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)  # holds failed.json if the video is bad
     for name in (DONE, FAILED):  # stale markers go first: a crash leaves none
         (folder / name).unlink(missing_ok=True)
     kw = dict(options)
@@ -177,8 +178,7 @@ def track_one(video: str, out: str, options: dict[str, Any], key: str, attempt: 
     try:
         summary = track_video(video, folder, tracker_config=tcfg, progress=False, **kw)
     except ThermoswarmError as exc:
-        if folder.is_dir():
-            atomic_write_json(folder / FAILED, {"key": key, "video": video, "error": str(exc)})
+        atomic_write_json(folder / FAILED, {"key": key, "video": video, "error": str(exc)})
         raise
     result = {"n_frames": summary["n_frames"], "n_tracks": summary["n_tracks"]}
     atomic_write_json(folder / DONE, {"key": key, "video": video, **result})
