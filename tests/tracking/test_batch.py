@@ -44,14 +44,17 @@ def _batch_twice(videos: Path, out: Path, *where: str) -> None:
     res = runner.invoke(cli, ["track", str(videos), "--out", str(out), *TRACK, *where])
     assert res.exit_code == 1, res.output
     errors = res.stderr.splitlines()
-    assert len(errors) == 1 and errors[0].startswith(f"error: {videos / 'broken.mp4'}: ")
+    broken = str(videos / "broken.mp4")
+    assert len(errors) == 1 and errors[0].startswith(f"error: {broken}: ")
+    assert errors[0].count(broken) == 1  # the video named once
     summary = json.loads((out / "batch.json").read_text())
     assert summary["counts"] == {
         "videos": 3, "done": 2, "skipped": 0, "failed": 1, "tracked": 2
     }  # fmt: skip
     by_name = {Path(r["out"]).name: r for r in summary["videos"]}
     assert by_name["broken"]["status"] == "failed"
-    assert by_name["broken"]["error"] == errors[0].split(": ", 2)[2]
+    assert errors[0] == f"error: {by_name['broken']['error']}"
+    assert "cannot open as a video" in errors[0]
     for name in ("ants_a", "ants_b"):
         rec = by_name[name]
         assert rec["status"] == "done" and rec["n_frames"] == 40 and rec["n_tracks"] >= 8

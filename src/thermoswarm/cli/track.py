@@ -273,8 +273,9 @@ def _run_batch(
     if workers is not None and (scheduler is not None or cluster is not None):
         raise ConfigError("--workers is for local processes; Dask brings its own workers")
 
-    def report(rec: Any) -> None:
-        click.echo(f"error: {rec.video}: {rec.error}", err=True)
+    def report(rec: Any) -> None:  # one line that names the video once
+        line = rec.error if rec.video in rec.error else f"{rec.video}: {rec.error}"
+        click.echo(f"error: {line}", err=True)
 
     kw = {"retry_failed": retry_failed, "on_failure": report}
     if scheduler is None and cluster is None:
