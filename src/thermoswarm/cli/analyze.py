@@ -285,6 +285,9 @@ def analyze(
     if fps is not None and not fps > 0:
         raise ConfigError(f"--fps must be a positive number, got {fps!r}")
     require_input(*inputs)  # before the heavy imports
+    from thermoswarm.tracking.batch import expand_batch_dirs
+
+    inputs = tuple(expand_batch_dirs(inputs))  # a `track` batch folder: its videos
     opts = cli_options(ctx, config_file, flags)
     from thermoswarm.report.analysis_run import analyze_file
 

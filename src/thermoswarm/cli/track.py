@@ -32,13 +32,13 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
 
 
 @click.command()
-@click.argument("video", required=False, type=click.Path(path_type=Path))
+@click.argument("videos", nargs=-1, type=click.Path(path_type=Path))
 @click.option(
     "--out",
     "out_dir",
     required=True,
     type=click.Path(path_type=Path),
-    help="Output folder (created with its parents).",
+    help="Output folder (created with its parents); with many videos, one folder per video.",
 )
 @click.option(
     "--detections",
@@ -109,8 +109,22 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
 )
 @click.option("--max-frames", type=int, help="Stop after this many frames.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    help="Many videos: local worker processes (default: all cores).",
+)
+@click.option("--scheduler", metavar="ADDRESS", help="Many videos: the Dask scheduler to use.")
+@click.option(
+    "--cluster", metavar="local:N", help="Many videos: a Dask LocalCluster of N workers."
+)
+@click.option(
+    "--retry-failed",
+    is_flag=True,
+    help="Many videos: track again those whose input error is recorded (failed.json).",
+)
 def track(
-    video: Path | None,
+    videos: tuple[Path, ...],
     out_dir: Path,
     detections: Path | None,
     det_format: str | None,
@@ -127,8 +141,17 @@ def track(
     overlay_scale: float,
     max_frames: int | None,
     quiet: bool,
+    workers: int | None,
+    scheduler: str | None,
+    cluster: str | None,
+    retry_failed: bool,
 ) -> None:
     """Track the ants of VIDEO (a file or a folder of frames) into OUT.
+
+    Many videos (several paths, a folder of video files or a list file .txt with one
+    path per line) are tracked into OUT/<video name>/ on local worker processes or
+    Dask (--workers, --cluster, --scheduler, as `sweep`); finished videos are skipped
+    when run again; OUT/batch.json records each video; exit status 1 if one failed.
 
     Writes OUT/tracks.nc (trajectory format: mm with --px-per-mm, else px (attribute
     space_unit), s, keypoints head/body/tail),
@@ -139,25 +162,31 @@ def track(
     is in px unless --px-per-mm is given.
     """
     from thermoswarm.fsutil import require_input
+    from thermoswarm.tracking.batch import is_batch_input
 
-    if (video is None) == (detections is None):
+    if (not videos) == (detections is None):
         raise InputError("give either VIDEO or --detections DETS.txt (exactly one)")
-    require_input(video, detections)  # before the heavy imports
-    from thermoswarm.config import from_mapping
+    require_input(*videos, detections)  # before the heavy imports
+    many = is_batch_input(videos)
+    if not many and (workers or scheduler or cluster or retry_failed):
+        raise InputError(
+            "--workers, --scheduler, --cluster and --retry-failed apply to many videos "
+            "(several paths, a folder of videos or a list file)"
+        )
+    video = None if many or not videos else videos[0]
+    from thermoswarm.config import from_mapping, to_dict
     from thermoswarm.io import resolve_px_per_mm
     from thermoswarm.tracking.pipeline import track_detection_file, track_video
     from thermoswarm.tracking.tracker import TrackerConfig
 
-    if video is not None:
+    if videos:
         try:
             import cv2  # noqa: F401
         except ImportError:
             raise InputError(
                 "tracking videos needs OpenCV: pip install 'thermoswarm[track]'"
             ) from None
-    if (video is None) == (detections is None):
-        raise InputError("give either VIDEO or --detections DETS (exactly one)")
-    if video is not None:
+    if videos:
         for name, value in (
             ("--det-format", det_format),
             ("--image-size", image_size),
@@ -171,6 +200,14 @@ def track(
     tcfg = from_mapping(
         TrackerConfig, settings.get("tracker", {}), source=config or "--set tracker"
     )
+    if many:
+        options = dict(
+            px_per_mm=scale, fps=fps, detector=detector, model=str(model) if model else None,
+            detector_options=settings.get("detector"), tracker=to_dict(tcfg),
+            overlay=overlay, overlay_scale=overlay_scale, max_frames=max_frames,
+        )  # fmt: skip
+        _run_batch(videos, out_dir, options, workers, scheduler, cluster, retry_failed)
+        return
     if detections is not None:
         from thermoswarm.tracking.detfiles import parse_image_size
 
@@ -214,6 +251,45 @@ def track(
         f"{summary['detections_per_frame']:.1f} detections/frame, "
         f"{summary['frames_per_second']:.1f} frames/s -> {out_dir}/{main}"
     )
+
+
+def _run_batch(
+    videos: tuple[Path, ...],
+    out: Path,
+    options: dict[str, Any],
+    workers: int | None,
+    scheduler: str | None,
+    cluster: str | None,
+    retry_failed: bool,
+) -> None:
+    """Track many videos (:func:`thermoswarm.tracking.batch.track_batch`); print one
+    JSON line of counts, one ``error:`` line per failed video; exit 1 if any failed."""
+    import json
+
+    from thermoswarm.tracking.batch import track_batch
+
+    if scheduler is not None and cluster is not None:
+        raise ConfigError("give --scheduler or --cluster, not both")
+    if workers is not None and (scheduler is not None or cluster is not None):
+        raise ConfigError("--workers is for local processes; Dask brings its own workers")
+
+    def report(rec: Any) -> None:  # one line that names the video once
+        line = rec.error if rec.video in rec.error else f"{rec.video}: {rec.error}"
+        click.echo(f"error: {line}", err=True)
+
+    kw = {"retry_failed": retry_failed, "on_failure": report}
+    if scheduler is None and cluster is None:
+        records = track_batch(videos, out, options, max_workers=workers, **kw)
+    else:
+        from thermoswarm.sweep.cluster import dask_client, parse_cluster
+
+        n_local = parse_cluster(cluster) if cluster is not None else None
+        with dask_client(scheduler, local_workers=n_local) as client:
+            records = track_batch(videos, out, options, client.get_executor(), **kw)
+    counts = {s: sum(r.status == s for r in records) for s in ("done", "skipped", "failed")}
+    click.echo(json.dumps({"out": str(out), "videos": len(records), **counts}))
+    if counts["failed"]:
+        raise SystemExit(1)
 
 
 @click.command()

@@ -60,7 +60,10 @@ def read_inputs(paths: Sequence[Path], opts: AnalysisOptions) -> xr.Dataset:
         ds = read[0]
     else:
         stems = [p.stem for p in paths]
-        prefixes = stems if len(set(stems)) == len(stems) else [str(p) for p in paths]
+        parents = [p.parent.name for p in paths]  # a batch: OUT/<video>/tracks.nc
+        prefixes = next(
+            (n for n in (stems, parents) if len(set(n)) == len(n)), [str(p) for p in paths]
+        )
         ds = combine_tracks(read, prefixes, fps=rd.fps)
     if "position" not in ds:
         raise InputError(f"{paths[0]}: the reader returned no positions")
