@@ -442,7 +442,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     # Mean over seeds per sequence, level and tracker.
     print(f"{'sequence':24s} {'split':8s} {'dets':9s} {'tracker':9s} "
-          f"{'MOTA':>6s} {'IDF1':>6s} {'HOTA':>6s} {'IDSW':>5s} {'FP':>6s} {'FN':>6s} {'frames/s':>9s} "
+          f"{'MOTA':>6s} {'IDF1':>6s} {'HOTA':>6s} {'IDSW':>5s} {'FP':>6s} {'FN':>6s} "
+          f"{'frames/s':>9s} "
           f"{'ours/it':>8s}")  # fmt: skip
     key = lambda r: (r["sequence"], r["detections"])  # noqa: E731
     for k in sorted({key(r) for r in rows}):
