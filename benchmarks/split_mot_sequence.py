@@ -50,11 +50,8 @@ def main(argv: list[str] | None = None) -> int:
             part[:, 0] -= a - 1
             (seq / kind).mkdir(parents=True, exist_ok=True)
             write_mot_table(seq / kind / f"{kind}.txt", part)
-        print(
-            f"{seq}: {int((tables['det'][:, 0] >= a).sum() - (tables['det'][:, 0] > b).sum())} "
-            f"detections, {int(((tables['gt'][:, 0] >= a) & (tables['gt'][:, 0] <= b)).sum())} "
-            "ground-truth boxes"
-        )
+        counts = {k: int(((t[:, 0] >= a) & (t[:, 0] <= b)).sum()) for k, t in tables.items()}
+        print(f"{seq}: {counts['det']} detections, {counts['gt']} ground-truth boxes")
     return 0
 
 
