@@ -434,7 +434,7 @@ def main(argv: list[str] | None = None) -> int:
                 rows.append(dict(
                     sequence=seq, split="synth" if seq in synth else split,
                     detections=level, seed=seed, tracker=name, mota=m["mota"], idf1=m["idf1"],
-                    hota=m["hota"], idsw=m["idsw"], fps=n_frames / secs,
+                    hota=m["hota"], idsw=m["idsw"], fp=m["fp"], fn=m["fn"], fps=n_frames / secs,
                     speed_vs_ours=best["ours"] / secs, n_gt=m["n_gt"],
                     n_frames=n_frames, n_gt_ids=m["n_gt_ids"]))  # fmt: skip
     if args.json:
@@ -442,7 +442,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     # Mean over seeds per sequence, level and tracker.
     print(f"{'sequence':24s} {'split':8s} {'dets':9s} {'tracker':9s} "
-          f"{'MOTA':>6s} {'IDF1':>6s} {'HOTA':>6s} {'IDSW':>5s} {'frames/s':>9s} "
+          f"{'MOTA':>6s} {'IDF1':>6s} {'HOTA':>6s} {'IDSW':>5s} {'FP':>6s} {'FN':>6s} "
+          f"{'frames/s':>9s} "
           f"{'ours/it':>8s}")  # fmt: skip
     key = lambda r: (r["sequence"], r["detections"])  # noqa: E731
     for k in sorted({key(r) for r in rows}):
@@ -452,6 +453,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{k[0]:24s} {g[0]['split']:8s} {k[1]:9s} {name:9s} "
                   f"{np.mean([r['mota'] for r in g]):6.3f} {np.mean([r['idf1'] for r in g]):6.3f} "
                   f"{np.mean([r['hota'] for r in g]):6.3f} {np.mean([r['idsw'] for r in g]):5.1f} "
+                  f"{np.mean([r['fp'] for r in g]):6.0f} {np.mean([r['fn'] for r in g]):6.0f} "
                   f"{np.mean([r['fps'] for r in g]):9.0f} "
                   f"{_gmean([1 / r['speed_vs_ours'] for r in g]):8.2f}")  # fmt: skip
     peers = (
@@ -461,7 +463,7 @@ def main(argv: list[str] | None = None) -> int:
         f"(means over detection seeds {args.seeds}; fps assumed {args.fps:g}; timed: each "
         f"tracker's own update per frame (ours also finish), inputs built before and "
         f"outputs converted after the timer; best of {args.repeat}, this process; ours at "
-        f"its defaults; peers {peers})"
+        f"{'its defaults' if not args.overrides else ' '.join(args.overrides)}; peers {peers})"
     )
     return 0
 

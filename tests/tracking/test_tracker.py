@@ -234,3 +234,32 @@ def test_impossible_speeds_are_removed():
     np.testing.assert_allclose(pts[5, 1], [5.0, 0.0])
     assert interp[5] and scores[5] == 0 and interp.sum() == 1
     assert np.flatnonzero(drop).tolist() == [12]
+
+
+def _box_frames(centres_per_frame: list[np.ndarray], scores: list[float]) -> list:
+    """Box-only detections (40 x 20 px boxes) with body points at the given centres."""
+    out = []
+    for c in centres_per_frame:
+        pts = np.full((len(c), 3, 2), np.nan)
+        pts[:, 1] = c
+        boxes = np.column_stack([c - [20.0, 10.0], np.tile([40.0, 20.0], (len(c), 1))])
+        out.append(FrameDetections(pts, np.asarray(scores, float), boxes=boxes))
+    return out
+
+
+@pytest.mark.parametrize(
+    ("offset", "n_tracks"),
+    [(4.0, 1), (200.0, 2)],  # a doubled box (4 px apart) vs two separate animals
+)
+def test_doubled_boxes_born_together_start_one_track(offset, n_tracks):
+    # Two boxes from the first frame on, moving together at 1 px/frame, the second
+    # scored lower: a box doubled by the detector (closer than duplicate_radius body
+    # lengths, 0.5 x 40 px) must start one track, two animals far apart two.
+    n = 30
+    frames = [np.array([[100.0 + k, 100.0], [100.0 + k + offset, 100.0]]) for k in range(n)]
+    res = track_detections(_box_frames(frames, [0.9, 0.6]), fps=25, length_px=40.0)
+    table = res.mot_table()
+    assert len(np.unique(table[:, 1])) == n_tracks
+    # The kept track follows the better-scored box.
+    first = table[table[:, 1] == table[0, 1]]
+    np.testing.assert_allclose(first[:, 2] + first[:, 4] / 2, 100.0 + first[:, 0] - 1, atol=1.0)

@@ -107,7 +107,7 @@ class TrackerConfig:
     hint_weight: float = 1.0
     max_cost: float = 2.0
     min_score: float = 0.0
-    duplicate_radius: float = 0.3
+    duplicate_radius: float = 0.5
     interpolate: bool = True
     fix_jumps: bool = True
     head_motion_speed_bl_s: float = 0.42
@@ -421,7 +421,7 @@ class Tracker:
         if used.any() and ok.any():
             dd = np.linalg.norm(pts[used, 1][None, :, :] - pts[cand, 1][:, None, :], axis=-1)
             ok &= ~np.any(dd < c.duplicate_radius * self.length_px, axis=1)
-        new = cand[ok]
+        new = self._distinct(cand[ok], dets.scores, pts)
         if not new.size:
             return
         p = association.orient_new(c, pts[new], hc[new])
@@ -432,6 +432,20 @@ class Tracker:
             self.kp.r**2, self.kp.v0**2, self.kp.q0, self._next_key,
         )  # fmt: skip
         self._next_key += new.size
+
+    def _distinct(self, new: np.ndarray, scores: np.ndarray, pts: np.ndarray) -> np.ndarray:
+        """Birth candidates ``new`` less those within ``duplicate_radius`` body lengths
+        of a better-scored candidate (a split blob or doubled box starts one track, not
+        two); kept in their original order."""
+        if new.size < 2:
+            return new
+        order = new[np.argsort(-np.nan_to_num(scores[new], nan=-1.0), kind="stable")]
+        keep: list[int] = []
+        r = self.config.duplicate_radius * self.length_px
+        for j in order:
+            if all(np.linalg.norm(pts[j, 1] - pts[i, 1]) >= r for i in keep):
+                keep.append(int(j))
+        return np.sort(np.asarray(keep, dtype=new.dtype))
 
     def _confirm(self, t: int, removed: np.ndarray) -> None:
         """Give row ``t`` an identity: a lost track's if it continues one (the row is
