@@ -1,6 +1,7 @@
 """Rebuild ``js16_xy_1_1_mm.csv`` from anTraX-data's ``JS16/antrax_demo/antdata/xy_1_1.csv``.
 
-Usage (run from this folder): ``python make_excerpt.py XY_1_1.CSV OUT.CSV``.  Standard library only.
+Usage (run from this folder): ``python make_excerpt.py XY_1_1.CSV OUT.CSV``.
+Standard library only.
 
 What it changes: positions from metres to mm, rounded to 0.01 mm (the camera's pixel
 is 0.094 mm); the orientation (``_OR``) and ``_ass_type`` columns are dropped; columns
