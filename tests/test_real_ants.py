@@ -99,6 +99,7 @@ def test_the_real_row_states_its_rule_and_source():
     assert "rule: two phases preferred" in rows[0]["why"] and "anTraX-data JS16" in rows[0]["why"]
     assert "5 in clusters" in rows[0]["why"] and "3 resting steps" in rows[0]["why"]
     good = dict(real, preferred="two_phase", lr_p_value=0.01, ks_p_value_preferred=0.4)
-    assert compare("unified_law", {"ants_real": good})[0]["verdict"] == "reproduced"
+    row = compare("unified_law", {"ants_real": good})[0]
+    assert row["verdict"] == "reproduced" and "rms speed is 0.77 mm/s" in row["why"]
     assert compare("unified_law", {})[0]["verdict"] == "not measured"
     assert rows[1]["claim"].startswith("ants (synthetic control)")

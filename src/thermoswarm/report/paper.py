@@ -83,6 +83,13 @@ def _ant_row(ants: Mapping[str, Any], nb: Any, real: bool) -> dict[str, str]:
             f"({fmt(sm.get('cluster_shared'))} in clusters, left out), "
             f"{fmt(_get(ants, 'steps', 'resting'))} resting steps left out"
         )
+        kt1 = tp.get("kT1")
+        if ok and kt1:  # a cold phase near zero may be standing ants' centroid jitter
+            what += (
+                f"; the cold phase's rms speed is {fmt(math.sqrt(2 * kt1), 2)} mm/s: at "
+                "this camera's 0.094 mm pixels and 10 frames/s, about one pixel per frame, "
+                "so it may be standing ants' jitter rather than a second gait"
+            )
         claim = "ants (real): energy is a two-phase exponential mixture"
     else:
         what = (
