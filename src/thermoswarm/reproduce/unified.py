@@ -24,6 +24,8 @@ from thermoswarm.reproduce.text import _fig, _num
 ANTRAX_JS16 = (
     Path(__file__).resolve().parents[3] / "tests" / "data" / "antrax_js16" / "js16_xy_1_1_mm.csv"
 )
+#: The systems' names in the fits table.
+_SYSTEM_NAMES = {"ants_real": "ants, real (anTraX JS16)", "ants": "ants, synthetic (control)"}
 #: Where the excerpt comes from (tests/data/antrax_js16/README.md has the details).
 ANTRAX_SOURCE = (
     "anTraX-data (github.com/Social-Evolution-and-Behavior/anTraX-data, commit 37ed5e9a, "
@@ -147,7 +149,7 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
     if ANTRAX_JS16.is_file():  # a source checkout: the excerpt is test data, not packaged
         real = real_ants(ANTRAX_JS16, seed=seed, n_bootstrap=plan.n_bootstrap)
         systems.insert(0, ("ants_real", "ants, real (anTraX JS16, 16 O. biroi, 240 s)", None))
-    fig, axes = plt.subplots(2, 2, figsize=(12, 8))
+    fig, axes = plt.subplots(2, 2, figsize=(12, 8), layout="constrained")
     res: dict[str, Any] = {}
     for ax, (key, label, ds) in zip(axes.flat, systems, strict=False):
         if key == "ants_real":
@@ -203,7 +205,7 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
         _fig(rep, fig, "Energy distributions (log density) with the preferred fit.")
         floor = 1 / (plan.n_bootstrap + 1)
         rep.table(
-            [{"system": k, "preferred": v["preferred"].replace("_", " "),
+            [{"system": _SYSTEM_NAMES.get(k, k), "preferred": v["preferred"].replace("_", " "),
               "LR p-value": (f"< {floor:.2g} (the bootstrap's floor)"
                              if v["lr_p_value"] is not None and v["lr_p_value"] <= 1.02 * floor
                              else v["lr_p_value"]),
