@@ -172,10 +172,11 @@ def test_unified_law_rules_and_the_bootstrap_floor():
               "two_phase": {"kT1": 5.0, "kT2": 110.0}, "kT_hot": 143.0, "kT_cold": 5.7,
               "n_bootstrap": 200}  # fmt: skip
     rows = compare("unified_law", {"ants": ants, "gas": gas, "robots": robots})
-    assert [r["verdict"] for r in rows] == ["reproduced", "reproduced", "partly"]
-    assert "p <= 0.005" in rows[0]["ours"] and "KS test rejects" in rows[2]["why"]
+    # the real ant row first (not measured here), then the synthetic control
+    assert [r["verdict"] for r in rows] == ["not measured", "reproduced", "reproduced", "partly"]
+    assert "p <= 0.005" in rows[1]["ours"] and "KS test rejects" in rows[3]["why"]
     hot_gas = dict(gas, one_phase_kT=90.0)
-    assert compare("unified_law", {"gas": hot_gas})[1]["verdict"] == "differs"
+    assert compare("unified_law", {"gas": hot_gas})[2]["verdict"] == "differs"
 
 
 def test_numbers_read_as_numbers():

@@ -85,7 +85,10 @@ def test_results_json_holds_every_experiment_with_its_verdicts(done):
     assert [r["n"] for r in on_disk["scaling"]["rows"]] == list(TINY.scaling_ns)
     assert len(on_disk["mechanism"]["rows"]) == 8  # 2 mappings x 2 heading laws x 2 sensings
     assert on_disk["transport_connected"]["seeds"] == TINY.connected_seeds
-    assert {"ants", "gas", "robots"} <= set(on_disk["unified_law"])
+    assert {"ants", "ants_real", "gas", "robots"} <= set(on_disk["unified_law"])
+    real = on_disk["unified_law"]["ants_real"]  # the real ant excerpt, with its source
+    assert "anTraX-data" in real["source"] and "JS16" in real["source"]
+    assert real["samples"]["total"] == 16 * 2400 and real["steps"]["used"] > 0
     assert on_disk == json.loads(json.dumps(res))  # what the function returned
 
 
@@ -126,7 +129,7 @@ def test_no_empty_plot_and_no_rejected_fit(done):
     sentence = "no run at any swarm size reached the target line"
     assert (sentence in page) == (reached == 0)
     # one fitted line per system: the model the analysis kept
-    for key in ("ants", "gas", "robots"):
+    for key in ("ants_real", "ants", "gas", "robots"):
         assert res["unified_law"][key]["preferred"] in ("one_phase", "two_phase")
     assert page.count("<video") + page.count('src="data:image/gif') >= 4  # the animations
 

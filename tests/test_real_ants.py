@@ -1,0 +1,105 @@
+"""The report's real ant row: the anTraX JS16 excerpt (tests/data/antrax_js16) read,
+its cluster-shared positions masked, and fitted by the study; the paper comparison's
+rule for the row."""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from thermoswarm.io import read_tracks
+from thermoswarm.report.paper import compare
+from thermoswarm.reproduce.unified import ANTRAX_JS16, mask_shared_positions, real_ants
+
+TAGS = 16
+FRAMES = 2400
+
+
+def test_the_excerpt_reads_as_16_ants_at_10_fps_in_mm():
+    ds = read_tracks(ANTRAX_JS16)
+    assert ds.sizes["individuals"] == TAGS and ds.sizes["time"] == FRAMES
+    assert float(ds.attrs["fps"]) == 10.0
+    xy = ds["position"].values[:, :2, 0, :]
+    ok = np.isfinite(xy)
+    # a 65 mm arena: metres converted to mm, not left in metres or in pixels
+    assert 0 < np.nanmin(xy) and 60 < np.nanmax(xy) < 90
+    assert ok.all(axis=1).sum() == TAGS * FRAMES - 100  # 100 samples without a position
+
+
+def test_shared_positions_are_masked_and_counted():
+    pos = np.arange(4 * 2 * 1 * 3, dtype=float).reshape(4, 2, 1, 3)
+    pos[1, :, 0, 2] = pos[1, :, 0, 0]  # ants 0 and 2 share frame 1
+    pos[3, :, 0, 1] = np.nan  # a missing sample is never "shared"
+    pos[3, :, 0, 0] = np.nan
+    ds = xr.Dataset({"position": (("time", "space", "keypoints", "individuals"), pos)})
+    out, n = mask_shared_positions(ds)
+    assert n == 2
+    got = out["position"].values
+    assert np.isnan(got[1, :, 0, [0, 2]]).all() and np.isfinite(got[1, :, 0, 1]).all()
+    assert np.array_equal(got[[0, 2]], pos[[0, 2]])  # other frames untouched
+    assert np.isfinite(ds["position"].values[1]).all()  # the input is not modified
+
+
+def _shared_in_csv() -> int:
+    """Cluster-shared samples counted straight from the CSV text (independent code)."""
+    n = 0
+    with open(ANTRAX_JS16, newline="") as f:
+        rows = csv.reader(line for line in f if not line.startswith("#"))
+        next(rows)
+        for row in rows:
+            pts = [p for p in zip(row[1::2], row[2::2], strict=True) if p[0]]
+            n += sum(pts.count(p) for p in set(pts) if pts.count(p) > 1)
+    return n
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    return real_ants(ANTRAX_JS16, seed=0, n_bootstrap=9)
+
+
+def test_real_ants_counts_add_up(fitted):
+    study, c = fitted
+    sm, st = c["samples"], c["steps"]
+    assert sm["total"] == TAGS * FRAMES == sm["single"] + sm["cluster_shared"] + sm["missing"]
+    assert sm["cluster_shared"] == _shared_in_csv()
+    # every step lands in one bucket; the fit uses exactly the "used" ones
+    buckets = [v for k, v in st.items() if k not in ("total", "resting_left_out",
+                                                     "implausible_left_out")]  # fmt: skip
+    assert sum(buckets) == st["total"] == TAGS * (FRAMES - 1)
+    assert st["resting_left_out"] == st["resting"] > 0
+    assert study.fits["energy"]["n"] == st["used"]
+    # a fitted step joins two individually measured samples of one ant
+    assert st["used"] <= sm["single"] - TAGS
+
+
+def test_real_ants_one_phase_kT_is_the_mean_energy(fitted):
+    study, _ = fitted
+    en = study.fits["energy"]
+    kt = en["one_phase"]["kT"]
+    assert math.isfinite(kt) and kt > 0
+    assert kt == pytest.approx(en["mean"], rel=1e-9)  # the exponential's MLE
+    # O. biroi walk a few mm/s: the mean speed implied lies between 1 and 20 mm/s
+    assert 1.0 < math.sqrt(2 * kt) < 20.0
+    tp = en["two_phase"]
+    assert 0 < tp["phi"] < 1 and tp["kT1"] < tp["kT2"]
+
+
+def test_the_real_row_states_its_rule_and_source():
+    real = {"preferred": "one_phase", "lr_p_value": 0.2, "ks_p_value_preferred": 0.01,
+            "one_phase_kT": 12.0, "two_phase": {"phi": 0.3, "kT1": 0.3, "kT2": 16.0},
+            "source": "anTraX-data JS16", "samples": {"total": 10, "single": 4,
+            "cluster_shared": 5, "missing": 1}, "steps": {"resting": 3},
+            "n_bootstrap": 9}  # fmt: skip
+    rows = compare("unified_law", {"ants_real": real})
+    assert rows[0]["claim"].startswith("ants (real)") and rows[0]["verdict"] == "differs"
+    assert "rule: two phases preferred" in rows[0]["why"] and "anTraX-data JS16" in rows[0]["why"]
+    assert "5 in clusters" in rows[0]["why"] and "3 resting steps" in rows[0]["why"]
+    good = dict(real, preferred="two_phase", lr_p_value=0.01, ks_p_value_preferred=0.4)
+    row = compare("unified_law", {"ants_real": good})[0]
+    assert row["verdict"] == "reproduced" and "rms speed is 0.77 mm/s" in row["why"]
+    assert compare("unified_law", {})[0]["verdict"] == "not measured"
+    assert rows[1]["claim"].startswith("ants (synthetic control)")
