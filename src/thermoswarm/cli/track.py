@@ -161,78 +161,39 @@ def track(
     boxes written are the detections' own, frames keep their numbering, and tracks.nc
     is in px unless --px-per-mm is given.
     """
-    from thermoswarm.fsutil import require_input
-    from thermoswarm.tracking.batch import is_batch_input
-
-    if (not videos) == (detections is None):
-        raise InputError("give either VIDEO or --detections DETS.txt (exactly one)")
-    require_input(*videos, detections)  # before the heavy imports
-    many = is_batch_input(videos)
-    if not many and (workers or scheduler or cluster or retry_failed):
-        raise InputError(
-            "--workers, --scheduler, --cluster and --retry-failed apply to many videos "
-            "(several paths, a folder of videos or a list file)"
-        )
-    video = None if many or not videos else videos[0]
-    from thermoswarm.config import from_mapping, to_dict
-    from thermoswarm.io import resolve_px_per_mm
-    from thermoswarm.tracking.pipeline import track_detection_file, track_video
-    from thermoswarm.tracking.tracker import TrackerConfig
-
-    if videos:
-        try:
-            import cv2  # noqa: F401
-        except ImportError:
-            raise InputError(
-                "tracking videos needs OpenCV: pip install 'thermoswarm[track]'"
-            ) from None
-    if videos:
-        for name, value in (
-            ("--det-format", det_format),
-            ("--image-size", image_size),
-            ("--first-frame", first_frame),
-            ("--object-size-px", object_size_px),
-        ):
-            if value is not None:
-                raise InputError(f"{name} applies to --detections, not to videos")
-    scale = resolve_px_per_mm(px_per_mm) if px_per_mm is not None else None
-    settings = _load_settings(config, overrides)
-    tcfg = from_mapping(
-        TrackerConfig, settings.get("tracker", {}), source=config or "--set tracker"
+    many = _check_inputs(
+        videos, detections, batch_only=(workers, scheduler, cluster, retry_failed)
     )
+    if videos:
+        _check_video_options(det_format, image_size, first_frame, object_size_px)
+    scale, settings, tcfg = _options(px_per_mm, config, overrides)
     if many:
         options = dict(
             px_per_mm=scale, fps=fps, detector=detector, model=str(model) if model else None,
-            detector_options=settings.get("detector"), tracker=to_dict(tcfg),
+            detector_options=settings.get("detector"), tracker=tcfg,
             overlay=overlay, overlay_scale=overlay_scale, max_frames=max_frames,
         )  # fmt: skip
         _run_batch(videos, out_dir, options, workers, scheduler, cluster, retry_failed)
         return
     if detections is not None:
-        from thermoswarm.tracking.detfiles import parse_image_size
-
-        if model is not None or detector is not None:
-            raise InputError("--model and --detector apply to videos, not to --detections")
-        if settings.get("detector"):
-            raise InputError("[detector] options apply to videos, not to --detections")
-        if fps is None:
-            raise InputError(f"{detections}: detections have frame numbers only; pass --fps")
-        if object_size_px is not None and not (0 < object_size_px < float("inf")):
-            raise InputError(f"--object-size-px must be positive, got {object_size_px!r}")
-        summary = track_detection_file(
+        summary = _track_detections(
             detections,
             out_dir,
             px_per_mm=scale,
             fps=fps,
             tracker_config=tcfg,
+            settings=settings,
+            uses_detector=model is not None or detector is not None,
             fmt=det_format,
-            image_size=parse_image_size(image_size) if image_size else None,
+            image_size=image_size,
             first_frame=first_frame,
-            length_px=object_size_px,
+            object_size_px=object_size_px,
         )
     else:
+        from thermoswarm.tracking.pipeline import track_video
+
         summary = track_video(
-            video,
+            videos[0],
             out_dir,
             px_per_mm=scale,
             fps=fps,
@@ -245,6 +206,111 @@ def track(
             max_frames=max_frames,
             progress=not quiet,
         )
+    _echo_summary(summary, out_dir)
+
+
+def _check_inputs(
+    videos: tuple[Path, ...], detections: Path | None, *, batch_only: tuple[Any, ...]
+) -> bool:
+    """Whether ``videos`` are many; :class:`InputError` for a missing input, both or
+    neither of VIDEO and --detections, batch options on one video, or no OpenCV."""
+    from thermoswarm.fsutil import require_input
+    from thermoswarm.tracking.batch import is_batch_input
+
+    if (not videos) == (detections is None):
+        raise InputError("give either VIDEO or --detections DETS.txt (exactly one)")
+    require_input(*videos, detections)  # before the heavy imports
+    many = is_batch_input(videos)
+    if not many and any(batch_only):
+        raise InputError(
+            "--workers, --scheduler, --cluster and --retry-failed apply to many videos "
+            "(several paths, a folder of videos or a list file)"
+        )
+    if videos:
+        try:
+            import cv2  # noqa: F401
+        except ImportError:
+            raise InputError(
+                "tracking videos needs OpenCV: pip install 'thermoswarm[track]'"
+            ) from None
+    return many
+
+
+def _check_video_options(
+    det_format: str | None,
+    image_size: str | None,
+    first_frame: int | None,
+    object_size_px: float | None,
+) -> None:
+    """Refuse the options that apply to --detections only."""
+    for name, value in (
+        ("--det-format", det_format),
+        ("--image-size", image_size),
+        ("--first-frame", first_frame),
+        ("--object-size-px", object_size_px),
+    ):
+        if value is not None:
+            raise InputError(f"{name} applies to --detections, not to videos")
+
+
+def _options(
+    px_per_mm: str | None, config: str | None, overrides: tuple[str, ...]
+) -> tuple[float | None, dict[str, Any], Any]:
+    """The scale (px/mm or ``None``), the settings tables and the tracker's config."""
+    from thermoswarm.config import from_mapping
+    from thermoswarm.io import resolve_px_per_mm
+    from thermoswarm.tracking.tracker import TrackerConfig
+
+    scale = resolve_px_per_mm(px_per_mm) if px_per_mm is not None else None
+    settings = _load_settings(config, overrides)
+    tcfg = from_mapping(
+        TrackerConfig, settings.get("tracker", {}), source=config or "--set tracker"
+    )
+    return scale, settings, tcfg
+
+
+def _track_detections(
+    detections: Path,
+    out_dir: Path,
+    *,
+    px_per_mm: float | None,
+    fps: float | None,
+    tracker_config: Any,
+    settings: dict[str, Any],
+    uses_detector: bool,
+    fmt: str | None,
+    image_size: str | None,
+    first_frame: int | None,
+    object_size_px: float | None,
+) -> dict[str, Any]:
+    """Check the --detections options and run
+    :func:`~thermoswarm.tracking.pipeline.track_detection_file`; return its summary."""
+    from thermoswarm.tracking.detfiles import parse_image_size
+    from thermoswarm.tracking.pipeline import track_detection_file
+
+    if uses_detector:
+        raise InputError("--model and --detector apply to videos, not to --detections")
+    if settings.get("detector"):
+        raise InputError("[detector] options apply to videos, not to --detections")
+    if fps is None:
+        raise InputError(f"{detections}: detections have frame numbers only; pass --fps")
+    if object_size_px is not None and not (0 < object_size_px < float("inf")):
+        raise InputError(f"--object-size-px must be positive, got {object_size_px!r}")
+    return track_detection_file(
+        detections,
+        out_dir,
+        px_per_mm=px_per_mm,
+        fps=fps,
+        tracker_config=tracker_config,
+        fmt=fmt,
+        image_size=parse_image_size(image_size) if image_size else None,
+        first_frame=first_frame,
+        length_px=object_size_px,
+    )
+
+
+def _echo_summary(summary: dict[str, Any], out_dir: Path) -> None:
+    """Print one line: frames, tracks, detections per frame, speed and the main output."""
     main = "tracks.nc" if "tracks.nc" in summary["outputs"] else "tracks_mot.txt"
     click.echo(
         f"{summary['n_frames']} frames, {summary['n_tracks']} tracks, "
@@ -263,11 +329,15 @@ def _run_batch(
     retry_failed: bool,
 ) -> None:
     """Track many videos (:func:`thermoswarm.tracking.batch.track_batch`); print one
-    JSON line of counts, one ``error:`` line per failed video; exit 1 if any failed."""
+    JSON line of counts, one ``error:`` line per failed video; exit 1 if any failed.
+
+    ``options`` are the per-video options, ``tracker`` a ``TrackerConfig``."""
     import json
 
+    from thermoswarm.config import to_dict
     from thermoswarm.tracking.batch import track_batch
 
+    options = {**options, "tracker": to_dict(options["tracker"])}  # plain data for workers
     if scheduler is not None and cluster is not None:
         raise ConfigError("give --scheduler or --cluster, not both")
     if workers is not None and (scheduler is not None or cluster is not None):

@@ -107,6 +107,91 @@ def _det_rows(frame: int, d: FrameDetections, pad: float) -> np.ndarray:
     return rows
 
 
+def _check_video_args(
+    video: Any, src: Any, fps: float | None, max_frames: int | None, overlay: bool, scale: float
+) -> float:
+    """The frame rate to use; :class:`InputError` for a bad rate, frame count or scale."""
+    rate = fps if fps is not None else src.fps
+    if rate is None:
+        raise InputError(f"{video}: the frame rate is unknown (a folder of frames?); pass --fps")
+    if not (rate > 0 and np.isfinite(rate)):
+        raise InputError(f"fps must be a positive number, got {rate!r}")
+    if max_frames is not None and max_frames < 1:
+        raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
+    if overlay and not (0 < scale <= 1):
+        raise InputError(f"overlay scale must be in (0, 1], got {scale!r}")
+    return rate
+
+
+def _prep_frames(prepare_s: float, rate: float, max_frames: int | None) -> int:
+    """How many first frames the detector's ``prepare`` step sees (at least one)."""
+    n_prep = max(1, int(round(prepare_s * rate)))
+    if max_frames is not None:
+        n_prep = min(n_prep, max_frames)
+    return n_prep
+
+
+def _draw_final(writer: Any, ring: collections.deque, final: Any) -> None:
+    """Draw the frames whose tracks are final into the overlay; drop older ring frames."""
+    for f, rows in final:
+        while ring and ring[0][0] < f:
+            ring.popleft()
+        if ring and ring[0][0] == f:
+            writer.write(ring.popleft()[1], rows, shrunk=True)
+
+
+def _frame_stream(src: Any, max_frames: int | None, progress: bool) -> Any:
+    """Read frames: decoded in a background thread, with a progress bar if asked."""
+    total = max_frames if max_frames is not None else src.n_frames
+    frames = src.frames(max_frames, prefetch=4)
+    if progress:
+        from tqdm import tqdm
+
+        frames = tqdm(frames, total=total, unit="frame", desc="track", disable=None)
+    return frames
+
+
+def _detect_and_associate(
+    video: Any, frames: Any, det: Any, tracker: Tracker, writer: Any, takes_hints: bool
+) -> tuple[int, np.ndarray]:
+    """Detect each frame, associate its detections with the tracks, draw final frames.
+
+    Returns the number of detections and their MOT rows; :class:`InputError` when no
+    frame is decoded or nothing is detected.  The overlay is closed here (aborted on
+    any error), as the tracker's lag means the last frames are drawn after the loop.
+    """
+    ring: collections.deque[tuple[int, np.ndarray]] = collections.deque()
+    det_rows = []
+    n_det = 0
+    k = -1
+    try:
+        for k, frame in enumerate(frames):
+            hints = tracker.predict()
+            d = det.detect(frame, hints=hints) if takes_hints else det.detect(frame)
+            tracker.update(d)
+            n_det += len(d)
+            det_rows.append(_det_rows(k, d, tracker.pad))
+            if writer is not None:
+                ring.append((k, writer.shrink(frame)))  # small frames wait for the lag
+                _draw_final(writer, ring, tracker.pop_final())
+        if k < 0:
+            raise InputError(f"{video}: no frame could be decoded")
+        if n_det == 0:
+            raise InputError(
+                f"{video}: no animals detected in {k + 1} frames "
+                f"({getattr(det, 'name', 'the')} detector); nothing written; {NOTHING_FOUND_HINT}"
+            )
+        if writer is not None:
+            _draw_final(writer, ring, tracker.flush())
+            writer.close()
+    except BaseException:
+        if writer is not None:
+            writer.abort()
+        raise
+    dets = np.concatenate(det_rows) if det_rows else np.zeros((0, 10))
+    return n_det, dets
+
+
 def track_video(
     video: str | os.PathLike,
     out_dir: str | os.PathLike,
@@ -126,6 +211,10 @@ def track_video(
 ) -> dict[str, Any]:
     """Track the ants of a video; write the outputs; return the summary.
 
+    The stages: read frames (:func:`_frame_stream`), detect and associate
+    (:func:`_detect_and_associate`), smooth and gap-fill (the tracker's ``finish``),
+    write (:func:`_write_video_outputs`).
+
     Parameters
     ----------
     video
@@ -137,7 +226,7 @@ def track_video(
         the video (:func:`~thermoswarm.tracking.detect.estimate_length_px`) and
         ``tracks.nc`` is written in px (``space_unit = "px"``).
     fps
-        Frame rate; default the video's own (required for folders of frames).
+        Frame rate (frames/s); default the video's own (required for folders of frames).
     detector, model, detector_options
         See :func:`thermoswarm.tracking.detect.make_detector` (default: classical).
     tracker_config
@@ -162,73 +251,56 @@ def track_video(
     from thermoswarm.tracking.video import OverlayWriter, open_video
 
     src = open_video(video)
-    rate = fps if fps is not None else src.fps
-    if rate is None:
-        raise InputError(f"{video}: the frame rate is unknown (a folder of frames?); pass --fps")
-    if not (rate > 0 and np.isfinite(rate)):
-        raise InputError(f"fps must be a positive number, got {rate!r}")
-    if max_frames is not None and max_frames < 1:
-        raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
-    if overlay and not (0 < overlay_scale <= 1):
-        raise InputError(f"overlay scale must be in (0, 1], got {overlay_scale!r}")
+    rate = _check_video_args(video, src, fps, max_frames, overlay, overlay_scale)
     t0 = time.perf_counter()
-    n_prep = max(1, int(round(prepare_s * rate)))
-    if max_frames is not None:
-        n_prep = min(n_prep, max_frames)
     det, scale = build_detector(
-        src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model, options=detector_options
+        src,
+        _prep_frames(prepare_s, rate, max_frames),
+        px_per_mm=px_per_mm,
+        detector=detector,
+        model=model,
+        options=detector_options,
     )
-    out = prepare_output_dir(out_dir)
+    out = prepare_output_dir(out_dir)  # only once the detector is built
     tcfg = tracker_config or TrackerConfig()
     tracker = Tracker(tcfg, px_per_mm=scale["px_per_mm"], fps=rate, frame_size=src.size)
     t_prep = time.perf_counter() - t0
     takes_hints = hints and bool(getattr(det, "accepts_hints", False))
     writer = OverlayWriter(out / "overlay.mp4", rate, scale=overlay_scale) if overlay else None
-    ring: collections.deque[tuple[int, np.ndarray]] = collections.deque()
-    det_rows = []
-    n_det = 0
-    total = max_frames if max_frames is not None else src.n_frames
-    frames = src.frames(max_frames, prefetch=4)
-    if progress:
-        from tqdm import tqdm
-
-        frames = tqdm(frames, total=total, unit="frame", desc="track", disable=None)
-    k = -1
-    try:
-        for k, frame in enumerate(frames):
-            hints = tracker.predict()
-            d = det.detect(frame, hints=hints) if takes_hints else det.detect(frame)
-            tracker.update(d)
-            n_det += len(d)
-            det_rows.append(_det_rows(k, d, tracker.pad))
-            if writer is not None:
-                ring.append((k, writer.shrink(frame)))  # small frames wait for the lag
-                for f, rows in tracker.pop_final():
-                    while ring and ring[0][0] < f:
-                        ring.popleft()
-                    if ring and ring[0][0] == f:
-                        writer.write(ring.popleft()[1], rows, shrunk=True)
-        if k < 0:
-            raise InputError(f"{video}: no frame could be decoded")
-        if n_det == 0:
-            raise InputError(
-                f"{video}: no animals detected in {k + 1} frames "
-                f"({getattr(det, 'name', 'the')} detector); nothing written; {NOTHING_FOUND_HINT}"
-            )
-        if writer is not None:
-            for f, rows in tracker.flush():
-                while ring and ring[0][0] < f:
-                    ring.popleft()
-                if ring and ring[0][0] == f:
-                    writer.write(ring.popleft()[1], rows, shrunk=True)
-            writer.close()
-    except BaseException:
-        if writer is not None:
-            writer.abort()
-        raise
+    frames = _frame_stream(src, max_frames, progress)
+    n_det, dets = _detect_and_associate(video, frames, det, tracker, writer, takes_hints)
     result = tracker.finish()
     elapsed = time.perf_counter() - t0
-    dets = np.concatenate(det_rows) if det_rows else np.zeros((0, 10))
+    run = dict(video=video, src=src, det=det, scale=scale, dets=dets, n_det=n_det, rate=rate)
+    return _write_video_outputs(
+        result, out, run, px_per_mm=px_per_mm, fps_source="user" if fps is not None else "video",
+        tracker=tcfg, detector=detector, model=model, detector_options=detector_options,
+        timing=(elapsed, t_prep), overlay=writer is not None,
+    )  # fmt: skip
+
+
+def _write_video_outputs(
+    result: TrackResult,
+    out: Path,
+    run: dict[str, Any],
+    *,
+    px_per_mm: float | None,
+    fps_source: str,
+    tracker: TrackerConfig,
+    detector: str | None,
+    model: Any,
+    detector_options: dict[str, Any] | None,
+    timing: tuple[float, float],
+    overlay: bool,
+) -> dict[str, Any]:
+    """Write tracks.nc, tracks_mot.txt, detections.txt and summary.json; return the summary.
+
+    ``run`` holds the run's ``video``, ``src`` (its source), ``det`` (the detector),
+    ``scale`` (:func:`build_detector`'s), ``dets`` (MOT detection rows), ``n_det`` and
+    ``rate`` (frames/s); ``timing`` is ``(elapsed, prepare)`` in s; ``overlay`` says
+    overlay.mp4 was written.
+    """
+    video, src, det, scale, rate = (run[k] for k in ("video", "src", "det", "scale", "rate"))
     det_name = getattr(det, "name", detector or "classical")
     attrs = {
         "detector": str(det_name),
@@ -238,22 +310,28 @@ def track_video(
         "scale_source": scale["scale_source"],
     }
     names = _write_outputs(
-        result, out, px_per_mm=px_per_mm, fps=rate, source=str(video), det_rows=dets, attrs=attrs
+        result,
+        out,
+        px_per_mm=px_per_mm,
+        fps=rate,
+        source=str(video),
+        det_rows=run["dets"],
+        attrs=attrs,
     )
-    if writer is not None:
+    if overlay:
         names.append("overlay.mp4")
     summary = _summary(
         result,
         source=str(video),
         fps=rate,
-        fps_source="user" if fps is not None else "video",
+        fps_source=fps_source,
         px_per_mm=px_per_mm,
-        tracker=tcfg,
+        tracker=tracker,
         detector=str(det_name),
         model=model,
-        n_det=n_det,
-        elapsed=elapsed,
-        prepare=t_prep,
+        n_det=run["n_det"],
+        elapsed=timing[0],
+        prepare=timing[1],
         size=src.size,
         outputs=names + ["summary.json"],
         detector_options=_detector_info(det, detector_options),
