@@ -387,7 +387,7 @@ def _fit_rows(block: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def build_report(result: StudyResult) -> str:
-    """The self-contained HTML report of a study."""
+    """The self-contained HTML report of a study, one function per section."""
     from thermoswarm.report.html import HtmlReport
 
     fits = result.fits
@@ -397,6 +397,25 @@ def build_report(result: StudyResult) -> str:
     valid = kin["valid"].values & np.isfinite(energy)
     src = fits.get("source_file") or "trajectories"
     rep = HtmlReport("thermoswarm analysis", subtitle=str(src))
+    _summary_section(rep, fits)
+    _data_quality_section(rep, fits["data_quality"])
+    if fits.get("excluded", {}):
+        _excluded_section(rep, fits["excluded"])
+    if fits.get("plausibility", {}).get("temperatures"):
+        _plausibility_section(rep, fits["plausibility"])
+    _energy_section(rep, result, energy[valid], unit)
+    for spec, g in fits["groups"].items():
+        _groups_section(rep, result, spec, g, energy, valid, unit)
+    _steering_section(rep, result, unit)
+    if fits["regions"]:
+        _regions_section(rep, result)
+    with rep.section("Settings"):
+        rep.table(fits["settings"], header=("setting", "value"))
+    return rep.render()
+
+
+def _summary_section(rep: Any, fits: dict[str, Any]) -> None:
+    """Counts, the preferred energy model and why, plausibility and the steering trend."""
     e = fits["energy"]
     excluded = fits.get("excluded", {})
     plaus = fits.get("plausibility", {})
@@ -404,7 +423,7 @@ def build_report(result: StudyResult) -> str:
         summary = {
             "tracks with data": fits["n_tracks"],
             "energy samples (steps used)": fits["n_samples"],
-            "energy unit": unit,
+            "energy unit": fits["units"]["energy"],
             "left out of the fits": excluded.get("statement"),
         }
         if "one_phase" in e:
@@ -442,7 +461,10 @@ def build_report(result: StudyResult) -> str:
             "paper does; they are shown for comparison only.",
             note=True,
         )
-    dq = fits["data_quality"]
+
+
+def _data_quality_section(rep: Any, dq: dict[str, Any]) -> None:
+    """The step buckets (summing to the total) and the other counters."""
     with rep.section("Data quality"):
         rep.table(
             _data_quality_rows(dq),
@@ -453,33 +475,45 @@ def build_report(result: StudyResult) -> str:
             header=("counter (docs/analysis.md)", "value"),
             caption="counters of the samples and of what was handled",
         )
-    if excluded:
-        with rep.section("Left out of the fits"):
-            imp, rest = excluded["implausible"], excluded["resting"]
-            rep.paragraph(excluded["statement"] + ".")
-            rule = {
-                k: v
-                for k, v in imp.items()
-                if k not in ("worst", "individuals_all_implausible", "n", "excluded")
-            }
-            rep.table(rule, header=("implausible-motion rule", "value"))
-            if imp.get("worst"):
-                rep.table(imp["worst"], caption="the fastest implausible steps")
-            if imp.get("individuals_all_implausible"):
-                rep.paragraph(
-                    "Individuals whose every moving step is implausible (left out "
-                    "entirely): " + ", ".join(imp["individuals_all_implausible"])
-                )
-            rep.table(rest, header=("resting", "value"))
-    if plaus.get("temperatures"):
-        with rep.section("Plausibility of the fitted temperatures"):
+
+
+def _excluded_section(rep: Any, excluded: dict[str, Any]) -> None:
+    """The implausible-motion rule, the worst steps and the resting steps left out."""
+    with rep.section("Left out of the fits"):
+        imp, rest = excluded["implausible"], excluded["resting"]
+        rep.paragraph(excluded["statement"] + ".")
+        rule = {
+            k: v
+            for k, v in imp.items()
+            if k not in ("worst", "individuals_all_implausible", "n", "excluded")
+        }
+        rep.table(rule, header=("implausible-motion rule", "value"))
+        if imp.get("worst"):
+            rep.table(imp["worst"], caption="the fastest implausible steps")
+        if imp.get("individuals_all_implausible"):
             rep.paragraph(
-                f"Bound: {fmt_value(plaus['bound_mm_s'], '.4g')} mm/s "
-                f"({plaus['bound_source']}); {plaus['rule']}."
+                "Individuals whose every moving step is implausible (left out "
+                "entirely): " + ", ".join(imp["individuals_all_implausible"])
             )
-            rep.table(
-                [{"temperature": k, **v} for k, v in plaus["temperatures"].items()],
-            )
+        rep.table(rest, header=("resting", "value"))
+
+
+def _plausibility_section(rep: Any, plaus: dict[str, Any]) -> None:
+    """The speed bound (mm/s) and each fitted temperature against it."""
+    with rep.section("Plausibility of the fitted temperatures"):
+        rep.paragraph(
+            f"Bound: {fmt_value(plaus['bound_mm_s'], '.4g')} mm/s "
+            f"({plaus['bound_source']}); {plaus['rule']}."
+        )
+        rep.table(
+            [{"temperature": k, **v} for k, v in plaus["temperatures"].items()],
+        )
+
+
+def _energy_section(rep: Any, result: StudyResult, x: np.ndarray, unit: str) -> None:
+    """One phase against two: the fit table, the test sample and the figure of ``x``
+    (the valid energies, in ``unit``)."""
+    e = result.fits["energy"]
     with rep.section("Energy: one phase or two"):
         if "one_phase" in e:
             rep.table(_fit_rows(e), caption=f"energy unit {unit}")
@@ -490,50 +524,64 @@ def build_report(result: StudyResult) -> str:
             )
             if result.energy is not None:
                 rep.figure(
-                    energy_figure(result.energy, energy[valid], unit),
+                    energy_figure(result.energy, x, unit),
                     caption="Energy density (log scale) and survival function with fits.",
                 )
         else:
             rep.paragraph(e.get("skipped", "not fitted"))
-    for spec, g in fits["groups"].items():
-        with rep.section(f"Groups: {spec}"):
-            rows = []
-            for lab, lv in g["levels"].items():
-                row: dict[str, Any] = {"group": lab, "n": lv["n"], "tracks": lv.get("n_tracks")}
-                if "one_phase" in lv:
-                    row.update(
-                        {
-                            "mean E": lv["mean"],
-                            "kT (1 phase)": lv["one_phase"]["kT"],
-                            "phi": lv["two_phase"]["phi"],
-                            "kT1": lv["two_phase"]["kT1"],
-                            "kT2": lv["two_phase"]["kT2"],
-                            "KS 1 (naive)": lv["one_phase"]["naive"]["ks"],
-                            "KS 2 (naive)": lv["two_phase"]["naive"]["ks"],
-                            "p 1 (boot)": format_p_value(
-                                lv["one_phase"]["p_value"], lv.get("n_bootstrap")
-                            ),
-                            "p 2 (boot)": format_p_value(
-                                lv["two_phase"]["p_value"], lv.get("n_bootstrap")
-                            ),
-                            "LR p": format_p_value(lv["lr_p_value"], lv.get("n_bootstrap")),
-                            "preferred": lv["preferred"],
-                        }
-                    )
-                else:
-                    row["note"] = lv.get("skipped")
-                rows.append(row)
-            rep.table(rows)
-            kc = g["ks_comparison"]
-            rep.paragraph(
-                f"Paired t-test of KS (1 phase) vs KS (2 phases) across groups: "
-                f"t = {fmt_value(kc['t_statistic'])}, p = {format_p_value(kc['p_value'])}. "
-                f"{kc['method']}.",
-                note=True,
-            )
-            gr = result.groups.get(spec)
-            if gr and any(v is not None for v in gr["fits"].values()):
-                rep.figure(groups_figure(spec, gr, g["levels"], energy, valid, unit))
+
+
+def _group_row(lab: str, lv: dict[str, Any]) -> dict[str, Any]:
+    """One level's row of a group table: its fits, or why it was skipped."""
+    row: dict[str, Any] = {"group": lab, "n": lv["n"], "tracks": lv.get("n_tracks")}
+    if "one_phase" not in lv:
+        row["note"] = lv.get("skipped")
+        return row
+    row.update(
+        {
+            "mean E": lv["mean"],
+            "kT (1 phase)": lv["one_phase"]["kT"],
+            "phi": lv["two_phase"]["phi"],
+            "kT1": lv["two_phase"]["kT1"],
+            "kT2": lv["two_phase"]["kT2"],
+            "KS 1 (naive)": lv["one_phase"]["naive"]["ks"],
+            "KS 2 (naive)": lv["two_phase"]["naive"]["ks"],
+            "p 1 (boot)": format_p_value(lv["one_phase"]["p_value"], lv.get("n_bootstrap")),
+            "p 2 (boot)": format_p_value(lv["two_phase"]["p_value"], lv.get("n_bootstrap")),
+            "LR p": format_p_value(lv["lr_p_value"], lv.get("n_bootstrap")),
+            "preferred": lv["preferred"],
+        }
+    )
+    return row
+
+
+def _groups_section(
+    rep: Any,
+    result: StudyResult,
+    spec: str,
+    g: dict[str, Any],
+    energy: np.ndarray,
+    valid: np.ndarray,
+    unit: str,
+) -> None:
+    """The fits per level of grouping ``spec``, the paired KS test and the figure."""
+    with rep.section(f"Groups: {spec}"):
+        rep.table([_group_row(lab, lv) for lab, lv in g["levels"].items()])
+        kc = g["ks_comparison"]
+        rep.paragraph(
+            f"Paired t-test of KS (1 phase) vs KS (2 phases) across groups: "
+            f"t = {fmt_value(kc['t_statistic'])}, p = {format_p_value(kc['p_value'])}. "
+            f"{kc['method']}.",
+            note=True,
+        )
+        gr = result.groups.get(spec)
+        if gr and any(v is not None for v in gr["fits"].values()):
+            rep.figure(groups_figure(spec, gr, g["levels"], energy, valid, unit))
+
+
+def _steering_section(rep: Any, result: StudyResult, unit: str) -> None:
+    """The steering-angle rate law, its fit per bin, the trend and the figure."""
+    fits = result.fits
     st = fits["steering"]
     with rep.section("Steering-angle rate"):
         rep.paragraph(st["law"])
@@ -563,23 +611,23 @@ def build_report(result: StudyResult) -> str:
                 caption="kT_theta versus energy",
             )
         if result.steering.get("fits"):
-            rep.figure(steering_figure(st, result.steering, kin, unit))
-    if fits["regions"]:
-        reg = fits["regions"]
-        with rep.section("Regions"):
-            rows = [{"region": n, **lv} for n, lv in reg["levels"].items()]
-            rep.table(rows, caption="hot-phase fraction per region (temperatures fixed)")
-            if reg["differences"]:
-                rep.table(reg["differences"], caption="differences between regions")
-            if "bootstrap" in reg:
-                rep.paragraph(
-                    f"Uncertainty: {reg['bootstrap']['method']}; clusters: "
-                    f"{reg['bootstrap']['clusters']}.",
-                    note=True,
-                )
-            if "high_T_fraction_note" in reg:
-                rep.paragraph(reg["high_T_fraction_note"], note=True)
-            rep.figure(regions_figure(result))
-    with rep.section("Settings"):
-        rep.table(fits["settings"], header=("setting", "value"))
-    return rep.render()
+            rep.figure(steering_figure(st, result.steering, result.kinematics, unit))
+
+
+def _regions_section(rep: Any, result: StudyResult) -> None:
+    """The hot-phase fraction per region, their differences and the figure."""
+    reg = result.fits["regions"]
+    with rep.section("Regions"):
+        rows = [{"region": n, **lv} for n, lv in reg["levels"].items()]
+        rep.table(rows, caption="hot-phase fraction per region (temperatures fixed)")
+        if reg["differences"]:
+            rep.table(reg["differences"], caption="differences between regions")
+        if "bootstrap" in reg:
+            rep.paragraph(
+                f"Uncertainty: {reg['bootstrap']['method']}; clusters: "
+                f"{reg['bootstrap']['clusters']}.",
+                note=True,
+            )
+        if "high_T_fraction_note" in reg:
+            rep.paragraph(reg["high_T_fraction_note"], note=True)
+        rep.figure(regions_figure(result))
