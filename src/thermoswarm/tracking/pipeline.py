@@ -608,10 +608,6 @@ def detect_inputs(
         Object width in body lengths, half of which pads the boxes of poses (default
         the tracker's ``width_bl``, so the boxes are those the tracker draws).
     """
-    from thermoswarm.fsutil import atomic_write_json as write_json
-    from thermoswarm.io.mot import write_mot_table
-    from thermoswarm.tracking.detfiles import coco_dataset, mot_rows
-
     if not inputs:
         raise InputError("give at least one video, folder of frames or image")
     if max_frames is not None and max_frames < 1:
@@ -621,57 +617,91 @@ def detect_inputs(
     wbl = TrackerConfig().width_bl if width_bl is None else float(width_bl)
     sources = _detect_sources([Path(p) for p in inputs])
     out = prepare_output_dir(out_dir)
-    results = []
-    for name, src, is_video in sources:
-        t0 = time.perf_counter()
-        rate = fps or src.fps or 30.0  # images: the background from up to 90 of them
-        n_prep = max(1, int(round(prepare_s * rate)))
-        if max_frames is not None:
-            n_prep = min(n_prep, max_frames)
-        det, scale = build_detector(
+    results = [
+        _detect_source(
+            name,
             src,
-            n_prep,
+            is_video,
+            out,
             px_per_mm=px_per_mm,
             detector=detector,
             model=model,
-            options=detector_options,
+            detector_options=detector_options,
+            fps=fps,
+            max_frames=max_frames,
+            prepare_s=prepare_s,
+            width_bl=wbl,
         )
-        dets = [det.detect(frame) for frame in src.frames(max_frames, prefetch=4)]
-        files = src.files
-        images = []
-        for k in range(len(dets)):
-            img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
-            img["file_name"] = files[k].name if files else f"{src.path.name}#{k + 1:06d}"
-            images.append(img)
-        pad = 0.5 * wbl * scale["length_px"]
-        coco = coco_dataset(
-            images,
-            dets,
-            pad=pad,
-            length_px=scale["length_px"],
-            description=f"thermoswarm detect {src.path} ({getattr(det, 'name', detector)})",
-        )
-        written = [f"{name}.json"]
-        write_json(out / f"{name}.json", coco)
-        if is_video:
-            write_mot_table(out / f"{name}_det.txt", mot_rows(dets, pad=pad))
-            written.append(f"{name}_det.txt")
-        n_det = sum(len(d) for d in dets)
-        results.append(
-            {
-                "input": str(src.path),
-                "n_frames": len(dets),
-                "n_detections": n_det,
-                "detections_per_frame": n_det / max(len(dets), 1),
-                "detector": str(getattr(det, "name", detector)),
-                "px_per_mm": px_per_mm,
-                "length_px": scale["length_px"],
-                "scale_source": scale["scale_source"],
-                "seconds": time.perf_counter() - t0,
-                "outputs": written,
-            }
-        )
+        for name, src, is_video in sources
+    ]
     summary = {"inputs": results, "outputs": [f for r in results for f in r["outputs"]]}
     summary["outputs"].append("summary.json")
-    write_json(out / "summary.json", summary)
+    atomic_write_json(out / "summary.json", summary)
     return summary
+
+
+def _detect_source(
+    name: str,
+    src: Any,
+    is_video: bool,
+    out: Path,
+    *,
+    px_per_mm: float | None,
+    detector: str | None,
+    model: str | os.PathLike | None,
+    detector_options: dict[str, Any] | None,
+    fps: float | None,
+    max_frames: int | None,
+    prepare_s: float,
+    width_bl: float,
+) -> dict[str, Any]:
+    """Detect one source of :func:`detect_inputs`; write its COCO (and MOT) file.
+
+    Returns the source's summary record (counts, scale, seconds, files written).
+    """
+    from thermoswarm.io.mot import write_mot_table
+    from thermoswarm.tracking.detfiles import coco_dataset, mot_rows
+
+    t0 = time.perf_counter()
+    rate = fps or src.fps or 30.0  # images: the background from up to 90 of them
+    det, scale = build_detector(
+        src,
+        _prep_frames(prepare_s, rate, max_frames),
+        px_per_mm=px_per_mm,
+        detector=detector,
+        model=model,
+        options=detector_options,
+    )
+    dets = [det.detect(frame) for frame in src.frames(max_frames, prefetch=4)]
+    files = src.files
+    images = []
+    for k in range(len(dets)):
+        img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
+        img["file_name"] = files[k].name if files else f"{src.path.name}#{k + 1:06d}"
+        images.append(img)
+    pad = 0.5 * width_bl * scale["length_px"]
+    coco = coco_dataset(
+        images,
+        dets,
+        pad=pad,
+        length_px=scale["length_px"],
+        description=f"thermoswarm detect {src.path} ({getattr(det, 'name', detector)})",
+    )
+    written = [f"{name}.json"]
+    atomic_write_json(out / f"{name}.json", coco)
+    if is_video:
+        write_mot_table(out / f"{name}_det.txt", mot_rows(dets, pad=pad))
+        written.append(f"{name}_det.txt")
+    n_det = sum(len(d) for d in dets)
+    return {
+        "input": str(src.path),
+        "n_frames": len(dets),
+        "n_detections": n_det,
+        "detections_per_frame": n_det / max(len(dets), 1),
+        "detector": str(getattr(det, "name", detector)),
+        "px_per_mm": px_per_mm,
+        "length_px": scale["length_px"],
+        "scale_source": scale["scale_source"],
+        "seconds": time.perf_counter() - t0,
+        "outputs": written,
+    }
