@@ -504,12 +504,43 @@ def track_detection_file(
     result = tracker.finish()
     result.first_frame = first
     elapsed = time.perf_counter() - t0
+    return _write_detection_outputs(
+        result,
+        out,
+        path,
+        table,
+        px_per_mm=px_per_mm,
+        fps=fps,
+        tracker=tcfg,
+        length_px=float(tracker.length_px or 0),
+        elapsed=elapsed,
+    )
+
+
+def _write_detection_outputs(
+    result: TrackResult,
+    out: Path,
+    path: Path,
+    table: Any,
+    *,
+    px_per_mm: float | None,
+    fps: float,
+    tracker: TrackerConfig,
+    length_px: float,
+    elapsed: float,
+) -> dict[str, Any]:
+    """Write tracks_mot.txt, tracks.nc and summary.json of :func:`track_detection_file`.
+
+    ``table`` is the detections read from ``path``, ``length_px`` the tracker's unit
+    (px) and ``elapsed`` the tracking time (s); returns the summary.
+    """
     from thermoswarm.io.mot import write_mot_table
     from thermoswarm.io.netcdf import write as write_nc
 
+    first = result.first_frame
     write_mot_table(out / "tracks_mot.txt", result.mot_table())
     attrs = {"detector": f"{table.fmt} detections file", "first_frame": first}
-    attrs["body_length_px"] = float(tracker.length_px or 0)
+    attrs["body_length_px"] = length_px
     if px_per_mm is None:
         ds = pixel_dataset(result, fps=fps, source=str(path), attrs=attrs)
     else:
@@ -522,7 +553,7 @@ def track_detection_file(
         fps=fps,
         fps_source="user",
         px_per_mm=px_per_mm,
-        tracker=tcfg,
+        tracker=tracker,
         detector=None,
         model=None,
         n_det=len(table),
@@ -535,7 +566,7 @@ def track_detection_file(
     summary.update(
         detections_format=table.fmt,
         first_frame=first,
-        length_px=float(tracker.length_px or 0),
+        length_px=length_px,
         space_unit="mm" if px_per_mm is not None else "px",
     )
     atomic_write_json(out / "summary.json", summary)
