@@ -25,7 +25,7 @@ from pathlib import Path
 
 #: the libraries of the extras; none may be importable in the lean venv
 EXTRA_MODULES = ("torch", "cv2", "imageio", "sleap_io", "tables", "dask", "pyarrow",
-                 "pymunk", "warp", "trackers", "movement", "pytest")  # fmt: skip
+                 "pymunk", "numba_cuda", "trackers", "movement", "pytest")  # fmt: skip
 
 #: a verb's command line that needs an extra -> that extra
 NEEDS_EXTRA = {

@@ -112,6 +112,8 @@ def tiny(argv: list[str]) -> list[str]:
     a = list(argv)
     verb = a[0] if a else ""
     if verb == "simulate" and "--resume" not in a:
+        if any("backend" in x and "gpu" in x for x in a):  # numba-cuda's simulator: tiny
+            a = [*a, "--set", "n=50"]
         return [*a, "--set", "duration=2", "--no-progress"]
     if verb == "sweep":
         a = _replace(a, "--seeds", "0")

@@ -52,7 +52,7 @@ EXTRA_OF_MODULE: dict[str, str] = {
     "distributed": "dask",
     "pymunk": "bench",
     "trackers": "bench",
-    "warp": "gpu",
+    "numba_cuda": "gpu",
 }
 
 

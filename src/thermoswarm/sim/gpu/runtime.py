@@ -12,9 +12,15 @@ process has not chosen and no CUDA driver can be loaded, so that ``engine.backen
 from __future__ import annotations
 
 import ctypes
+import importlib.util
 import os
 
 from thermoswarm.errors import ConfigError
+
+# numba still ships its own deprecated ``numba.cuda``, which imports without the package;
+# the engine is written for numba-cuda, so without it the ``gpu`` extra is missing.
+if importlib.util.find_spec("numba_cuda") is None:
+    raise ImportError("numba-cuda is not installed", name="numba_cuda")
 
 __all__ = ["SIMULATOR", "default_device", "grid", "simulated"]
 
