@@ -75,6 +75,8 @@ def commands(block: Block) -> list[tuple[str, list[str]]]:
         argv = shlex.split(line, comments=True)
         while argv and re.match(r"^[A-Z_]+=", argv[0]):  # VAR=value prefixes
             argv = argv[1:]
+        if argv[:2] == ["nice", "-n"]:  # a lower priority changes nothing of the command
+            argv = argv[3:]
         if argv:
             out.append((line.strip(), argv))
     return out
@@ -100,6 +102,8 @@ NOT_OURS = [
     (lambda a: a[:3] == ["python", "-m", "pytest"], "the test suite itself"),
     (lambda a: a[0] == "python" and len(a) > 1 and a[1].startswith("benchmarks/"),
      "a benchmark script (minutes); `make bench` runs them"),
+    (lambda a: a[0].startswith("benchmarks/") and a[0].endswith(".sh"),
+     "a benchmark shell script (the GPU machine's run)"),
 ]  # fmt: skip
 
 # Toy scale: options appended (a repeated --set wins over the example's).
@@ -266,6 +270,8 @@ def run_page(page: Path, cwd: Path, *, slow: bool) -> list[str]:
                 if any(rule(argv) for rule, _ in NOT_OURS):
                     if argv[0] == "python" and argv[1].startswith("benchmarks/"):
                         assert (REPO / argv[1]).is_file(), f"{where}: no {argv[1]}"
+                    if argv[0].startswith("benchmarks/"):
+                        assert (REPO / argv[0]).is_file(), f"{where}: no {argv[0]}"
                     continue
                 if argv[:2] == ["python", "-m"] and argv[2] == "thermoswarm":
                     argv = ["thermoswarm", *argv[3:]]
