@@ -61,10 +61,7 @@ def test_warm_start_resumes_bit_for_bit():
     for _ in range(60):
         sim.step(state)
     assert state.held_pairs is not None and np.any(state.held_pairs > 0)
-    copy = type(state).from_arrays(
-        {k: np.array(v) for k, v in state.to_arrays().items()}, np.random.default_rng(0)
-    )
-    copy.rng.bit_generator.state = state.rng.bit_generator.state
+    copy = state.copy()
     fresh = Simulator(sim.world, sim.params, sim.policy)
     for _ in range(30):
         sim.step(state)

@@ -342,6 +342,15 @@ class SwarmState:
             held_wall_ids=c(arrays["held_wall_ids"]) if "held_wall_ids" in arrays else None,
         )  # fmt: skip
 
+    def copy(self) -> SwarmState:
+        """An independent copy: every array and the random generator's state (the copy
+        stepped by any simulator of the same world continues bit for bit)."""
+        out = type(self).from_arrays(
+            {k: np.array(v) for k, v in self.to_arrays().items()}, np.random.default_rng(0)
+        )
+        out.rng.bit_generator.state = self.rng.bit_generator.state
+        return out
+
 
 def _pack_bodies(world: World) -> np.ndarray:
     out = np.zeros((len(world.bodies), K.BODY_COLUMNS))
