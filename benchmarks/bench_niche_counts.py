@@ -23,7 +23,7 @@ Method (stated in the output):
   ``DIR/t<N>.json`` (COCO from any detector, one file per trial) instead.
 - Patches: each dish holds pieces of saturated yellow-orange paper soaked with one
   food (two dishes, left and right).  A patch is the paper of one dish: pixels of hue
-  8-45 (OpenCV's 0-180 scale), saturation >= 90 and value >= 110; components smaller
+  8-45 (OpenCV's 0-180 scale), saturation >= 150 and value >= 100; components smaller
   than 3 L^2 or touching the photo's border (the loose paper outside the dishes) are
   dropped; each component is closed with a disc of diameter L (the ants sitting on it)
   and its holes filled; components left of the photo's centre form the left patch.
@@ -58,7 +58,12 @@ import numpy as np
 
 #: Side of the sucrose dish per trial: trials 1-5 tuned on the train labels (see
 #: ``tune_sides``), trial 6 read from the "S" written on the right dish.
-SUCROSE_SIDE = {1: "right", 2: "right", 3: "right", 4: "right", 5: "right", 6: "right"}
+SUCROSE_SIDE = {1: "left", 2: "right", 3: "right", 4: "right", 5: "left", 6: "right"}
+
+#: Classical detector options for these photos (``--set detector.KEY=VALUE`` adds to
+#: or overrides them): a background edge moved by 1 px (working resolution) between
+#: photos is not an ant.
+PHOTO_OPTIONS: dict[str, object] = {"shift_px": 1}
 
 TRAIN_TRIALS = (1, 2, 3, 4, 5)
 VAL_TRIALS = (6,)
@@ -171,7 +176,7 @@ def find_patches(rgb: np.ndarray, length_px: float) -> dict[str, np.ndarray]:
 
     hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
     h, s, v = hsv[..., 0], hsv[..., 1], hsv[..., 2]
-    paper = ((h >= 8) & (h <= 45) & (s >= 90) & (v >= 110)).astype(np.uint8)
+    paper = ((h >= 8) & (h <= 45) & (s >= 150) & (v >= 100)).astype(np.uint8)
     paper = cv2.morphologyEx(paper, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
     n, lab, stats, cent = cv2.connectedComponentsWithStats(paper, connectivity=8)
     height, width = paper.shape
@@ -184,10 +189,14 @@ def find_patches(rgb: np.ndarray, length_px: float) -> dict[str, np.ndarray]:
             continue
         if x <= 1 or y <= 1 or x + w >= width - 1 or y + hh >= height - 1:
             continue  # loose paper outside the dishes
-        comp = cv2.morphologyEx((lab == i).astype(np.uint8), cv2.MORPH_CLOSE, disc)
+        # Closed within its bounding box padded by the disc (the same result, faster).
+        y0, x0 = max(y - k, 0), max(x - k, 0)
+        y1, x1 = min(y + hh + k, height), min(x + w + k, width)
+        comp = (lab[y0:y1, x0:x1] == i).astype(np.uint8)
+        comp = cv2.morphologyEx(comp, cv2.MORPH_CLOSE, disc, borderValue=0)
         contours, _ = cv2.findContours(comp, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
         side = "left" if cent[i][0] < width / 2 else "right"
-        cv2.drawContours(out[side], contours, -1, 1, thickness=cv2.FILLED)
+        cv2.drawContours(out[side][y0:y1, x0:x1], contours, -1, 1, thickness=cv2.FILLED)
     return {k_: m.astype(bool) for k_, m in out.items()}
 
 
@@ -427,7 +436,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     unknown = set(sets) - {"detector"}
     if unknown:
         ap.exit(2, f"error: --set takes detector.KEY=VALUE, got {sorted(unknown)[0]}.*\n")
-    args.options = sets.get("detector", {})
+    # Photos 30 min apart: the camera may be nudged between them (see the docstring).
+    args.options = {**PHOTO_OPTIONS, **sets.get("detector", {})}
     if not args.data_dir.is_dir():
         ap.exit(2, f"error: {args.data_dir}: no such folder (expected train/, val/)\n")
     return args

@@ -212,7 +212,10 @@ class ClassicalConfig:
     unless an ant covers it in over 90 % of those frames; ``1 - bg_quantile`` for light
     ants); ``bg_frames``: most frames used for it; ``bg_rate``: running-average rate per
     frame of the background where no ant is.  ``gain_grid``: cell size (px, working
-    resolution) of the lighting correction, 0 for one global gain.
+    resolution) of the lighting correction, 0 for one global gain.  ``shift_px``: how
+    far (px, working resolution) the background may have moved under the camera; a
+    pixel is compared with the background's extreme within that distance, so that
+    jitter between photos or video frames does not turn its edges into blobs.
     """
 
     ant_length_mm: float = anatomy.ANT_LENGTH_MM
@@ -232,6 +235,7 @@ class ClassicalConfig:
     bg_frames: int = 32
     bg_rate: float = 0.02
     gain_grid: int = 24
+    shift_px: int = 0
 
     def __post_init__(self) -> None:
         for name in ("ant_length_mm", "ant_width_mm", "threshold_sigmas", "split_area"):
@@ -258,6 +262,7 @@ class ClassicalConfig:
         check(self.bg_frames >= 1, "bg_frames", "a positive integer", self.bg_frames)
         check(0 <= self.bg_rate <= 1, "bg_rate", "in [0, 1]", self.bg_rate)
         check(self.gain_grid >= 0, "gain_grid", "a non-negative integer", self.gain_grid)
+        check(0 <= self.shift_px <= 4, "shift_px", "an integer in [0, 4]", self.shift_px)
 
 
 def _classical_factory(
@@ -428,9 +433,33 @@ class ClassicalDetector:
             return (expected - img) / np.maximum(expected, 8.0)
         return (img - expected) / np.maximum(255.0 - expected, 8.0)
 
-    def _contrast_map(self, small: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _contrast_map(
+        self, small: np.ndarray, shift: bool = True
+    ) -> tuple[np.ndarray, np.ndarray]:
+        import cv2
+
         expected = (self._bg * self._gain(small, self._bg)).astype(np.float32)
+        r = self.config.shift_px if shift else 0
+        if r:
+            # A background edge moved by up to r px (camera jitter between photos,
+            # compression) is not foreground: compare each pixel with the darkest
+            # (dark animals) or lightest (light ones) background pixel within r px.
+            kernel = np.ones((2 * r + 1, 2 * r + 1), np.uint8)
+            op = cv2.erode if self.config.polarity == "dark" else cv2.dilate
+            expected = op(expected, kernel)
         return self._contrast(small, expected), expected
+
+    def _noise_threshold(self, smalls: list[np.ndarray]) -> float:
+        """``threshold_sigmas`` robust standard deviations of the contrast of
+        ``smalls`` (at least ``min_threshold``).  Measured against the background
+        itself, not its shift-tolerant extreme, which widens the spread on textured
+        ground without adding foreground."""
+        sample = np.concatenate(
+            [self._contrast_map(s, False)[0][::3, ::3].ravel() for s in smalls]
+        )
+        med = float(np.median(sample))
+        sigma = 1.4826 * float(np.median(np.abs(sample - med)))
+        return max(self.config.min_threshold, self.config.threshold_sigmas * sigma)
 
     # -- preparation
     def prepare(self, frames: Iterable[np.ndarray]) -> None:
@@ -485,28 +514,27 @@ class ClassicalDetector:
         c = self.config
         smalls = [self._small(g) for g in grays]
         maps = [self._contrast_map(s) for s in smalls]
-        sample = np.concatenate([con[::3, ::3].ravel() for con, _ in maps])
-        med = float(np.median(sample))
-        sigma = 1.4826 * float(np.median(np.abs(sample - med)))
-        noise_thr = max(c.min_threshold, c.threshold_sigmas * sigma)
+        noise_thr = self._noise_threshold(smalls)
         self._thr = noise_thr if c.threshold is None else c.threshold
         model = self.model_area / c.downsample**2
         if c.threshold is None:
-            peaks = np.concatenate(
-                [
-                    self._measure(g, con, exp, self._thr, 0.2 * model, split=False).peak
-                    for g, (con, exp) in zip(grays, maps, strict=True)
-                ]
-            )
+            first = [
+                self._measure(g, con, exp, self._thr, 0.2 * model, split=False)
+                for g, (con, exp) in zip(grays, maps, strict=True)
+            ]
+            peaks = np.concatenate([b.peak for b in first])
             if peaks.size >= 3:
-                self._peak = float(np.median(peaks))
+                # Area-weighted: many faint specks (texture, glare) do not outvote
+                # a few ants (sparse ants on textured ground, e.g. photos of trays).
+                w = np.concatenate([b.area for b in first])
+                self._peak = _weighted_median(peaks, w)
                 self._thr = max(noise_thr, c.peak_fraction * self._peak)
         found = [
             self._measure(g, con, exp, self._thr, 0.2 * model, split=False)
             for g, (con, exp) in zip(grays, maps, strict=True)
         ]
         areas = np.concatenate([b.area for b in found])
-        a1 = float(np.median(areas)) if areas.size >= 3 else 0.6 * model
+        a1 = typical_area(areas) if areas.size >= 3 else 0.6 * model
         self._area1 = float(np.clip(a1, 0.3 * model, 3.0 * model))
         spans = np.concatenate(
             [b.span[(b.area > 0.7 * self._area1) & (b.area < 1.3 * self._area1)] for b in found]
@@ -754,11 +782,9 @@ def estimate_length_px(
         raise InputError(str(exc)) from None
     det = ClassicalDetector(1.0, cfg)  # the scale is unused: background and spans only
     grays = det._background(frames)
-    maps = [det._contrast_map(det._small(g)) for g in grays]
-    sample = np.concatenate([con[::3, ::3].ravel() for con, _ in maps])
-    med = float(np.median(sample))
-    sigma = 1.4826 * float(np.median(np.abs(sample - med)))
-    thr = max(cfg.min_threshold, cfg.threshold_sigmas * sigma)
+    smalls = [det._small(g) for g in grays]
+    maps = [det._contrast_map(s) for s in smalls]
+    thr = det._noise_threshold(smalls)
 
     def blobs(t: float) -> list[_Blobs]:
         return [
@@ -782,19 +808,27 @@ def estimate_length_px(
             f"{source}: cannot measure the animals' size: {area.size} moving blob(s) in "
             f"the first {len(grays)} sampled frames; {NOTHING_FOUND_HINT}"
         )
-    # Start from the blob that holds the median foreground pixel: many small specks
-    # (texture, reflections) then do not outvote a few large animals.
+    ref = typical_area(area)
+    sel = (area > ref / 2.5) & (area < ref * 2.5)
+    span_px = float(np.median(span[sel]))
+    length = max(span_px - SPAN_BLUR_PX, 0.5 * span_px) / SPAN_PER_LENGTH
+    return SizeEstimate(length, int(area.size), int(sel.sum()), float(thr))
+
+
+def typical_area(area: np.ndarray) -> float:
+    """The typical single animal's blob area (the units of ``area``): the mode of the
+    areas, found by trimming to a factor 2.5 around the median until it settles,
+    starting from the blob that holds the median foreground pixel (the area-weighted
+    median), so that many small specks (texture, reflections) do not outvote a few
+    animals and clumps of touching animals fall outside."""
     ref = _weighted_median(area, area)
-    sel = np.ones(area.size, bool)
     for _ in range(20):
         sel = (area > ref / 2.5) & (area < ref * 2.5)
         new = float(np.median(area[sel]))
         if new == ref:
             break
         ref = new
-    span_px = float(np.median(span[sel]))
-    length = max(span_px - SPAN_BLUR_PX, 0.5 * span_px) / SPAN_PER_LENGTH
-    return SizeEstimate(length, int(area.size), int(sel.sum()), float(thr))
+    return ref
 
 
 def _weighted_median(x: np.ndarray, w: np.ndarray) -> float:
