@@ -272,6 +272,14 @@ def _classical_factory(
         cfg = from_mapping(ClassicalConfig, options, source="detector options")
     except ConfigError as exc:
         raise InputError(str(exc)) from None
+    if "downsample" not in options:
+        # Tiny animals (a phone or field video of small ants, 2-3 px wide) keep at
+        # least 2 px of width at the working resolution: at 1 px, blob areas jump by
+        # half from frame to frame and single ants are split.
+        f = cfg.downsample
+        while f > 1 and cfg.ant_width_mm * px_per_mm / f < 2.0:
+            f -= 1
+        cfg = dataclasses.replace(cfg, downsample=f)
     return ClassicalDetector(px_per_mm, cfg)
 
 
