@@ -259,20 +259,66 @@ def detect_trials(
             bodies, length = coco_bodies(args.coco_dir / f"t{t}.json")
             out[t] = (bodies, length, math.nan)
             continue
-        files = sorted(p.path for p in photos if p.trial == t)
+        files = time_order([p.path for p in photos if p.trial == t])
         t0 = time.perf_counter()
+        if args.window:
+            out[t] = (*_detect_windows(files, out_dir / f"t{t}", args), 0.0)
+        else:
+            detect_inputs(
+                files,
+                out_dir / f"t{t}",
+                detector=args.detector,
+                model=args.model,
+                detector_options=args.options or None,
+            )
+            out[t] = (*coco_bodies(out_dir / f"t{t}" / "images.json"), 0.0)
+        out[t] = (out[t][0], out[t][1], time.perf_counter() - t0)
+    return out
+
+
+def time_order(files: list[Path]) -> list[Path]:
+    """The photos in the order they were taken: their numbers (``t6_826``) count up and
+    wrap at 1000 (``t6_999`` is followed by ``t6_000``), so the sequence starts after
+    the largest gap between sorted numbers, counted around the wrap."""
+    files = sorted(files, key=lambda f: int(f.stem.split("_")[-1]))
+    if len(files) < 2:
+        return files
+    n = np.array([int(f.stem.split("_")[-1]) for f in files])
+    gaps = np.diff(np.r_[n, n[0] + 1000])
+    start = (int(np.argmax(gaps)) + 1) % len(files)
+    return files[start:] + files[:start]
+
+
+def _detect_windows(
+    files: list[Path], out_dir: Path, args: argparse.Namespace
+) -> tuple[dict[str, np.ndarray], float]:
+    """Detect ``files`` in windows of ``args.window`` consecutive photos, each window
+    with its own background (lighting, rims and stains drift over two days); the body
+    length is measured once from the trial's first 90 photos (no scale given)."""
+    from thermoswarm.tracking import anatomy
+    from thermoswarm.tracking.detect import estimate_length_px
+    from thermoswarm.tracking.pipeline import detect_inputs
+    from thermoswarm.tracking.video import VideoSource
+
+    src = VideoSource.from_images(files[:90], "trial")
+    classical = (args.detector or ("classical" if args.model is None else "")) == "classical"
+    est = estimate_length_px(src.frames(90, step=2), args.options if classical else None)
+    bodies: dict[str, np.ndarray] = {}
+    for k in range(0, len(files), args.window):
+        chunk = files[k : k + args.window]
+        if len(chunk) < args.window // 2 and k:  # a short tail joins the previous window
+            chunk = files[max(k - args.window, 0) : k + args.window]
         detect_inputs(
-            files,
-            out_dir / f"t{t}",
+            chunk,
+            out_dir / f"w{k}",
+            px_per_mm=est.length_px / anatomy.ANT_LENGTH_MM,
             detector=args.detector,
             model=args.model,
             detector_options=args.options or None,
         )
-        seconds = time.perf_counter() - t0
-        (out_dir / f"t{t}" / "images.json").replace(out_dir / f"t{t}.json")
-        bodies, length = coco_bodies(out_dir / f"t{t}.json")
-        out[t] = (bodies, length, seconds)
-    return out
+        found, _ = coco_bodies(out_dir / f"w{k}" / "images.json")
+        bodies.update({f.name: found[f.name] for f in files[k : k + args.window]})
+    return bodies, est.length_px
 
 
 def count_photo(photo: Photo, bodies: np.ndarray, length: float, margin: float) -> dict:
@@ -422,6 +468,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE")
     ap.add_argument("--coco-dir", type=Path, help="read DIR/t<N>.json instead of detecting")
     ap.add_argument("--margin", type=float, default=0.5, help="body lengths (default 0.5)")
+    ap.add_argument(
+        "--window", type=int, default=0, help="photos per background (default: one per trial)"
+    )
     ap.add_argument("--tune-sides", action="store_true", help="re-tune SUCROSE_SIDE on train")
     ap.add_argument("--plot", type=Path, help="PNG of predicted against labelled counts")
     ap.add_argument("--overlay-dir", type=Path, help="PNG overlays of --overlay photos")

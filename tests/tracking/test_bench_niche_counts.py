@@ -164,3 +164,12 @@ def test_missing_folder_is_one_line_error(bench, tmp_path, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and "nope" in err[0]
+
+
+def test_photos_in_the_order_taken(bench):
+    # Trial 6's photos are numbered 826..999 then 000..019 (the camera's counter wraps).
+    names = [Path(f"t6_{n:03d}.JPG") for n in (0, 1, 19, 826, 827, 999)]
+    order = [p.stem for p in bench.time_order(names)]
+    assert order == ["t6_826", "t6_827", "t6_999", "t6_000", "t6_001", "t6_019"]
+    plain = [Path(f"t1_{n}.JPG") for n in (413, 411, 412)]
+    assert [p.stem for p in bench.time_order(plain)] == ["t1_411", "t1_412", "t1_413"]

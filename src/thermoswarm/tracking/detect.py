@@ -94,6 +94,7 @@ __all__ = [
     "ClassicalDetector",
     "SizeEstimate",
     "estimate_length_px",
+    "typical_area",
     "SPAN_PER_LENGTH",
     "NOTHING_FOUND_HINT",
 ]
@@ -199,7 +200,9 @@ class ClassicalConfig:
     background (the paper's road) or ``"light"``.  ``channel``: the image channel used
     (``"green"`` by default: red-brown and black ants on yellow wood differ most in
     green; ``"gray"`` is the luma).  ``downsample``: integer factor of the working
-    resolution of the foreground mask (blobs are measured at full resolution).
+    resolution of the foreground mask (blobs are measured at full resolution; when the
+    option is not given, :func:`make_detector` lowers it so that the animals stay at
+    least 2 px wide).
     ``threshold``: relative contrast of foreground pixels (``None``: automatic, the
     largest of ``min_threshold``, ``threshold_sigmas`` robust standard deviations of
     the background noise and ``peak_fraction`` times the typical ant's peak contrast).
