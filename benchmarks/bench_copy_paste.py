@@ -64,7 +64,7 @@ def held_out_scores(models: dict[str, Path], args: argparse.Namespace) -> dict:
 
 def _counts_per_image(coco: Path) -> dict[str, int]:
     doc = json.loads(coco.read_text())
-    names = {im["id"]: Path(im["file_name"]).name for im in doc["images"]}
+    names = {im["id"]: f"{Path(im['file_name']).name}#{im['id']}" for im in doc["images"]}
     n = Counter(a["image_id"] for a in doc["annotations"])
     return {names[i]: n.get(i, 0) for i in names}
 
@@ -93,7 +93,8 @@ def photo_counts(models: dict[str, Path], args: argparse.Namespace) -> dict:
         with tempfile.TemporaryDirectory() as tmp:
             summary, secs = _detect(photos, path, Path(tmp), 1.0, None)
             counts = _counts_per_image(Path(tmp) / "images.json")
-        d = np.array([counts.get(p.name, 0) for p in photos], float)
+        by_name = {k.split("#")[0]: v for k, v in counts.items()}
+        d = np.array([by_name.get(p.name, 0) for p in photos], float)
         r = float(np.corrcoef(d, total)[0, 1]) if d.std() > 0 else float("nan")
         out[name] = {
             "detections_mean": float(d.mean()),
@@ -114,7 +115,7 @@ def video_counts(models: dict[str, Path], args: argparse.Namespace) -> dict:
         for name, path in models.items():
             with tempfile.TemporaryDirectory() as tmp:
                 _, secs = _detect([clip], path, Path(tmp), 30.0, args.max_frames)
-                counts = _counts_per_image(next(Path(tmp).glob("*.json")))
+                counts = _counts_per_image(Path(tmp) / f"{clip.stem}.json")
             n = np.array(list(counts.values()), float)
             row[name] = {
                 "frames": int(n.size),
