@@ -3,8 +3,8 @@ real frames: U-Net models compared zero-shot, without a user's label.
 
     python benchmarks/bench_copy_paste.py --model NAME=MODEL.pt [--model ...] \\
         --crops DIR --background PNG [--roi PNG] [--seed 0] [--n-frames 60] \\
-        [--photos DIR --foragers XLSX] [--video CLIP.mp4 ...] [--max-frames 200] \\
-        [--json OUT.json]
+        [--photos DIR --foragers XLSX [--photo-step N]] \\
+        [--video CLIP.mp4 ...] [--max-frames 200] [--json OUT.json]
 
 - Held-out composites (always): the crops of ``--crops`` are split by individual as
   ``thermoswarm track train --real-crops`` splits them with the same ``--seed``
@@ -85,6 +85,7 @@ def photo_counts(models: dict[str, Path], args: argparse.Namespace) -> dict:
 
     labels = labels_from_xlsx(args.foragers, (6,))
     photos = sorted(p for p in args.photos.glob("*.JPG") if p.name in labels)
+    photos = photos[:: args.photo_step]
     if not photos:
         sys.exit(f"error: {args.photos}: no photo with a label in {args.foragers}")
     total = np.array([labels[p.name][1] + labels[p.name][2] for p in photos], float)
@@ -138,6 +139,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--n-frames", type=int, default=60)
     ap.add_argument("--photos", type=Path)
     ap.add_argument("--foragers", type=Path)
+    ap.add_argument("--photo-step", type=int, default=1, help="every N-th labelled photo")
     ap.add_argument("--video", type=Path, action="append", default=[])
     ap.add_argument("--max-frames", type=int, default=200)
     ap.add_argument("--json", type=Path)
