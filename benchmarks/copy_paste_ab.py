@@ -1,7 +1,7 @@
 """What copy-paste training (real anTraX ant crops on a real background) changes on
 real frames: U-Net models compared zero-shot, without a user's label.
 
-    python benchmarks/bench_copy_paste.py --model NAME=MODEL.pt [--model ...] \\
+    python benchmarks/copy_paste_ab.py --model NAME=MODEL.pt [--model ...] \\
         --crops DIR --background PNG [--roi PNG] [--seed 0] [--n-frames 60] \\
         [--photos DIR --foragers XLSX [--photo-step N]] \\
         [--video CLIP.mp4 ...] [--max-frames 200] [--json OUT.json]
@@ -123,6 +123,7 @@ def video_counts(models: dict[str, Path], args: argparse.Namespace) -> dict:
                 "per_frame_median": float(np.median(n)),
                 "per_frame_min": int(n.min()),
                 "per_frame_max": int(n.max()),
+                "frames_by_count": {int(k): int((n == k).sum()) for k in np.unique(n)},
                 "frames_per_s": n.size / secs,
             }
         out[clip.name] = row
