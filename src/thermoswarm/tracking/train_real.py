@@ -49,6 +49,7 @@ __all__ = [
     "split_identities",
     "composite_frames",
     "crop_length_px",
+    "measure_crop",
 ]
 
 #: anTraX ``labels.csv`` category of the labels that are one individual each (the
@@ -321,9 +322,8 @@ def _one_frame(crops: list[AntCrop], bg: np.ndarray, roi: np.ndarray, cfg: RealC
         theta = float(rng.uniform(0, 2 * np.pi))
         scale = float(1 + cfg.scale_jitter * rng.uniform(-1, 1))
         mirror = bool(rng.random() < 0.5)
-        before = (owner == k).sum()
         body.append(_paste(canvas, owner, crop, at, theta, scale, mirror, k))
-        area.append(max(int((owner == k).sum() - before), 1))
+        area.append(max(int((owner == k).sum()), 1))  # its pixels when pasted
         prev = at
     visible = np.array([(owner == k).sum() / area[k] for k in range(n)])
     body_xy = np.array(body).reshape(-1, 2)
