@@ -59,6 +59,25 @@ from thermoswarm.errors import InputError
     "labels only).",
 )
 @click.option(
+    "--real-crops",
+    "real_crops",
+    type=click.Path(path_type=Path),
+    help="Folder of real background-removed ant crops, one sub-folder per individual "
+    "(e.g. anTraX's classifier/examples; its labels.csv keeps the ant labels): pasted on "
+    "tiles of --background (copy-paste augmentation, [real] table).",
+)
+@click.option(
+    "--background",
+    type=click.Path(path_type=Path),
+    help="Real background frame (PNG) for --real-crops, e.g. anTraX's background.png.",
+)
+@click.option(
+    "--roi",
+    type=click.Path(path_type=Path),
+    help="Region-of-interest mask (PNG, white = arena) of --background: ants are pasted "
+    "inside it.",
+)
+@click.option(
     "--init",
     type=click.Path(dir_okay=False, path_type=Path),
     help="Start from this model (fine-tuning, e.g. a synthetic model on your labels).",
@@ -87,6 +106,9 @@ def track_train(
     nodes: str | None,
     image_root: Path | None,
     predicted: bool,
+    real_crops: Path | None,
+    background: Path | None,
+    roi: Path | None,
     init: Path | None,
     seed: int | None,
     threads: int | None,
@@ -97,11 +119,16 @@ def track_train(
     """Train the top-down U-Net detector and write its weights to OUT.
 
     Data: --synthetic (the generator; stops when the held-out video reaches the MOTA
-    and ID-switch targets), --labels FILE (SLEAP .slp or COCO .json, repeatable), or
-    both.  Use the model with: thermoswarm track VIDEO --model OUT --px-per-mm S.
+    and ID-switch targets), --labels FILE (SLEAP .slp or COCO .json, repeatable),
+    --real-crops DIR --background PNG (real ant crops pasted on a real background),
+    or several of them.  Use the model with: thermoswarm track VIDEO --model OUT --px-per-mm S.
     """
-    if not synthetic and not labels:
-        raise InputError("give training data: --synthetic and/or --labels FILE")
+    if not synthetic and not labels and real_crops is None:
+        raise InputError("give training data: --synthetic, --labels FILE and/or --real-crops DIR")
+    if (real_crops is None) != (background is None):
+        raise InputError("--real-crops DIR and --background PNG go together")
+    if roi is not None and background is None:
+        raise InputError("--roi is the mask of --background: give --background too")
     from thermoswarm.config import apply_overrides, from_mapping, load_toml, parse_overrides
     from thermoswarm.io import resolve_px_per_mm
     from thermoswarm.tracking.train import TrainConfig, train_from_sources
@@ -139,6 +166,9 @@ def track_train(
         nodes=node_names,
         image_root=image_root,
         include_predicted=predicted,
+        real_crops=real_crops,
+        background=background,
+        roi=roi,
         init=init,
         config=cfg,
         progress=not quiet,

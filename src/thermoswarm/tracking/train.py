@@ -521,6 +521,9 @@ def train_from_sources(
     progress: bool = False,
     log: Callable[[str], None] | None = None,
     include_predicted: bool = False,
+    real_crops: str | os.PathLike | None = None,
+    background: str | os.PathLike | None = None,
+    roi: str | os.PathLike | None = None,
 ) -> dict[str, Any]:
     """What ``thermoswarm track train`` runs: gather the data, then :func:`train`.
 
@@ -543,13 +546,22 @@ def train_from_sources(
     config
         :class:`TrainConfig`.  The synthetic data are drawn from
         ``numpy.random.default_rng([config.seed, 1])``.
+    real_crops, background, roi
+        Copy-paste composites (:mod:`thermoswarm.tracking.train_real`, ``config.real``):
+        a folder of real ant crops, one sub-folder per individual, pasted on tiles
+        of the ``background`` PNG (inside the ``roi`` mask PNG, if given).  The
+        individuals are split into training and held-out ones; the held-out ones'
+        composites validate when there is no synthetic validation.  Drawn from
+        ``numpy.random.default_rng([config.seed, 2])``.
     """
     cfg = config or TrainConfig()
     out = Path(out)
     if not out.absolute().parent.is_dir():
         raise InputError(f"{out}: parent directory does not exist")
-    if not synthetic and not labels:
-        raise InputError("no training data: synthetic=False and no label files")
+    if not synthetic and not labels and real_crops is None:
+        raise InputError("no training data: synthetic=False, no label files, no real crops")
+    if (real_crops is None) != (background is None):
+        raise InputError("real ant crops need a background frame, and a background needs crops")
     if labels and px_per_mm is None:
         raise InputError("labelled images need their scale: px_per_mm")
     if px_per_mm is not None and not (math.isfinite(px_per_mm) and px_per_mm > 0):
@@ -579,5 +591,49 @@ def train_from_sources(
             synthetic_data(cfg.synth, np.random.default_rng([cfg.seed, 1]), px_per_mm=gen_scale)
         )
         validation = synthetic_validation(cfg.validation, px_per_mm=gen_scale)
+    if real_crops is not None:
+        assert background is not None
+        composites, held_out = _real_composites(real_crops, background, roi, cfg, log)
+        parts.append(composites)
+        if validation is None:
+            validation = held_out
     data = LabeledFrames.concat([p.rescaled(scale) for p in parts])
     return train(data, out, cfg, validation=validation, init=init, progress=progress, log=log)
+
+
+def _real_composites(
+    crops_dir: str | os.PathLike,
+    background: str | os.PathLike,
+    roi: str | os.PathLike | None,
+    cfg: TrainConfig,
+    log: Callable[[str], None] | None,
+) -> tuple[LabeledFrames, ValidationSet | None]:
+    """Training composites of the training individuals and a validation set of
+    composites of the held-out ones (``None`` when none is held out); one generator,
+    ``default_rng([seed, 2])``, draws the split and both sets."""
+    from thermoswarm.tracking import train_real as tr
+
+    bg, mask = tr.load_background(background, roi, cfg.real.tile)
+    crops = tr.load_crops(crops_dir)
+    rng = np.random.default_rng([cfg.seed, 2])
+    train_ids, held_ids = tr.split_identities(list(crops), cfg.real.holdout_fraction, rng)
+    if log is not None:
+        log(
+            f"copy-paste: {cfg.real.n_frames} composites of {len(train_ids)} individuals "
+            f"(held out: {', '.join(held_ids) or 'none'})"
+        )
+    data = tr.composite_frames({k: crops[k] for k in train_ids}, bg, mask, cfg.real, rng)
+    if not held_ids:
+        return data, None
+    n_val = max(8, cfg.real.n_frames // 10)
+    val = tr.composite_frames(
+        {k: crops[k] for k in held_ids}, bg, mask, cfg.real, rng, n_frames=n_val
+    )
+    validation = ValidationSet(
+        val.frames,
+        val.points,
+        val.px_per_mm,
+        description=f"{n_val} composites of held-out individuals {', '.join(held_ids)}",
+        ignore=val.ignore,
+    )
+    return data, validation

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 from thermoswarm.config import check
 from thermoswarm.tracking.train_data import SynthDataConfig
+from thermoswarm.tracking.train_real import RealCropConfig
 from thermoswarm.tracking.train_validate import ValidationConfig
 from thermoswarm.tracking.unet import ModelConfig
 
@@ -51,7 +52,8 @@ class AugmentConfig:
 @dataclass(frozen=True)
 class TrainConfig:
     """Training options (TOML: top-level keys and ``[model]``, ``[augment]``,
-    ``[synth]``, ``[validation]`` tables).
+    ``[synth]``, ``[validation]``, ``[real]`` tables; ``[real]``: the copy-paste
+    composites of real ant crops, :class:`~thermoswarm.tracking.train_real.RealCropConfig`).
 
     ``seed``: of every random draw.  ``max_steps``: most optimisation steps (one batch
     for each network per step).  ``max_minutes``: wall-clock limit (``None``: none).
@@ -102,6 +104,7 @@ class TrainConfig:
     augment: AugmentConfig = field(default_factory=AugmentConfig)
     synth: SynthDataConfig = field(default_factory=SynthDataConfig)
     validation: ValidationConfig = field(default_factory=ValidationConfig)
+    real: RealCropConfig = field(default_factory=RealCropConfig)
 
     def __post_init__(self) -> None:
         check(self.max_steps >= 1, "max_steps", "a positive integer", self.max_steps)
