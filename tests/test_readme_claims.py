@@ -176,6 +176,7 @@ def _benchmark(name: str):
 ON_THEIR_OWN = {
     "bench_gpu": "needs a GPU for its table (its CPU part is the GPU work's step)",
     "bench_real_footage": "needs the user's own labelled footage",
+    "bench_niche_counts": "needs the Niche-Lab photos, which may not be redistributed",
 }
 
 
