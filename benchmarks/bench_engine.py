@@ -120,8 +120,8 @@ def _rss_peak() -> int:
 def _timed(step, n: int, positions, side: float, overlap=None, rss0: int | None = None) -> dict:
     """Time a tool within :data:`BUDGET` wall seconds (the first step apart).
 
-    The first step (compilation, warm-up) is timed apart, outside the budget; then up to SETTLE_STEPS
-    untimed steps, stopped once they have taken half the budget (the number done is
+    The first step (compilation, warm-up) is timed apart, outside the budget; then up
+    to SETTLE_STEPS untimed steps, stopped once they have taken half the budget (the number done is
     reported); then BLOCKS blocks of at least MIN_STEPS steps filling the rest of the
     budget, or one block of MIN_STEPS steps where a step is too long for more; the
     fastest block is reported. The exact overlap (KD-tree, not timed) is measured on the
