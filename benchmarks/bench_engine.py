@@ -20,21 +20,29 @@ Tools, each at its best as a user would run it:
   and ``lax.fori_loop``): overdamped Euler of soft discs under the commanded velocity,
   ``--jaxmd-substeps`` sub-steps per 0.1 s step with the stiffness each sub-step allows
   (``JAXMD_STIFFNESS``); its overlap falls with the sub-steps (about our 0.5 % at 50);
-  compile time excluded and reported; one XLA thread;
+  compile time excluded and reported; on 1 and on 2 XLA threads (``XLA_FLAGS``);
 - **VMAS** (its own penalty collisions, ``World.step``): as one world of N agents (up to
   ``VMAS_ONE_WORLD_MAX_N``: it checks every pair) and as N / 12 batched worlds of 12
-  agents each; one torch thread.
+  agents each; on 1 and on 2 torch threads (``torch.set_num_threads``).
 
-Measured for every tool: robot-steps per second of wall time (timed steps only, the
-fastest of 3 blocks; the first steps, which compile or warm up, are excluded and their
-time is reported as ``compile_seconds``) and the **exact largest overlap**, from a
-KD-tree (``scipy.spatial.cKDTree``) after the first step and after each block, for every
-tool (ours also reports its own exact per-step maximum).  Sizes a tool cannot run in
-reasonable time are skipped and marked so in the table.
+Every cell (one tool, one size, one thread count) runs in a process of its own, so that
+its threads (XLA's flags are read at import) and its memory are its own.  Measured for
+every tool: robot-steps per second of wall time (timed steps only: the first step,
+which compiles or warms up, is excluded and reported as ``compile_seconds``; then
+``--settle`` untimed steps, stopped at half the budget; then the fastest of 3 blocks
+filling ``--budget-s``, or one block of 2 steps where a step is too long for more), the
+**exact largest overlap** of the final state from a KD-tree
+(``scipy.spatial.cKDTree``), for every tool (ours also reports its own exact per-step
+maximum), CPU seconds per wall second while timed, and bytes per robot (the peak
+resident set's growth from just before the swarm is built, over N).  A cell whose
+estimate from the tool's largest size so far passes ``--max-cell-s`` is not run and
+says so, with the estimate ("est. 7 h a run of 20 steps"); VMAS as one world is timed
+at 120 agents and estimated as N^2 above.
 
 Usage::
 
     python benchmarks/bench_engine.py                      # 1,200 .. 1,000,000; phi 0.18, 0.5
+    python benchmarks/bench_engine.py --phi 0.5 --budget-s 10   # the table the README quotes
     python benchmarks/bench_engine.py --n 10000 --phi 0.5 --json
 """
 
@@ -69,9 +77,6 @@ MIN_STEPS = 2
 #: from the lattice start the contacts take ~150 steps to build up, and a step costs
 #: ~1.4x more once they have (1 thread, 100,000 robots at packing 0.5).
 SETTLE_STEPS = 0
-#: pymunk builds its bodies one by one in Python (about 100 s for 1,000,000): its
-#: threaded variant, no faster than one thread from 100,000 robots on, is skipped above.
-PYMUNK_THREADED_MAX_N = 100_000
 
 
 def kd_overlap(pos: np.ndarray, side: float) -> float:
