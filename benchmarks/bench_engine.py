@@ -21,8 +21,8 @@ Tools, each at its best as a user would run it:
   ``--jaxmd-substeps`` sub-steps per 0.1 s step with the stiffness each sub-step allows
   (``JAXMD_STIFFNESS``); its overlap falls with the sub-steps (about our 0.5 % at 50);
   compile time excluded and reported; on 1 and on 2 XLA threads (``XLA_FLAGS``);
-- **VMAS** (its own penalty collisions, ``World.step``): as one world of N agents (up to
-  ``VMAS_ONE_WORLD_MAX_N``: it checks every pair) and as N / 12 batched worlds of 12
+- **VMAS** (its own penalty collisions, ``World.step``): as one world of N agents (timed
+  at ``VMAS_ONE_WORLD_N`` agents: it checks every pair) and as N / 12 batched worlds of 12
   agents each; on 1 and on 2 torch threads (``torch.set_num_threads``).
 
 Every cell (one tool, one size, one thread count) runs in a process of its own, so that
@@ -624,6 +624,13 @@ def _mem(r: dict | None) -> str:
     return f"{r['rss_bytes_per_robot']:.0f}"
 
 
+def _cpu(r: dict | None, n: int) -> str:
+    if not r or "cpu_per_wall" not in r:
+        return "-"
+    cpu_s = r["cpu_per_wall"] * sum(r["block_wall_seconds"])
+    return f"{n * r['steps'] / max(cpu_s, 1e-9) / 1e6:.3g} M, {r['cpu_per_wall']:.2f}"
+
+
 def table(rows: list[dict]) -> str:
     """The speed table, then the memory table (peak RSS growth per robot, every tool)."""
     cols = [k for k in COLUMNS if any(k in r for r in rows)]
@@ -674,6 +681,18 @@ def table(rows: list[dict]) -> str:
             f"| {r['n']:,} | {r['phi']} | " + " | ".join(_mem(r.get(k)) for k in cols)
             + f" | {tm} |"
         )  # fmt: skip
+    out += [
+        "",
+        "CPU time (load-robust on a shared machine): robot-steps per CPU second of the "
+        "process while timed (all its threads), and CPU seconds per wall second (1.0: one "
+        "core all the time; less: the machine's other work took the rest)",
+        "",
+        "| N | phi | " + " | ".join(COLUMNS[k][2] for k in cols) + " |",
+        "|---:|---:|" + "---:|" * len(cols),
+    ]
+    for r in rows:
+        cpu = " | ".join(_cpu(r.get(k), r["n"]) for k in cols)
+        out.append(f"| {r['n']:,} | {r['phi']} | {cpu} |")
     refs = [r["vmas_one_reference"] for r in rows if "vmas_one_reference" in r]
     for ref in refs[:1]:
         out += ["", f"VMAS, one world, timed at N={ref['n']}: {_cell(ref)}"]
