@@ -20,21 +20,29 @@ Tools, each at its best as a user would run it:
   and ``lax.fori_loop``): overdamped Euler of soft discs under the commanded velocity,
   ``--jaxmd-substeps`` sub-steps per 0.1 s step with the stiffness each sub-step allows
   (``JAXMD_STIFFNESS``); its overlap falls with the sub-steps (about our 0.5 % at 50);
-  compile time excluded and reported; one XLA thread;
-- **VMAS** (its own penalty collisions, ``World.step``): as one world of N agents (up to
-  ``VMAS_ONE_WORLD_MAX_N``: it checks every pair) and as N / 12 batched worlds of 12
-  agents each; one torch thread.
+  compile time excluded and reported; on 1 and on 2 XLA threads (``XLA_FLAGS``);
+- **VMAS** (its own penalty collisions, ``World.step``): as one world of N agents (timed
+  at ``VMAS_ONE_WORLD_N`` agents: it checks every pair) and as N / 12 batched worlds of 12
+  agents each; on 1 and on 2 torch threads (``torch.set_num_threads``).
 
-Measured for every tool: robot-steps per second of wall time (timed steps only, the
-fastest of 3 blocks; the first steps, which compile or warm up, are excluded and their
-time is reported as ``compile_seconds``) and the **exact largest overlap**, from a
-KD-tree (``scipy.spatial.cKDTree``) after the first step and after each block, for every
-tool (ours also reports its own exact per-step maximum).  Sizes a tool cannot run in
-reasonable time are skipped and marked so in the table.
+Every cell (one tool, one size, one thread count) runs in a process of its own, so that
+its threads (XLA's flags are read at import) and its memory are its own.  Measured for
+every tool: robot-steps per second of wall time (timed steps only: the first step,
+which compiles or warms up, is excluded and reported as ``compile_seconds``; then
+``--settle`` untimed steps, stopped at half the budget; then the fastest of 3 blocks
+filling ``--budget-s``, or one block of 2 steps where a step is too long for more), the
+**exact largest overlap** of the final state from a KD-tree
+(``scipy.spatial.cKDTree``), for every tool (ours also reports its own exact per-step
+maximum), CPU seconds per wall second while timed, and bytes per robot (the peak
+resident set's growth from just before the swarm is built, over N).  A cell whose
+estimate from the tool's largest size so far passes ``--max-cell-s`` is not run and
+says so, with the estimate ("est. 7 h a run of 20 steps"); VMAS as one world is timed
+at 120 agents and estimated as N^2 above.
 
 Usage::
 
     python benchmarks/bench_engine.py                      # 1,200 .. 1,000,000; phi 0.18, 0.5
+    python benchmarks/bench_engine.py --phi 0.5 --budget-s 10   # the table the README quotes
     python benchmarks/bench_engine.py --n 10000 --phi 0.5 --json
 """
 
@@ -42,6 +50,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import importlib.util
 import json
 import math
 import os
@@ -68,9 +77,6 @@ MIN_STEPS = 2
 #: from the lattice start the contacts take ~150 steps to build up, and a step costs
 #: ~1.4x more once they have (1 thread, 100,000 robots at packing 0.5).
 SETTLE_STEPS = 0
-#: pymunk builds its bodies one by one in Python (about 100 s for 1,000,000): its
-#: threaded variant, no faster than one thread from 100,000 robots on, is skipped above.
-PYMUNK_THREADED_MAX_N = 100_000
 
 
 def kd_overlap(pos: np.ndarray, side: float) -> float:
@@ -88,39 +94,90 @@ def _side(n: int, phi: float) -> float:
     return math.sqrt(n * math.pi * R * R / phi)
 
 
-def _timed(step, n: int, positions, side: float, overlap=None) -> dict:
-    """Warm up, run SETTLE_STEPS steps untimed, then BLOCKS blocks of steps (about BUDGET
-    seconds in all); the exact overlap (KD-tree, not timed) before the first block and
-    after each block (``overlap(positions())``, default :func:`kd_overlap`)."""
+#: Resident set (bytes) before the tool being timed was built (set by :func:`run_cell`).
+_RSS0: int | None = None
+
+
+def _rss_now() -> int:
+    """Resident set of this process now, bytes (``/proc/self/statm``)."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def _rss_peak_reset() -> None:
+    """Reset this process's peak resident set (``VmHWM``) to its current one (Linux)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as f:
+            f.write("5")
+    except OSError:
+        pass
+
+
+def _rss_peak() -> int:
+    """Peak resident set since the last :func:`_rss_peak_reset`, bytes (``VmHWM``)."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def _timed(step, n: int, positions, side: float, overlap=None, rss0: int | None = None) -> dict:
+    """Time a tool within :data:`BUDGET` wall seconds (the first step apart).
+
+    The first step (compilation, warm-up) is timed apart, outside the budget; then up
+    to SETTLE_STEPS untimed steps, stopped once they have taken half the budget (the number done is
+    reported); then BLOCKS blocks of at least MIN_STEPS steps filling the rest of the
+    budget, or one block of MIN_STEPS steps where a step is too long for more; the
+    fastest block is reported. The exact overlap (KD-tree, not timed) is measured on the
+    final state (``overlap(positions())``, default :func:`kd_overlap`). Memory: peak
+    resident set growth over ``rss0`` (bytes, before the final overlap check) per robot.
+    """
     if overlap is None:
         overlap = functools.partial(kd_overlap, side=side)
+    if rss0 is None:
+        rss0 = _RSS0
     t0 = time.perf_counter()
-    step()  # compiles / warms up
+    step()  # compiles / warms up: outside the budget
     first = time.perf_counter() - t0
-    for _ in range(SETTLE_STEPS):
+    t_all = time.perf_counter()
+    settled = 0
+    t0 = time.perf_counter()
+    while settled < SETTLE_STEPS and time.perf_counter() - t0 < BUDGET / 2:
         step()
+        settled += 1
     t0 = time.perf_counter()
     step()
     one = time.perf_counter() - t0
-    per_block = max(MIN_STEPS, int(BUDGET / BLOCKS / max(one, 1e-6)))
-    worst = overlap(positions())
-    walls = []
-    for _ in range(BLOCKS):
-        t0 = time.perf_counter()
+    left = max(0.0, BUDGET - (time.perf_counter() - t_all))
+    blocks = BLOCKS if left >= BLOCKS * MIN_STEPS * one else 1
+    per_block = max(MIN_STEPS, int(left / blocks / max(one, 1e-6)))
+    walls, cpu = [], 0.0
+    for _ in range(blocks):
+        c0, t0 = time.process_time(), time.perf_counter()
         for _ in range(per_block):
             step()
         walls.append(time.perf_counter() - t0)
-        worst = max(worst, overlap(positions()))
+        cpu += time.process_time() - c0
+    peak = _rss_peak()
+    worst = overlap(positions())
     best = min(walls)
-    return {
-        "steps": per_block * BLOCKS,
+    out = {
+        "steps": per_block * blocks,
+        "settle_steps": settled,
         "block_wall_seconds": walls,
+        "first_step_seconds": first,
         "compile_seconds": max(0.0, first - one),
+        "cpu_per_wall": cpu / sum(walls),
         "robot_steps_per_second": n * per_block / best,
         "median_robot_steps_per_second": n * per_block / float(np.median(walls)),
         "simulated_robot_seconds_per_second": n * per_block * DT / best,
         "max_overlap_fraction": worst / DIAMETER,
+        "cell_wall_seconds": time.perf_counter() - t_all + first,
     }
+    if rss0 is not None:
+        out["rss_bytes_per_robot"] = (peak - rss0) / n
+    return out
 
 
 @functools.lru_cache(maxsize=2)
@@ -245,13 +302,15 @@ def numpy_bench(n: int, phi: float, seed: int = 0) -> dict:
 #: pair's overlap: the most explicit Euler takes stably in a crowd of six neighbours).
 JAXMD_STIFFNESS = 0.25
 JAXMD_SUBSTEPS = 50
+#: XLA_FLAGS for JAX-MD on 1 thread and on 2 (XLA's default CPU thread pool, the
+#: process limited to 2 cores where the machine has more).
+XLA_FLAGS = {1: "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1", 2: ""}
 
 
-def jaxmd_bench(n: int, phi: float, substeps: int, seed: int = 0) -> dict:
-    # one CPU thread, as every other column (XLA reads this when jax is first imported)
-    os.environ.setdefault(
-        "XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
-    )
+def jaxmd_bench(n: int, phi: float, substeps: int, threads: int = 1, seed: int = 0) -> dict:
+    # XLA reads its flags when jax is first imported: :func:`run_cell` sets them for
+    # ``threads`` (one thread: no Eigen thread pool, one intra-op thread)
+    os.environ.setdefault("XLA_FLAGS", XLA_FLAGS[threads])
     import jax
     import jax.numpy as jnp
     from jax_md import energy, partition, space
@@ -303,7 +362,7 @@ def jaxmd_bench(n: int, phi: float, substeps: int, seed: int = 0) -> dict:
         return np.asarray(holder["x"], dtype=np.float64) - pad
 
     out = _timed(one_step, n, positions, side)
-    out.update(substeps=substeps, epsilon=eps, threads=1)
+    out.update(substeps=substeps, epsilon=eps, threads=threads)
     return out
 
 
@@ -313,17 +372,17 @@ VMAS_SUBSTEPS = 10
 VMAS_COLLISION_FORCE = 2000.0
 
 
-def vmas_bench(n: int, phi: float, envs: int = 1, seed: int = 0) -> dict:
+def vmas_bench(n: int, phi: float, envs: int = 1, threads: int = 1, seed: int = 0) -> dict:
     """VMAS as a user writes a scenario: ``envs`` batched worlds of ``n // envs`` sphere
     agents (radius 16.5 mm, in metres), each in its own walled square of the same
     packing (``x_semidim``/``y_semidim`` keep the centres ``R`` off the walls), its own
     penalty collisions; force actions with full drag, sized so that an agent alone moves
-    ``v dt`` in a step; one torch thread."""
+    ``v dt`` in a step; ``threads`` torch threads (``torch.set_num_threads``)."""
     import torch
     from vmas.simulator.core import Agent, Sphere, World
     from vmas.simulator.scenario import BaseScenario
 
-    torch.set_num_threads(1)
+    torch.set_num_threads(threads)
     m = n // envs
     n = m * envs  # whole worlds (N rounded down to a multiple of the world size)
     side = _side(m, phi) / 1000.0
@@ -380,67 +439,171 @@ def vmas_bench(n: int, phi: float, envs: int = 1, seed: int = 0) -> dict:
         return max(kd_overlap(p[e], side * 1000.0) for e in range(envs))
 
     out = _timed(step_and_check, n, positions, side * 1000.0, overlap=overlap_of)
-    out.update(threads=1, envs=envs, agents_per_env=m, substeps=k,
+    out.update(threads=threads, envs=envs, agents_per_env=m, substeps=k,
                collision_force=VMAS_COLLISION_FORCE)  # fmt: skip
     return out
 
 
-# ---------------------------------------------------------------------------- table
+# ---------------------------------------------------------------------------- cells
 #: Agents per world in VMAS's batched column (E worlds of this many, E x n = N).
-VMAS_AGENTS_PER_ENV = 12
-#: Largest swarm VMAS runs as one world: its collision check is over every pair of
-#: entities (N^2 / 2 per sub-step): 14 agent-steps per second at 120 agents here.
-VMAS_ONE_WORLD_MAX_N = 120
-#: Largest swarm JAX-MD and NumPy run (time on the shared machine; both are one thread).
-PEER_MAX_N = 100_000
+VMAS_AGENTS_PER_ENV = _W = 12
+#: VMAS as one world checks every pair of entities in Python (N^2 / 2 per sub-step): it
+#: is timed at this size only, and estimated from it at the table's sizes.
+VMAS_ONE_WORLD_N = 120
+#: Steps in "a run" for the estimates of cells that are not run.
+EST_STEPS = 20
+
+#: Column key -> (tool, threads, header).
+COLUMNS = {
+    "ours_1_thread": ("ours", 1, "ours, 1 thread"),
+    "ours_2_thread": ("ours", 2, "ours, 2 threads"),
+    "numpy": ("numpy", 1, "NumPy + cKDTree, 1 thread"),
+    "jaxmd_1_thread": ("jaxmd", 1, "JAX-MD soft discs, 1 thread"),
+    "jaxmd_2_thread": ("jaxmd", 2, "JAX-MD soft discs, 2 threads"),
+    "vmas_one": ("vmas", 1, "VMAS, one world, 1 thread"),
+    "vmas_batched_1_thread": (
+        "vmas_batched",
+        1,
+        f"VMAS, worlds of {_W}, 1 thread",
+    ),
+    "vmas_batched_2_thread": (
+        "vmas_batched",
+        2,
+        f"VMAS, worlds of {_W}, 2 threads",
+    ),
+    "pymunk_1_thread": ("pymunk", 1, "pymunk batch, 1 thread"),
+    "pymunk_2_thread": ("pymunk", 2, "pymunk batch, threaded (2)"),
+}
+#: ``--tools`` names -> column keys.
+TOOL_NAMES = {
+    "ours1": "ours_1_thread", "ours2": "ours_2_thread", "numpy": "numpy",
+    "jaxmd": "jaxmd_1_thread", "jaxmd2": "jaxmd_2_thread", "vmas": "vmas_one",
+    "vmas_batched": "vmas_batched_1_thread", "vmas_batched2": "vmas_batched_2_thread",
+    "pymunk1": "pymunk_1_thread", "pymunk2": "pymunk_2_thread",
+}  # fmt: skip
 
 
-def one(n: int, phi: float, tools: list[str], threaded_max: int, substeps: int) -> dict:
+def _call(key: str, n: int, phi: float, substeps: int) -> dict:
+    tool, threads, _ = COLUMNS[key]
+    if tool == "ours":
+        return ours(n, phi, threads)
+    if tool == "numpy":
+        return numpy_bench(n, phi)
+    if tool == "jaxmd":
+        return jaxmd_bench(n, phi, substeps, threads)
+    if tool == "vmas":
+        return vmas_bench(n, phi, 1, threads)
+    if tool == "vmas_batched":
+        return vmas_bench(n, phi, max(1, n // VMAS_AGENTS_PER_ENV), threads)
+    return pymunk_bench(n, phi, threads)
+
+
+def run_cell(key: str, n: int, phi: float, substeps: int) -> dict:
+    """One tool at one size, in this process: a warm-up at 240 robots (loads compiled
+    code, so that the memory measured is the swarm's), then the timed run; memory is
+    the peak resident set's growth from just before the swarm is built."""
+    global _RSS0
+    budget = BUDGET
+    try:
+        globals()["BUDGET"] = 0.0
+        _call(key, 24 if COLUMNS[key][0] == "vmas" else 240, phi, substeps)
+    finally:
+        globals()["BUDGET"] = budget
+    if COLUMNS[key][0] != "ours":
+        _start(n, phi)  # the shared initial positions, outside the tool's memory
+    _rss_peak_reset()
+    _RSS0 = _rss_now()
+    out = _call(key, n, phi, substeps)
+    if COLUMNS[key][0] == "ours":
+        from thermoswarm.sim.bench import run_bench
+
+        mem = run_bench(n, phi, seconds=DT, checks=0, memory_steps=2)
+        out["bytes_per_robot"] = mem["bytes_per_robot"]
+    return out
+
+
+def _child(key: str, n: int, phi: float, a: argparse.Namespace, timeout: float) -> dict:
+    """:func:`run_cell` in a fresh process (threads and memory its own), killed after
+    ``timeout`` wall seconds."""
+    import subprocess
+
+    tool, threads, _ = COLUMNS[key]
+    env = dict(os.environ)
+    if tool == "jaxmd":
+        env["XLA_FLAGS"] = XLA_FLAGS[threads]
+    cmd = [sys.executable, __file__, "--cell", key, "--n", str(n), "--phi", str(phi),
+           "--budget-s", str(BUDGET), "--settle", str(SETTLE_STEPS * DT),
+           "--jaxmd-substeps", str(a.jaxmd_substeps)]  # fmt: skip
+    try:
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+    except subprocess.TimeoutExpired:
+        return {"skipped": f"not done in {timeout:.0f} s (the cap, --max-cell-s)"}
+    if res.returncode != 0:
+        tail = (res.stderr.strip().splitlines() or ["no message"])[-1]
+        return {"skipped": f"failed: {tail[:120]}"}
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def _duration(seconds: float) -> str:
+    for unit, s in (("d", 86400), ("h", 3600), ("min", 60)):
+        if seconds >= s:
+            return f"{seconds / s:.2g} {unit}"
+    return f"{seconds:.2g} s"
+
+
+def _estimate(key: str, n: int, ran: dict) -> tuple[float, str] | None:
+    """Wall seconds of a cell at ``n`` (setup, first step, MIN_STEPS + 2 steps) and a
+    note, from the largest size this tool ran (``ran``: n -> result); None if none ran.
+    VMAS as one world grows as N^2 a step; every other tool as N."""
+    done = [m for m, r in ran.items() if "skipped" not in r and m < n]
+    if not done:
+        return None
+    m = max(done)
+    r = ran[m]
+    p = 2 if COLUMNS[key][0] == "vmas" else 1
+    scale = (n / m) ** p
+    step_s = m / r["robot_steps_per_second"] * scale
+    run_s = EST_STEPS * step_s
+    setup = max(0.0, r["cell_wall_seconds"] - sum(r["block_wall_seconds"])) * n / m
+    cell_s = setup + (MIN_STEPS + 2) * step_s
+    note = f"est. {_duration(run_s)} a run of {EST_STEPS} steps (from N={m:,}"
+    note += ", N^2)" if p == 2 else ")"
+    if p == 2 and "rss_bytes_per_robot" in r:
+        pair_bytes = r["rss_bytes_per_robot"] * m / (m * m / 2)
+        note += f"; N^2/2 pairs: {pair_bytes * n * n / 2 / 1e9:.2g} GB"
+    return cell_s, note
+
+
+def one(n: int, phi: float, keys: list[str], a: argparse.Namespace, history: dict) -> dict:
+    """One row: every column at ``n`` robots, each in its own process; a cell whose
+    estimate (from the tool's largest size so far, ``history``) passes the cap is
+    not run and says why."""
     row: dict = {"n": n, "phi": phi}
-    for t in (1, 2):
-        if f"ours{t}" in tools:
-            row[f"ours_{t}_thread"] = ours(n, phi, t)
-    too_big = {"skipped": "time"}
-    if "numpy" in tools:
-        row["numpy"] = numpy_bench(n, phi) if n <= PEER_MAX_N else too_big
-    if "jaxmd" in tools:
-        row["jaxmd"] = jaxmd_bench(n, phi, substeps) if n <= PEER_MAX_N else too_big
-    if "vmas" in tools:
-        row["vmas_one"] = (
-            vmas_bench(n, phi, 1)
-            if n <= VMAS_ONE_WORLD_MAX_N
-            else {"skipped": "every pair checked: N^2"}
-        )
-    if "vmas_batched" in tools:
-        envs = max(1, n // VMAS_AGENTS_PER_ENV)
-        row["vmas_batched"] = vmas_bench(n, phi, envs) if n <= PEER_MAX_N else too_big
-    for t in (1, 2):
-        if f"pymunk{t}" in tools:
-            row[f"pymunk_{t}_thread"] = (
-                pymunk_bench(n, phi, t)
-                if t == 1 or n <= threaded_max
-                else {"skipped": "setup takes minutes"}
-            )
+    for key in keys:
+        ran = history.setdefault((key, phi), {})
+        est = _estimate(key, n, ran)
+        if key == "vmas_one" and n > VMAS_ONE_WORLD_N and est is None:
+            ran[VMAS_ONE_WORLD_N] = _child(key, VMAS_ONE_WORLD_N, phi, a, a.max_cell_s)
+            row["vmas_one_reference"] = {"n": VMAS_ONE_WORLD_N, **ran[VMAS_ONE_WORLD_N]}
+            est = _estimate(key, n, ran)
+        if key == "vmas_one" and n > VMAS_ONE_WORLD_N:
+            row[key] = {"skipped": est[1] if est else "every pair checked: N^2"}
+        elif est is not None and est[0] > a.max_cell_s:
+            row[key] = {"skipped": est[1]}
+        else:
+            row[key] = ran[n] = _child(key, n, phi, a, a.max_cell_s)
+            if "skipped" in row[key] and est is not None:
+                row[key]["skipped"] += "; " + est[1]
+        print(f"    {key} n={n:,}: done (load {os.getloadavg()[0]:.1f})", file=sys.stderr)
     return row
 
 
-COLUMNS = [
-    ("ours_1_thread", "ours, 1 thread"),
-    ("ours_2_thread", "ours, 2 threads"),
-    ("numpy", "NumPy + cKDTree, 1 thread"),
-    ("jaxmd", "JAX-MD soft discs, 1 thread"),
-    ("vmas_one", "VMAS, one world, 1 thread"),
-    ("vmas_batched", f"VMAS, worlds of {VMAS_AGENTS_PER_ENV}, 1 thread"),
-    ("pymunk_1_thread", "pymunk batch, 1 thread"),
-    ("pymunk_2_thread", "pymunk batch, threaded (2)"),
-]
-
-
+# ---------------------------------------------------------------------------- table
 def _cell(r: dict | None) -> str:
     if r is None:
         return "not run"
     if "skipped" in r:
-        return f"skipped ({r['skipped']})"
+        return f"not run: {r['skipped']}"
     return (
         f"{r['simulated_robot_seconds_per_second'] / 1e3:.3g} k, "
         f"{r['robot_steps_per_second'] / 1e6:.3g} M/s, {100 * r['max_overlap_fraction']:.2f} %"
@@ -455,41 +618,84 @@ def _ratio(row: dict, a: str, b: str) -> str:
     return f"{x:.3g}x" if x >= 1 else f"{x:.3g}x (peer {1 / x:.3g}x)"
 
 
+def _mem(r: dict | None) -> str:
+    if not r or "rss_bytes_per_robot" not in r:
+        return "-"
+    return f"{r['rss_bytes_per_robot']:.0f}"
+
+
+def _cpu(r: dict | None, n: int) -> str:
+    if not r or "cpu_per_wall" not in r:
+        return "-"
+    cpu_s = r["cpu_per_wall"] * sum(r["block_wall_seconds"])
+    return f"{n * r['steps'] / max(cpu_s, 1e-9) / 1e6:.3g} M, {r['cpu_per_wall']:.2f}"
+
+
 def table(rows: list[dict]) -> str:
-    cols = [c for c in COLUMNS if any(c[0] in r for r in rows)]
-    peers = [c for c in cols if not c[0].startswith("ours")]
-    head = " | ".join(name for _, name in cols)
+    """The speed table, then the memory table (peak RSS growth per robot, every tool)."""
+    cols = [k for k in COLUMNS if any(k in r for r in rows)]
+    peers = [k for k in cols if not k.startswith("ours")]
+    # a peer is compared with ours on the same number of threads
+    mine = {k: ("ours_2_thread" if COLUMNS[k][1] == 2 else "ours_1_thread") for k in peers}
+    head = " | ".join(COLUMNS[k][2] for k in cols)
     out = [
         "each cell: simulated robot-seconds per wall second (k), robot-steps per wall "
-        "second (M, each step 0.1 s), exact max overlap (KD-tree after the first step "
-        "and each block, % of D); ratios: ours (1 thread) / peer in simulated "
-        "robot-seconds per second, the peer's own ratio in brackets where it is faster",
+        "second (M, each step 0.1 s), exact max overlap (KD-tree on the final state, % of "
+        "D); ratios: ours / peer in simulated robot-seconds per second on the same "
+        "number of threads, the peer's own ratio in brackets where it is faster",
         "",
         f"| N | phi | {head} | "
-        + " | ".join(f"ours / {name}" for _, name in peers)
-        + " | ours bytes/robot | ours cost vs N=1,200 |",
-        "|---:|---:|" + "---:|" * (len(cols) + len(peers) + 2),
+        + " | ".join(f"ours / {COLUMNS[k][2]}" for k in peers)
+        + " | ours cost vs N=1,200 |",
+        "|---:|---:|" + "---:|" * (len(cols) + len(peers) + 1),
     ]
     base = {}
     for r in rows:
         o = r.get("ours_1_thread")
-        if o and r["n"] == 1200:
+        if o and "skipped" not in o and r["n"] == 1200:
             base[r["phi"]] = o["robot_steps_per_second"]
     for r in rows:
         o1 = r.get("ours_1_thread")
-        rel = (
-            f"{base[r['phi']] / o1['robot_steps_per_second']:.2f}x"
-            if o1 and r["phi"] in base
-            else "-"
-        )
-        mem = f"{r['bytes_per_robot']:.0f}" if "bytes_per_robot" in r else "-"
+        ok = o1 and "skipped" not in o1 and r["phi"] in base
+        rel = f"{base[r['phi']] / o1['robot_steps_per_second']:.2f}x" if ok else "-"
         out.append(
             f"| {r['n']:,} | {r['phi']} | "
-            + " | ".join(_cell(r.get(k)) for k, _ in cols)
+            + " | ".join(_cell(r.get(k)) for k in cols)
             + " | "
-            + " | ".join(_ratio(r, "ours_1_thread", k) for k, _ in peers)
-            + f" | {mem} | {rel} |"
+            + " | ".join(_ratio(r, mine[k], k) for k in peers)
+            + f" | {rel} |"
         )
+    out += [
+        "",
+        "bytes per robot: peak resident set growth from just before the swarm is built to "
+        "the end of its timed steps, / N, each tool in its own process (ours also: its "
+        "arrays and largest per-step allocation, tracemalloc)",
+        "",
+        "| N | phi | " + " | ".join(COLUMNS[k][2] for k in cols) + " | ours, tracemalloc |",
+        "|---:|---:|" + "---:|" * (len(cols) + 1),
+    ]
+    for r in rows:
+        o1 = r.get("ours_1_thread") or {}
+        tm = f"{o1['bytes_per_robot']:.0f}" if "bytes_per_robot" in o1 else "-"
+        out.append(
+            f"| {r['n']:,} | {r['phi']} | " + " | ".join(_mem(r.get(k)) for k in cols)
+            + f" | {tm} |"
+        )  # fmt: skip
+    out += [
+        "",
+        "CPU time (load-robust on a shared machine): robot-steps per CPU second of the "
+        "process while timed (all its threads), and CPU seconds per wall second (1.0: one "
+        "core all the time; less: the machine's other work took the rest)",
+        "",
+        "| N | phi | " + " | ".join(COLUMNS[k][2] for k in cols) + " |",
+        "|---:|---:|" + "---:|" * len(cols),
+    ]
+    for r in rows:
+        cpu = " | ".join(_cpu(r.get(k), r["n"]) for k in cols)
+        out.append(f"| {r['n']:,} | {r['phi']} | {cpu} |")
+    refs = [r["vmas_one_reference"] for r in rows if "vmas_one_reference" in r]
+    for ref in refs[:1]:
+        out += ["", f"VMAS, one world, timed at N={ref['n']}: {_cell(ref)}"]
     return "\n".join(out)
 
 
@@ -557,25 +763,53 @@ def limit(ns: list[int], phi: float, settle: float) -> str:
     return "\n".join(rows)
 
 
-def main(argv: list[str] | None = None) -> int:
+def _tools(names: str) -> list[str]:
+    """Column keys for ``--tools``, less those whose package is missing (said on stderr)."""
+    keys = []
+    for t in (t.strip() for t in names.split(",")):
+        if t and t not in TOOL_NAMES:
+            raise SystemExit(f"error: --tools: unknown tool {t!r}; expected some of "
+                             f"{','.join(TOOL_NAMES)}")  # fmt: skip
+        if t:
+            keys.append(TOOL_NAMES[t])
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2 and "ours_2_thread" in keys:
+        print("only one Numba thread: the 2-thread column is skipped", file=sys.stderr)
+        keys.remove("ours_2_thread")
+    for mod, tool in (("pymunk", "pymunk"), ("jax_md", "jaxmd"), ("vmas", "vmas"),
+                      ("vmas", "vmas_batched")):  # fmt: skip
+        if importlib.util.find_spec(mod) is None:
+            gone = [k for k in keys if COLUMNS[k][0] == tool]
+            if gone:
+                print(f"{mod} is not installed (pip install thermoswarm[bench]): skipped",
+                      file=sys.stderr)  # fmt: skip
+            keys = [k for k in keys if k not in gone]
+    return keys
+
+
+def _args(argv: list[str] | None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, action="append", help="robots (repeatable)")
     ap.add_argument("--phi", type=float, action="append", help="packing fraction (repeatable)")
     ap.add_argument(
-        "--tools",
-        default="ours1,ours2,numpy,jaxmd,vmas,vmas_batched,pymunk1,pymunk2",
-        help="comma-separated subset of ours1,ours2,numpy,jaxmd,vmas,vmas_batched,pymunk1,pymunk2",
-    )
+        "--tools", default=",".join(TOOL_NAMES),
+        help=f"comma-separated subset of {','.join(TOOL_NAMES)}",
+    )  # fmt: skip
     ap.add_argument(
         "--jaxmd-substeps", type=int, default=JAXMD_SUBSTEPS,
         help="JAX-MD sub-steps per 0.1 s step (its stiffness follows: see JAXMD_STIFFNESS)",
     )  # fmt: skip
     ap.add_argument(
-        "--pymunk-threaded-max-n",
-        type=int,
-        default=PYMUNK_THREADED_MAX_N,
-        help="largest swarm for pymunk's threaded variant",
-    )
+        "--budget-s", type=float, default=BUDGET,
+        help="wall seconds of stepping per cell (settle steps stop at half of it; at "
+        "least 2 timed steps are run whatever it is)",
+    )  # fmt: skip
+    ap.add_argument(
+        "--max-cell-s", type=float, default=600.0,
+        help="a cell (one tool at one size, setup included) is not run when its "
+        "estimate from the tool's largest size so far passes this, and is stopped there",
+    )  # fmt: skip
     ap.add_argument(
         "--settle", type=float, default=0.0,
         help="simulated seconds every tool runs before it is timed (default 0: timed from "
@@ -587,41 +821,33 @@ def main(argv: list[str] | None = None) -> int:
         help="print the bandwidth table instead (ours, 1 thread, against a STREAM-style "
         "bandwidth measured in the same command; --settle = simulated seconds timed)",
     )  # fmt: skip
+    ap.add_argument("--cell", choices=list(COLUMNS), help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
-    global SETTLE_STEPS
+    for name in ("budget_s", "max_cell_s", "settle"):
+        if getattr(a, name) < 0:
+            ap.error(f"--{name.replace('_', '-')} must be >= 0, got {getattr(a, name)}")
+    return a
+
+
+def main(argv: list[str] | None = None) -> int:
+    a = _args(argv)
+    global SETTLE_STEPS, BUDGET
     SETTLE_STEPS = max(0, round(a.settle / DT))
+    BUDGET = a.budget_s
     ns = a.n or [1_200, 10_000, 100_000, 1_000_000]
     phis = a.phi or [0.18, 0.5]
+    if a.cell:  # one cell, in a process of its own (see _child)
+        print(json.dumps(run_cell(a.cell, ns[0], phis[0], a.jaxmd_substeps)))
+        return 0
     if a.limit:
         print(limit(ns, phis[-1], a.settle))
         print(f"(load average at the end: {os.getloadavg()[0]:.1f})")
         return 0
-    tools = [t.strip() for t in a.tools.split(",") if t.strip()]
-    import numba
-
-    if numba.config.NUMBA_NUM_THREADS < 2 and "ours2" in tools:
-        print("only one Numba thread: the 2-thread column is skipped", file=sys.stderr)
-        tools.remove("ours2")
-    for mod, names in (
-        ("pymunk", ("pymunk1", "pymunk2")), ("jax_md", ("jaxmd",)),
-        ("vmas", ("vmas", "vmas_batched")),
-    ):  # fmt: skip
-        try:
-            __import__(mod)
-        except ImportError:
-            if any(t in tools for t in names):
-                print(f"{mod} is not installed (pip install thermoswarm[bench]): skipped",
-                      file=sys.stderr)  # fmt: skip
-            tools = [t for t in tools if t not in names]
-    rows = []
+    keys = _tools(a.tools)
+    rows, history = [], {}
     for phi in phis:
         for n in ns:
-            row = one(n, phi, tools, a.pymunk_threaded_max_n, a.jaxmd_substeps)
-            from thermoswarm.sim.bench import run_bench
-
-            mem = run_bench(n, phi, seconds=DT, checks=0, memory_steps=2)
-            row["bytes_per_robot"] = mem["bytes_per_robot"]
-            rows.append(row)
+            rows.append(one(n, phi, keys, a, history))
             print(f"  done n={n:,} phi={phi} (load {os.getloadavg()[0]:.1f})", file=sys.stderr)
     info = {"cpus": os.cpu_count(), "load_average": os.getloadavg()}
     if a.json:

@@ -1,17 +1,22 @@
-"""``make bench``: every benchmark, one after the other, each against its own baseline.
+"""``make bench``: every benchmark, one after the other, each table with its command.
 
-Prints the engine tables (thermoswarm on 1 and 2 threads beside NumPy + cKDTree, JAX-MD,
-VMAS and pymunk's batch API; its fraction of a STREAM-style bandwidth; the jammed
-mechanism run with and without the warm start) and a summary line per other benchmark;
-the full JSON of each goes to ``bench-out/<name>.json``.  Every figure is a ratio
-against a baseline measured in the same process (these machines are noisy); the load
-average is printed with each result.
+Each step prints a header, the command that prints its table on its own (the same
+command, so a figure quoted in README.md or docs/ can be traced to one line here), and
+its table: the engine beside its peers (NumPy + cKDTree, JAX-MD, VMAS, pymunk) from
+1,200 to 1,000,000 robots, the engine's fraction of a STREAM-style bandwidth, the jammed
+mechanism run with the cold and the warm-started solve, the GPU script's rehearsal on
+the CPU (numba-cuda's simulator), the compression claims, then analysis, tracking, the
+U-Net, light, I/O, sweeps, real-tracking and the viewer.  The full JSON of each JSON step
+goes to ``bench-out/<name>.json`` and the text of each other step to
+``bench-out/<name>.txt``.  The load average is printed with each result (these machines
+are shared: compare ratios measured in one command).
 
 The real-tracking step needs the ANTS ground truth (``--tracking-data DIR``, see
 docs/tracking.md); without it, it runs its synthetic box sequences only.
 
-Options: ``--quick`` runs smaller sizes (a few minutes in all); ``--only NAME`` runs one.
-A new benchmark is one entry of :data:`STEPS`.
+Options: ``--quick`` runs smaller sizes (for a check that everything runs, not for the
+figures the pages quote); ``--only NAME`` runs one step.  A new benchmark is one entry
+of :data:`STEPS`.
 """
 
 from __future__ import annotations
@@ -32,147 +37,159 @@ HERE = Path(__file__).parent
 OUT = Path("bench-out")
 
 
-def _run(name: str, args: list[str]) -> dict | None:
-    cmd = [sys.executable, str(HERE / f"{name}.py"), *args, "--json"]
+def command(step: Step, quick: bool = False) -> str:
+    """The command line a step runs, as printed beside its table."""
+    env = "".join(f"{k}={v} " for k, v in step.env)
+    args = [*(step.quick if quick else step.full), *(["--json"] if step.json else [])]
+    return f"{env}python benchmarks/{step.script}.py {' '.join(args)}".rstrip()
+
+
+def _run(step: Step, args: list[str]) -> dict | str | None:
+    """Run one step's script; its JSON (a JSON step) or its standard output (a table
+    step), saved under :data:`OUT`; None (and why, printed) if it failed."""
+    cmd = [sys.executable, str(HERE / f"{step.script}.py"), *args]
+    cmd += ["--json"] if step.json else []
     t0 = time.perf_counter()
-    res = subprocess.run(cmd, capture_output=True, text=True)
+    res = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, **dict(step.env)})
     if res.returncode != 0:
-        print(f"{name}: failed ({res.stderr.strip().splitlines()[-1:]})")
+        print(f"   failed ({res.stderr.strip().splitlines()[-1:]})")
         return None
     out = res.stdout.strip()
-    try:  # one JSON object: on its last line, or the whole output (indented)
-        data = json.loads(out.splitlines()[-1])
-    except (json.JSONDecodeError, IndexError):
-        data = json.loads(out[out.index("{") :])
     OUT.mkdir(exist_ok=True)
-    (OUT / f"{name}.json").write_text(json.dumps(data, indent=2))
+    if step.json:
+        try:  # one JSON object: on its last line, or the whole output (indented)
+            data = json.loads(out.splitlines()[-1])
+        except (json.JSONDecodeError, IndexError):
+            data = json.loads(out[out.index("{") :])
+        _write(OUT / f"{step.name}.json", json.dumps(data, indent=2))
+    else:
+        data = out
+        _write(OUT / f"{step.name}.txt", out + "\n")
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
-    print(
-        f"{name}: {time.perf_counter() - t0:.0f} s (load average {load}); "
-        f"full results in {OUT / (name + '.json')}"
-    )
+    print(f"   ({time.perf_counter() - t0:.0f} s, load average {load} at the end)")
     return data
 
 
-def _short(d: dict) -> str:
-    return "   " + json.dumps(d.get("summary", {k: d[k] for k in list(d)[:8]}))[:400]
+def _write(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically (a temporary file, then a rename)."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)
 
 
-def _analysis(d: dict) -> str:
-    w = d["same_work"]
-    rows = [f"   {k}: ours {r['ours_s']} s, SciPy {r.get('scipy_s', r.get('scipy_lbfgsb_s'))} s, "
-            f"ratio {r['ratio']}" for k, r in w.items()]  # fmt: skip
-    return "\n".join(
-        [
-            f"   whole study {d['wall_s']} s; one thread each side",
-            *rows,
-            f"   same optimum: {d['same_optimum']}",
-        ]  # fmt: skip
+def _ranges(runs: list[dict], key: str, fmt: str = ".3f") -> str:
+    vals = [r[key] for r in runs]
+    return f"{min(vals):{fmt}}-{max(vals):{fmt}}" if len(vals) > 1 else f"{vals[0]:{fmt}}"
+
+
+def _tracking(d: dict) -> str:
+    runs = d["runs"]
+    return (
+        f"   classical detector, {len(runs)} seeds (1080p, {d['video']['n_ants']} ants): "
+        f"MOTA {_ranges(runs, 'mota')}, IDF1 {_ranges(runs, 'idf1')}, "
+        f"{_ranges(runs, 'track_fps', '.1f')} frames/s"
     )
 
 
-def _tracking_real(d: dict) -> str:
-    by: dict[tuple[str, str], list[float]] = {}
-    for r in d["rows"]:
-        if r["tracker"] != "ours":
-            by.setdefault((r["sequence"], r["tracker"]), []).append(1 / r["speed_vs_ours"])
-    lines = ["   our speed over each peer's (timed: each tracker's own update per frame):"]
-    for (seq, peer), v in sorted(by.items()):
-        lines.append(f"   {seq:28s} {peer:9s} {min(v):.2f}-{max(v):.2f}x")
+def _unet(d: dict) -> str:
+    lines = []
+    for name in ("classical", "unet"):
+        runs = [r[name] for r in d["runs"]]
+        lines.append(
+            f"   {name:9s} {len(runs)} seeds: MOTA {_ranges(runs, 'mota')}, "
+            f"IDF1 {_ranges(runs, 'idf1')}, {_ranges(runs, 'track_fps', '.1f')} frames/s"
+        )
     return "\n".join(lines)
 
 
 @dataclass(frozen=True)
 class Step:
-    """One benchmark: its script, its arguments (full and ``--quick``), its summary."""
+    """One benchmark: its script, its arguments (full and ``--quick``), and how its table
+    is printed: a table step prints the script's own output; a JSON step (``json``)
+    runs the script with ``--json`` and prints ``summary`` of the result."""
 
     name: str
     script: str
     full: list[str]
     quick: list[str]
-    summary: Callable[[dict], str]
+    summary: Callable[[dict], str] | None = None
     needs: str | None = None  # a module that must be importable, or the step is skipped
+    json: bool = False
+    env: tuple[tuple[str, str], ...] = ()
+    title: str = ""
 
+
+#: The peer table's sizes: the README quotes the full command's figures.
+ENGINE_FULL = ["--n", "1200", "--n", "10000", "--n", "100000", "--n", "1000000",
+               "--phi", "0.5", "--budget-s", "10"]  # fmt: skip
+ENGINE_QUICK = ["--n", "1200", "--n", "10000", "--phi", "0.5", "--budget-s", "2"]
+LIMIT = ["--limit", "--settle", "2", "--phi", "0.5", "--n", "10000", "--n", "100000"]
 
 STEPS = [
-    Step(
-        "analysis",
-        "bench_analysis",
-        [],
-        ["--n-tracks", "200", "--n-frames", "5000", "--bootstrap", "50"],
-        _analysis,
-    ),
-    Step("tracking", "bench_tracking", [], ["--seeds", "1"], _short),
-    Step("unet", "bench_unet", [], ["--quick"], _short, needs="torch"),
-    Step("light", "bench_light", [], ["--sizes", "100000"], lambda d: "   " + json.dumps(d)[:300]),
-    Step("io", "bench_io", [], ["--quick"], lambda d: "   " + json.dumps(d)[:300]),
-    Step(
-        "sweep",
-        "bench_sweep",
-        [],
-        ["--runs", "100", "--tasks", "200", "--rounds", "2"],
-        _short,
-        needs="distributed",
-    ),
-    Step(
-        "tracking_real",
-        "bench_tracking_real",
-        ["--synthetic", "50", "100", "200"],
-        ["--synthetic", "50", "--seeds", "0", "--levels", "moderate"],
-        _tracking_real,
-        needs="trackers",
-    ),
-    Step(
-        "viewer",
-        "bench_viewer",
-        [],
-        ["--sizes", "10000,100000", "--seconds", "3"],
-        lambda d: "   " + json.dumps(d)[:300],
-    ),
-    # GPU step: bench_gpu.py's CPU part (Warp's CPU device) goes here as one more Step.
-]
+    Step("engine", "bench_engine", ENGINE_FULL, ENGINE_QUICK,
+         title="engine beside NumPy + cKDTree, JAX-MD, VMAS, pymunk (same workload)"),
+    Step("limit", "bench_engine", [*LIMIT, "--n", "1000000"], LIMIT,
+         title="engine against the machine's bandwidth"),
+    Step("jam_cold", "engine_jam", ["--set", "engine.warm_start=false"],
+         ["--duration", "150", "--set", "engine.warm_start=false"],
+         title="jammed swarm, cold solve"),
+    Step("jam_warm", "engine_jam", ["--set", "engine.warm_start=true"],
+         ["--duration", "150", "--set", "engine.warm_start=true"],
+         title="jammed swarm, warm-started solve"),
+    Step("gpu_rehearse", "bench_gpu",
+         ["--rehearse", "--out", "bench-out/gpu_rehearse.json", "--skip", "unet", "tests"],
+         ["--rehearse", "--out", "bench-out/gpu_rehearse.json", "--skip", "unet", "tests",
+          "--phis", "0.5"],
+         needs="numba_cuda", env=(("NUMBA_ENABLE_CUDASIM", "1"),),
+         title="the GPU script on the CPU (numba-cuda's simulator, tiny sizes)"),
+    Step("compression", "road_compression_study", ["claims"], [],
+         title="compression: the ideal-gas claims"),
+    Step("analysis", "bench_analysis", [],
+         ["--n-tracks", "200", "--n-frames", "5000", "--bootstrap", "50"]),
+    Step("tracking", "bench_tracking", [], ["--seeds", "1"], _tracking, json=True),
+    Step("unet", "bench_unet", [],
+         ["--seeds", "1", "--frames", "60", "--speed-frames", "5", "--set", "max_steps=200"],
+         _unet, needs="torch", json=True),
+    Step("light", "bench_light", [], ["--sizes", "100000"]),
+    Step("io", "bench_io", [], ["--quick"]),
+    Step("sweep", "bench_sweep", [], ["--runs", "100", "--tasks", "200", "--rounds", "2"],
+         needs="distributed"),
+    Step("tracking_real", "bench_tracking_real", ["--synthetic", "50", "100", "200"],
+         ["--synthetic", "50", "--seeds", "0", "--levels", "moderate"], needs="trackers"),
+    Step("viewer", "bench_viewer", [], ["--sizes", "10000,100000", "--seconds", "3"]),
+]  # fmt: skip
+#: Steps that ``--quick`` leaves out (no quick size says anything).
+FULL_ONLY = {"compression"}
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller sizes")
-    ap.add_argument("--only", choices=["engine", *(s.name for s in STEPS)])
+    ap.add_argument("--only", choices=[s.name for s in STEPS])
     ap.add_argument("--tracking-data", type=Path, default=None,
                     help="folder of <sequence>/gt/gt.txt for the real-tracking step")  # fmt: skip
     a = ap.parse_args(argv)
-
-    if a.only in (None, "engine"):
-        sys.path.insert(0, str(HERE))
-        from bench_engine import table
-
-        ns = ["--n", "1200", "--n", "10000", "--n", "100000"] if a.quick else []
-        print("## engine (thermoswarm, NumPy + cKDTree, JAX-MD, VMAS, pymunk: same workload)")
-        print(f"command: python benchmarks/bench_engine.py {' '.join(ns)}\n")
-        d = _run("bench_engine", ns)
-        if d:
-            print(table(d["engine"]))
-        lim = ["--limit", "--settle", "2", "--phi", "0.5", "--n", "10000", "--n", "100000"]
-        lim += [] if a.quick else ["--n", "1000000"]
-        jam = [[], ["--set", "engine.warm_start=true"]]
-        for script, args in [("bench_engine", lim)] + [("engine_jam", j) for j in jam]:
-            print(f"\ncommand: python benchmarks/{script}.py {' '.join(args)}")
-            subprocess.run([sys.executable, str(HERE / f"{script}.py"), *args], check=False)
-        print()
+    t_all = time.perf_counter()
     with tempfile.TemporaryDirectory() as empty:
         for step in STEPS:
-            if a.only not in (None, step.name):
+            if a.only not in (None, step.name) or (a.quick and step.name in FULL_ONLY):
                 continue
+            print(f"\n## {step.name}" + (f": {step.title}" if step.title else ""))
             if step.needs and importlib.util.find_spec(step.needs) is None:
-                print(f"{step.script}: skipped ({step.needs} is not installed)")
+                print(f"   skipped ({step.needs} is not installed)")
                 continue
             args = list(step.quick if a.quick else step.full)
+            shown = command(step, a.quick)
             if step.name == "tracking_real":
                 data = a.tracking_data or Path(empty)
                 tune = ["--tune", "Seq0006Object21Image64"] if a.tracking_data else []
                 args = [str(data), *tune, *args]
-            d = _run(step.script, args)
-            if d:
-                print(step.summary(d))
+                shown = shown.replace(".py", f".py {data if a.tracking_data else 'EMPTY_DIR'}", 1)
+            print(f"command: {shown}\n", flush=True)
+            d = _run(step, args)
+            if d is not None:
+                print(step.summary(d) if step.summary else d, flush=True)
+    print(f"\nmake bench: {time.perf_counter() - t_all:.0f} s in all")
     return 0
 
 

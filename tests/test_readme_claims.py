@@ -174,7 +174,6 @@ def _benchmark(name: str):
 
 #: Benchmarks that ``make bench`` does not run, and why (anything else must be a step).
 ON_THEIR_OWN = {
-    "bench_gpu": "needs a GPU for its table (its CPU part is the GPU work's step)",
     "bench_real_footage": "needs the user's own labelled footage",
     "bench_niche_counts": "needs the Niche-Lab photos, which may not be redistributed",
 }
@@ -183,11 +182,83 @@ ON_THEIR_OWN = {
 def test_make_bench_runs_every_benchmark():
     """README, "Performance": `make bench` runs every benchmark but the ones it names."""
     run_all = _benchmark("run_all")
-    steps = {s.script for s in run_all.STEPS} | {"bench_engine"}
+    steps = {s.script for s in run_all.STEPS}
     scripts = {p.stem for p in (REPO / "benchmarks").glob("bench_*.py")}
     missing = scripts - steps - set(ON_THEIR_OWN)
     assert not missing, f"benchmarks that make bench does not run: {sorted(missing)}"
-    assert steps <= scripts, f"steps without a script: {sorted(steps - scripts)}"
+    every = {p.stem for p in (REPO / "benchmarks").glob("*.py")}
+    assert steps <= every, f"steps without a script: {sorted(steps - every)}"
+
+
+def _readme_rows() -> list[str]:
+    """The table rows of README.md (its headline figures, wherever the table sits)."""
+    lines = _text(REPO / "README.md").splitlines()
+    return [ln for ln in lines if ln.startswith("| ") and "---" not in ln]
+
+
+def _words(cmd: str) -> list[str]:
+    """A command's words, ``--json``, leading ``NAME=value`` settings and a leading
+    ``nice -n N`` dropped."""
+    w = [x for x in shlex.split(cmd) if x != "--json"]
+    while w and re.fullmatch(r"[A-Z_]+=\S*", w[0]):
+        w = w[1:]
+    return w[3:] if w[:1] == ["nice"] else w
+
+
+def test_every_benchmark_figure_of_the_readme_is_printed_by_make_bench():
+    """Item 5 of issue 23: every headline figure the README quotes from a benchmark
+    command is printed by `make bench`, which runs that same command (its arguments as
+    quoted, ``--json`` aside), or the script is one `make bench` cannot run
+    (:data:`ON_THEIR_OWN`, with its reason)."""
+    run_all = _benchmark("run_all")
+    printed = [_words(run_all.command(s)) for s in run_all.STEPS]
+    rows = _readme_rows()
+    assert len(rows) >= 8
+    quoted, bad = 0, []
+    for row in rows:
+        for m in re.finditer(r"`(python benchmarks/(\w+)\.py[^`]*)`", row):
+            quoted += 1
+            if m.group(2) in ON_THEIR_OWN:
+                continue
+            if _words(m.group(1)) not in printed:
+                bad.append(m.group(1))
+    assert quoted >= 5
+    assert not bad, "quoted in the README, not run by make bench: " + "; ".join(bad)
+
+
+def test_make_bench_prints_each_command_beside_its_table(capsys, monkeypatch):
+    """`make bench` prints, for each step, its header and the command (the same line
+    the README quotes), then the step's output; a step that fails says so."""
+    run_all = _benchmark("run_all")
+    seen = []
+
+    metrics = {"mota": 0.931, "idf1": 0.9, "track_fps": 12.0}
+    results = {
+        "tracking": {"runs": [metrics, {**metrics, "mota": 0.95}], "video": {"n_ants": 40}},
+        "unet": {"runs": [{"classical": metrics, "unet": {**metrics, "mota": 0.977}}]},
+    }
+
+    def fake_run(step, args):
+        seen.append((step.name, args))
+        if step.name == "io":
+            return None  # a step that failed
+        return results[step.name] if step.json else "TABLE " + step.name
+
+    monkeypatch.setattr(run_all, "_run", fake_run)
+    monkeypatch.setattr(run_all.importlib.util, "find_spec", lambda name: object())
+    assert run_all.main([]) == 0
+    out = capsys.readouterr().out
+    assert [name for name, _ in seen] == [s.name for s in run_all.STEPS]
+    for step in run_all.STEPS:
+        head = out.index(f"## {step.name}")
+        if step.name != "tracking_real":
+            assert out.index("command: " + run_all.command(step), head) > head
+    assert "TABLE engine" in out and "TABLE limit" in out and "TABLE gpu_rehearse" in out
+    assert "2 seeds (1080p, 40 ants): MOTA 0.931-0.950" in out
+    assert "unet      1 seeds: MOTA 0.977" in out
+    assert "TABLE io" not in out
+    engine = dict(seen)["engine"]
+    assert "1000000" in engine and "--budget-s" in engine
 
 
 def test_analysis_benchmark_compares_the_same_optimum(capsys):
