@@ -36,6 +36,7 @@ Usage::
 
     python benchmarks/bench_engine.py                      # 1,200 .. 1,000,000; phi 0.18, 0.5
     python benchmarks/bench_engine.py --n 10000 --phi 0.5 --json
+    python benchmarks/bench_engine.py --ours-only --settle 20 --phi 0.5   # cost vs N
 """
 
 from __future__ import annotations
@@ -466,8 +467,8 @@ def table(rows: list[dict]) -> str:
         "robot-seconds per second, the peer's own ratio in brackets where it is faster",
         "",
         f"| N | phi | {head} | "
-        + " | ".join(f"ours / {name}" for _, name in peers)
-        + " | ours bytes/robot | ours cost vs N=1,200 |",
+        + "".join(f"ours / {name} | " for _, name in peers)
+        + "ours bytes/robot | ours cost vs N=1,200 |",
         "|---:|---:|" + "---:|" * (len(cols) + len(peers) + 2),
     ]
     base = {}
@@ -487,10 +488,32 @@ def table(rows: list[dict]) -> str:
             f"| {r['n']:,} | {r['phi']} | "
             + " | ".join(_cell(r.get(k)) for k, _ in cols)
             + " | "
-            + " | ".join(_ratio(r, "ours_1_thread", k) for k, _ in peers)
-            + f" | {mem} | {rel} |"
+            + "".join(f"{_ratio(r, 'ours_1_thread', k)} | " for k, _ in peers)
+            + f"{mem} | {rel} |"
         )
     return "\n".join(out)
+
+
+def cost_spread(rows: list[dict]) -> list[str]:
+    """For each packing fraction: the largest over the smallest cost per robot-step
+    (ours, 1 thread) over the sizes run, and at which sizes."""
+    out = []
+    for phi in sorted({r["phi"] for r in rows}):
+        cost = {
+            r["n"]: 1e9 / r["ours_1_thread"]["robot_steps_per_second"]
+            for r in rows
+            if r["phi"] == phi and "robot_steps_per_second" in r.get("ours_1_thread", {})
+        }
+        if len(cost) < 2:
+            continue
+        hi = max(cost, key=cost.__getitem__)
+        lo = min(cost, key=cost.__getitem__)
+        sizes = ", ".join(f"{n:,}: {c:.1f}" for n, c in sorted(cost.items()))
+        out.append(
+            f"ours, 1 thread, phi {phi}: ns per robot-step {sizes}; largest over smallest "
+            f"{cost[hi] / cost[lo]:.2f}x (N={hi:,} over N={lo:,})"
+        )
+    return out
 
 
 # ---------------------------------------------------------------------------- limit
@@ -583,6 +606,11 @@ def main(argv: list[str] | None = None) -> int:
     )  # fmt: skip
     ap.add_argument("--json", action="store_true", help="print JSON instead of a table")
     ap.add_argument(
+        "--ours-only", action="store_true",
+        help="only ours on 1 thread (--tools ours1), and the largest over the smallest "
+        "cost per robot-step over the sizes run",
+    )  # fmt: skip
+    ap.add_argument(
         "--limit", action="store_true",
         help="print the bandwidth table instead (ours, 1 thread, against a STREAM-style "
         "bandwidth measured in the same command; --settle = simulated seconds timed)",
@@ -596,7 +624,7 @@ def main(argv: list[str] | None = None) -> int:
         print(limit(ns, phis[-1], a.settle))
         print(f"(load average at the end: {os.getloadavg()[0]:.1f})")
         return 0
-    tools = [t.strip() for t in a.tools.split(",") if t.strip()]
+    tools = ["ours1"] if a.ours_only else [t.strip() for t in a.tools.split(",") if t.strip()]
     import numba
 
     if numba.config.NUMBA_NUM_THREADS < 2 and "ours2" in tools:
@@ -628,6 +656,7 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps({"engine": rows, "machine": info}))
     else:
         print(table(rows))
+        print("\n".join(cost_spread(rows)))
         print(
             f"\n(cpus: {info['cpus']}, load average at the end: "
             f"{', '.join(f'{x:.1f}' for x in info['load_average'])})"
