@@ -44,6 +44,7 @@ Usage::
     python benchmarks/bench_engine.py                      # 1,200 .. 1,000,000; phi 0.18, 0.5
     python benchmarks/bench_engine.py --phi 0.5 --budget-s 10   # the table the README quotes
     python benchmarks/bench_engine.py --n 10000 --phi 0.5 --json
+    python benchmarks/bench_engine.py --ours-only --settle 20 --phi 0.5   # cost vs N
 """
 
 from __future__ import annotations
@@ -77,6 +78,11 @@ MIN_STEPS = 2
 #: from the lattice start the contacts take ~150 steps to build up, and a step costs
 #: ~1.4x more once they have (1 thread, 100,000 robots at packing 0.5).
 SETTLE_STEPS = 0
+#: The clock of the timed blocks: wall time, except with ``--ours-only`` (one thread),
+#: which times the thread's CPU time (``time.thread_time``), far less disturbed than
+#: wall time on a busy shared machine, and runs every settle step (no budget cap).
+CLOCK = time.perf_counter
+FULL_SETTLE = False
 
 
 def kd_overlap(pos: np.ndarray, side: float) -> float:
@@ -143,21 +149,21 @@ def _timed(step, n: int, positions, side: float, overlap=None, rss0: int | None 
     t_all = time.perf_counter()
     settled = 0
     t0 = time.perf_counter()
-    while settled < SETTLE_STEPS and time.perf_counter() - t0 < BUDGET / 2:
+    while settled < SETTLE_STEPS and (FULL_SETTLE or time.perf_counter() - t0 < BUDGET / 2):
         step()
         settled += 1
-    t0 = time.perf_counter()
+    t0 = CLOCK()
     step()
-    one = time.perf_counter() - t0
+    one = CLOCK() - t0
     left = max(0.0, BUDGET - (time.perf_counter() - t_all))
     blocks = BLOCKS if left >= BLOCKS * MIN_STEPS * one else 1
     per_block = max(MIN_STEPS, int(left / blocks / max(one, 1e-6)))
     walls, cpu = [], 0.0
     for _ in range(blocks):
-        c0, t0 = time.process_time(), time.perf_counter()
+        c0, t0 = time.process_time(), CLOCK()
         for _ in range(per_block):
             step()
-        walls.append(time.perf_counter() - t0)
+        walls.append(CLOCK() - t0)
         cpu += time.process_time() - c0
     peak = _rss_peak()
     worst = overlap(positions())
@@ -645,8 +651,8 @@ def table(rows: list[dict]) -> str:
         "number of threads, the peer's own ratio in brackets where it is faster",
         "",
         f"| N | phi | {head} | "
-        + " | ".join(f"ours / {COLUMNS[k][2]}" for k in peers)
-        + " | ours cost vs N=1,200 |",
+        + "".join(f"ours / {COLUMNS[k][2]} | " for k in peers)
+        + "ours cost vs N=1,200 |",
         "|---:|---:|" + "---:|" * (len(cols) + len(peers) + 1),
     ]
     base = {}
@@ -662,8 +668,8 @@ def table(rows: list[dict]) -> str:
             f"| {r['n']:,} | {r['phi']} | "
             + " | ".join(_cell(r.get(k)) for k in cols)
             + " | "
-            + " | ".join(_ratio(r, mine[k], k) for k in peers)
-            + f" | {rel} |"
+            + "".join(f"{_ratio(r, mine[k], k)} | " for k in peers)
+            + f"{rel} |"
         )
     out += [
         "",
@@ -711,6 +717,29 @@ BYTES_MOVE = 16 + 16 + 8 + 8 + 4 + 16 + 4
 BYTES_DECIDE = 8 + 8 + 8 + 2 * 16
 BYTES_FIRST_SWEEP = 16 + 40 + 4 + 4 + 16 + 1
 BYTES_PER_BUILD = 2 * (16 + 16 + 24 + 8) + 16 + 40 + 4 + 4 + 16
+
+
+def cost_spread(rows: list[dict]) -> list[str]:
+    """For each packing fraction: the largest over the smallest cost per robot-step
+    (ours, 1 thread) over the sizes run, and at which sizes."""
+    out = []
+    for phi in sorted({r["phi"] for r in rows}):
+        cost = {
+            r["n"]: 1e9 / r["ours_1_thread"]["robot_steps_per_second"]
+            for r in rows
+            if r["phi"] == phi and "robot_steps_per_second" in r.get("ours_1_thread", {})
+        }
+        if len(cost) < 2:
+            continue
+        hi = max(cost, key=cost.__getitem__)
+        lo = min(cost, key=cost.__getitem__)
+        sizes = ", ".join(f"{n:,}: {c:.1f}" for n, c in sorted(cost.items()))
+        out.append(
+            f"ours, 1 thread, phi {phi}: ns per robot-step ({CLOCK.__name__}) {sizes}; "
+            "largest over smallest "
+            f"{cost[hi] / cost[lo]:.2f}x (N={hi:,} over N={lo:,})"
+        )
+    return out
 
 
 def stream(mib: int = 256, reps: int = 5) -> dict:
@@ -817,6 +846,11 @@ def _args(argv: list[str] | None) -> argparse.Namespace:
     )  # fmt: skip
     ap.add_argument("--json", action="store_true", help="print JSON instead of a table")
     ap.add_argument(
+        "--ours-only", action="store_true",
+        help="only ours on 1 thread, in this process, timed in the thread's CPU time after "
+        "every settle step, and the largest over the smallest cost per robot-step",
+    )  # fmt: skip
+    ap.add_argument(
         "--limit", action="store_true",
         help="print the bandwidth table instead (ours, 1 thread, against a STREAM-style "
         "bandwidth measured in the same command; --settle = simulated seconds timed)",
@@ -831,7 +865,7 @@ def _args(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     a = _args(argv)
-    global SETTLE_STEPS, BUDGET
+    global SETTLE_STEPS, BUDGET, CLOCK, FULL_SETTLE
     SETTLE_STEPS = max(0, round(a.settle / DT))
     BUDGET = a.budget_s
     ns = a.n or [1_200, 10_000, 100_000, 1_000_000]
@@ -843,17 +877,24 @@ def main(argv: list[str] | None = None) -> int:
         print(limit(ns, phis[-1], a.settle))
         print(f"(load average at the end: {os.getloadavg()[0]:.1f})")
         return 0
-    keys = _tools(a.tools)
+    keys = ["ours_1_thread"] if a.ours_only else _tools(a.tools)
+    if a.ours_only:
+        CLOCK, FULL_SETTLE = time.thread_time, True
     rows, history = [], {}
     for phi in phis:
         for n in ns:
-            rows.append(one(n, phi, keys, a, history))
+            if a.ours_only:
+                cell = run_cell("ours_1_thread", n, phi, a.jaxmd_substeps)
+                rows.append({"n": n, "phi": phi, "ours_1_thread": cell})
+            else:
+                rows.append(one(n, phi, keys, a, history))
             print(f"  done n={n:,} phi={phi} (load {os.getloadavg()[0]:.1f})", file=sys.stderr)
     info = {"cpus": os.cpu_count(), "load_average": os.getloadavg()}
     if a.json:
         print(json.dumps({"engine": rows, "machine": info}))
     else:
         print(table(rows))
+        print("\n".join(cost_spread(rows)))
         print(
             f"\n(cpus: {info['cpus']}, load average at the end: "
             f"{', '.join(f'{x:.1f}' for x in info['load_average'])})"

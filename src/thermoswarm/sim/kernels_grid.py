@@ -166,13 +166,44 @@ def sort_by_cell(pos, rows_f8, rows_i4, grid, cell, cell_start, perm, tmp2):
 
 
 # ------------------------------------------------------ phase 2: neighbour lists
+#: Re-sort the rows only once more than this fraction of them are out of place: in a
+#: grid row two or more rows from those of both rows beside them in memory.  The
+#: sweeps (in row order) and the list builds (in cell order) keep the few grid rows
+#: around the current one in cache, so a robot still within a row of its place costs
+#: nothing, while a re-sort streams every per-robot array twice; robots drift two
+#: cells in tens to hundreds of steps, and the lists are rebuilt every few.
+RESORT_MISPLACED = 1.0 / 256
+#: Swarms smaller than this re-sort at every rebuild, as before the rule above: their
+#: arrays stay in cache, so a re-sort costs little, and their trajectories (the
+#: scenarios', the tests') stay bit-identical to those of earlier versions.
+RESORT_LAZY_FROM = 20_000
+
+
+@njit(cache=True)
+def _misplaced(cell, nx):
+    """Rows whose grid row is two or more from the grid rows of both rows beside them."""
+    n = cell.shape[0]
+    bad = 0
+    for i in range(1, n - 1):
+        cy = cell[i] // nx
+        bad += (abs(cy - cell[i - 1] // nx) > 1) & (abs(cy - cell[i + 1] // nx) > 1)
+    return bad
+
+
 @njit(cache=True)
 def sort_rows(pos, fcols, icols, udir, lamw, lamid, scratch, grid, cell, cell_start, perm):
     """Re-order every per-robot array of the state by grid cell (in place, through the
-    (n, 2) float64 ``scratch``), so that neighbours are near in memory.  (The held pair
-    pushes are keyed by list slots: :func:`_restore_held` moves them.)"""
+    (n, 2) float64 ``scratch``), so that neighbours are near in memory -- from
+    :data:`RESORT_LAZY_FROM` robots on, only once more than :data:`RESORT_MISPLACED` of
+    the rows are out of place; otherwise ``perm`` is the identity and nothing moves.
+    (The held pair pushes are keyed by list slots: :func:`_restore_held` moves them.)
+    Returns whether the rows were re-ordered."""
     n = pos.shape[0]
     _compute_cells(pos, grid, cell)
+    if n >= RESORT_LAZY_FROM and _misplaced(cell, grid.nx) <= RESORT_MISPLACED * n:
+        for k in range(n):
+            perm[k] = k
+        return False
     _counting_sort(cell, grid.nx * grid.ny, cell_start, perm)
     _permute_pairs(pos, perm, scratch)
     tmp = scratch.reshape(2 * n)[:n]
@@ -185,6 +216,7 @@ def sort_rows(pos, fcols, icols, udir, lamw, lamid, scratch, grid, cell, cell_st
     for j in range(lamw.shape[0]):
         _permute(lamw[j], perm, tmp)
         _permute(lamid[j], perm, tmp)
+    return True
 
 
 @njit(cache=True, parallel=True)
