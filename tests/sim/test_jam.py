@@ -142,3 +142,25 @@ def test_a_dense_jam_stays_inside_the_box():
     for _ in range(200):
         sim.step(state)
     assert np.all(state.pos > R - 0.01 * D) and np.all(state.pos < side - R + 0.01 * D)
+
+
+def test_a_free_swarm_steps_by_jacobi_sweeps_alone_bit_for_bit(monkeypatch):
+    """Packing 0.5, 10 mm/s, new headings every step: no step needs the Gauss-Seidel
+    passes, so the result is that of Jacobi sweeps alone (the engine before them)."""
+    n = 1200
+    side = math.sqrt(n * math.pi * R * R / 0.5)
+    world = box_world(side, side)
+    policy = BoltzmannUniform(kT_for_mean_speed(10.0))
+    out = []
+    for gs_after in (10**9, engine.GS_AFTER):
+        monkeypatch.setattr(engine, "GS_AFTER", gs_after)
+        sim = Simulator(world, EngineParams(dt=0.1, tau=0.1), policy)
+        rng = np.random.default_rng(0)
+        state = sim.init(place_lattice(world.bounds, n, R, rng), rng)
+        for _ in range(300):
+            sim.step(state)
+            assert state.held_pairs is None
+        out.append((state.by_id(state.pos), state.counters.copy()))
+    assert np.array_equal(out[0][0], out[1][0])
+    assert np.array_equal(out[0][1], out[1][1])
+    assert out[0][1][0] > 2 * 300  # contacts were projected: more than the two sweeps a step

@@ -24,12 +24,13 @@ force, which is how pressure is measured.
 Jams: robots that keep pushing into a wall or a crowd need one Jacobi sweep per robot
 layer of the pile for a push to cross it.  When :data:`GS_AFTER` sweeps have not
 resolved a step, symmetric projected Gauss-Seidel passes take over (forward, then
-backward in row order: a push crosses the pile within a pass), over-relaxed
-(:data:`OMEGA`) with each contact's push accumulated so that an overshoot is taken
-back; the pushes a jammed step ends with are kept (``state.held_pairs``) and the next
-step starts from them (a warm start, :data:`KEEP`), so a steady jam takes a few passes a
-step.  The contact force on a body or piston is taken from the corrections its robots
-actually received in each pass.  The result is the same on any number of threads.
+backward in row order), over-relaxed (:data:`OMEGA`), with each contact's push
+accumulated so that an overshoot is taken back.  The pushes a jammed step ends with
+are kept (``state.held_pairs``), and the next step starts from them (a warm start,
+:data:`KEEP`) if they carry a push through a pile (:data:`JAM_PUSH`): a steady jam
+then takes a few passes a step.  The contact force on a body or piston is taken from
+the corrections its robots received in each pass.  The result is the same on any
+number of threads.
 
 Sweeping stops once the largest overlap is below ``overlap_tol`` (0.5 % of the diameter
 by default).  The overlap each sweep measures is exact, and the step's result is the
@@ -488,9 +489,18 @@ OMEGA = 1.7
 #: The same against static walls.
 WALL_OMEGA = 1.7
 #: Jacobi sweeps a step without held pushes makes before the Gauss-Seidel passes take
-#: over: a free swarm never gets there (the bench workload at packing 0.5 needs at most
-#: 7), so its steps are the Jacobi sweeps' alone, bit for bit.
-GS_AFTER = 8
+#: over.  A free swarm never gets there (1,200 robots at packing 0.5, 10 mm/s, tau 0.1 s:
+#: at most 10 sweeps in 1,500 steps), nor does a crowd pushing an object
+#: (``transport-free``'s defaults: 13 a step on average): their steps are the parallel
+#: Jacobi sweeps', bit for bit.  With 12, a third of that crowd's steps reached the
+#: serial passes.
+GS_AFTER = 40
+#: A step is warm-started only if the largest push held exceeds this many times the
+#: largest commanded displacement (a push carried through a pile of robots: a jam).  A
+#: free swarm's occasional crowd, resolved by the passes, holds pushes of one or two
+#: displacements, and its next step is cold again (else its passes would go on step
+#: after step).  On the mechanism study's jam the ratio is 6.4-14 (5th-95th percentile).
+JAM_PUSH = 3.0
 #: Fraction of the last step's held pushes a jammed step starts from: pushes that only
 #: cancel each other (self-stress, which a hyperstatic jam can build up without moving
 #: anything) decay instead of growing step after step.
@@ -500,36 +510,23 @@ KEEP = 0.95
 SLACK = 1.0
 
 
-def _load_held(state: SwarmState, ws: _Workspace) -> bool:
-    """Put the state's held pushes into the workspace; whether there are any (pushes of
-    another shape -- another engine's -- are dropped: the step starts cold)."""
-    if state.held_pairs is None:
-        return False
-    if (
-        state.held_pairs.shape != ws.held_pairs.shape
-        or state.held_walls is None or state.held_walls.shape != ws.held_walls.shape
-        or state.held_wall_ids is None or state.held_wall_ids.shape != ws.held_wall_ids.shape
-    ):  # fmt: skip
-        return False
-    np.copyto(ws.held_pairs, state.held_pairs)
-    np.copyto(ws.held_walls, state.held_walls)
-    np.copyto(ws.held_wall_ids, state.held_wall_ids)
-    return True
+def _held(state: SwarmState, ws: _Workspace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The state's held pushes (pairs, walls, wall indices), or empty arrays when there
+    are none or they are of another shape (another engine's: the step starts cold)."""
+    n, cap = state.n, ws.neighbours.shape[1]
+    ok = (
+        state.held_pairs is not None and state.held_pairs.shape == (n, cap)
+        and state.held_walls is not None and state.held_walls.shape == (2, n)
+        and state.held_wall_ids is not None and state.held_wall_ids.shape == (2, n)
+    )  # fmt: skip
+    if not ok:
+        return _NO_PAIRS, _NO_WALLS, _NO_IDS
+    return state.held_pairs, state.held_walls, state.held_wall_ids
 
 
-def _save_held(state: SwarmState, ws: _Workspace, held: bool) -> None:
-    """The step's held pushes into the state (a copy: the state owns its arrays), or
-    None when the step held none."""
-    if not held:
-        state.held_pairs = state.held_walls = state.held_wall_ids = None
-        return
-    if state.held_pairs is None or state.held_pairs.shape != ws.held_pairs.shape:
-        state.held_pairs = np.empty_like(ws.held_pairs)
-        state.held_walls = np.empty_like(ws.held_walls)
-        state.held_wall_ids = np.empty_like(ws.held_wall_ids)
-    np.copyto(state.held_pairs, ws.held_pairs)
-    np.copyto(state.held_walls, ws.held_walls)
-    np.copyto(state.held_wall_ids, ws.held_wall_ids)
+_NO_PAIRS = np.zeros((0, 0), np.float32)
+_NO_WALLS = np.zeros((0, 0), np.float32)
+_NO_IDS = np.zeros((0, 0), np.int32)
 
 
 def neighbour_capacity(skin: float) -> int:
@@ -581,10 +578,6 @@ class _Workspace:
         self.scratch = np.empty((n, 2))
         self.neighbours = np.empty((n, neighbour_capacity(params.skin)), np.int32)
         self.n_neighbours = np.zeros(n, np.int32)
-        # the pushes the Gauss-Seidel passes accumulate within a step (jams only)
-        self.held_pairs = np.zeros(self.neighbours.shape, np.float32)
-        self.held_walls = np.zeros((2, n), np.float32)
-        self.held_wall_ids = np.full((2, n), -1, np.int32)
         self.overflows = np.zeros(1, np.int64)  # robots whose list overflowed
         self.visits = np.empty((2, n), np.int32)  # the robots a sweep visits, and the next
         self.result = np.zeros(n, np.uint8)  # each visited robot: moved, overlapping
@@ -848,11 +841,12 @@ class Simulator:
                 self._decide(state, due)
             restore = _auto_threads(state.n)
             try:
-                warm = _load_held(state, ws)
-                sweeps, overlap, builds, in_scratch, held = K.overdamped_step(
+                lam, lamw, lamid = _held(state, ws)
+                sweeps, overlap, builds, in_scratch, lam, lamw, lamid, held = K.overdamped_step(
                     state.pos, ws.scratch, state.ref, state.fcols, state.icols, state.udir,
-                    ws.held_pairs, ws.held_walls, ws.held_wall_ids, warm, ws.grid,
-                    ws.numerics, OMEGA, WALL_OMEGA, GS_AFTER, ws.lists_of is state.ref, ws.cell,
+                    lam, lamw, lamid, lam.shape[0] == state.n, ws.grid,
+                    ws.numerics, OMEGA, WALL_OMEGA, GS_AFTER, JAM_PUSH, ws.lists_of is state.ref,
+                    ws.cell,
                     ws.cell_start,
                     ws.perm, ws.neighbours, ws.n_neighbours, ws.overflows, ws.visits,
                     ws.result, ws.mark, ws.near_moved, ws.cell_near_static, w.segments,
@@ -862,7 +856,10 @@ class Simulator:
                 if restore is not None:
                     numba.set_num_threads(restore)
             ws.lists_of = state.ref
-            _save_held(state, ws, held)
+            # the pushes a jammed step ended with travel with the state (None: not jammed)
+            state.held_pairs = lam if held else None
+            state.held_walls = lamw if held else None
+            state.held_wall_ids = lamid if held else None
             if in_scratch:  # the final positions are in the second buffer: swap, no copy
                 state.pos, ws.scratch = ws.scratch, state.pos
             self.list_builds += builds

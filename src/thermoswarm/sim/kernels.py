@@ -227,8 +227,8 @@ def _move(pos, udir, speed, timer, ref, dt):
 @njit(cache=True)
 def overdamped_step(
     pos, scratch, ref, fcols, icols, udir, lam, lamw, lamid, warm, grid, num, omega,
-    wall_omega, gs_after, lists_ready, cell, cell_start, perm, nbr, nnb, overflows, visits,
-    result, mark, near, cell_flag, seg, sdisc, bodies, pistons,
+    wall_omega, gs_after, jam_push, lists_ready, cell, cell_start, perm, nbr, nnb, overflows,
+    visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons,
 ):  # fmt: skip
     """Advance the overdamped swarm by one step ``num.dt``.
 
@@ -242,7 +242,10 @@ def overdamped_step(
        robot takes the pushes its contacts held, scaled by ``num.keep``
        (:func:`_warm_start`); a robot they would move farther than ``skin / 2`` drops
        its pushes instead (:func:`_drop_pushes`: self-stress that a hyperstatic jam can
-       build up without moving anything may not throw a robot).  Then step 5.
+       build up without moving anything may not throw a robot).  Then step 5 -- if the
+       largest push held exceeds ``jam_push`` x the largest commanded displacement
+       (a push carried through a pile: a jam); else the pushes are dropped and the step
+       is cold (a free swarm's occasional crowd).
     4. **Projection, Jacobi** (no pushes held): parallel sweeps (:func:`_sweep`), each
        measuring the exact largest overlap of the current configuration and correcting
        it, until it is below ``num.tol`` (after at least ``num.min_sweeps`` sweeps) or
@@ -262,13 +265,15 @@ def overdamped_step(
 
     ``lam`` (n, capacity) float32 holds the push (mm) of each listed pair, ``lamw`` (2, n)
     float32 those off up to two walls per robot, ``lamid`` (2, n) int32 those walls'
-    segment indices: read when ``warm``, written by step 5.  ``scratch`` is an (n, 2)
+    segment indices (the state's held pushes when ``warm``; else any arrays of those
+    types, empty ones included: step 5 then makes its own).  ``scratch`` is an (n, 2)
     buffer that takes every other sweep's positions; the final positions are in
     ``scratch`` when ``in_scratch`` is true (the caller swaps the two arrays).
     ``overflows`` (1,) int64 holds the number of overflowing lists (kept with the
     lists); ``visits`` (2, n) int32 and ``result``, ``mark``, ``near`` (n,) uint8 are
-    work arrays.  Returns ``(sweeps, overlap (mm), list builds, in_scratch, held)``;
-    ``held``: step 5 ran (pushes are held for the next step's warm start).
+    work arrays.  Returns ``(sweeps, overlap (mm), list builds, in_scratch, lam, lamw,
+    lamid, held)``; ``held``: step 5 ran, and ``lam, lamw, lamid`` are the pushes it
+    ended with (for the next step's warm start).
     """
     n = pos.shape[0]
     r = num.radius
@@ -296,13 +301,19 @@ def overdamped_step(
     dst = scratch
     in_scratch = False
     if warm:
-        far, flagged, held = _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r,
-                                         num.keep, hs2, result)  # fmt: skip
+        far, flagged, held, top = _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg,
+                                              r, num.keep, hs2, result)  # fmt: skip
         while flagged:
             _drop_pushes(result, nbr, nnb, lam, lamw)
-            far, flagged, held = _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg,
-                                             r, 1.0, hs2, result)  # fmt: skip
-        warm = held > 0
+            far, flagged, held, top = _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid,
+                                                  seg, r, 1.0, hs2, result)  # fmt: skip
+        # a jam: a push held larger than jam_push robots' commanded displacements (a push
+        # carried through a pile); a free swarm's passes hold pushes of one or two
+        vmax = 0.0
+        speed = fcols[SPEED]
+        for i in range(n):
+            vmax = max(vmax, speed[i])
+        warm = held > 0 and top > jam_push * vmax * num.dt
     if warm:
         src, dst = dst, src
         in_scratch = True
@@ -315,26 +326,31 @@ def overdamped_step(
             perm, nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc, bodies,
             pistons, new_row, 0, n, True,
         )  # fmt: skip
-        return sweeps, overlap, builds + more, in_scratch, True
+        return sweeps, overlap, builds + more, in_scratch, lam, lamw, lamid, True
     sweeps, overlap, more, in_scratch, count, everyone, jam = _jacobi(
         src, dst, ref, grid, num, gs_after, cell, cell_start, perm, nbr, nnb, overflows,
         visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam,
     )  # fmt: skip
     builds += more
     if not jam:
-        return sweeps, overlap, builds, in_scratch, False
+        return sweeps, overlap, builds, in_scratch, lam, lamw, lamid, False
     if in_scratch:
         src, dst = dst, src
     # a jam: Gauss-Seidel from here, the pushes accumulated from zero
-    lam[:] = 0.0
-    lamw[:] = 0.0
-    lamid[:] = -1
+    if lam.shape[0] == n:
+        lam[:] = 0.0
+        lamw[:] = 0.0
+        lamid[:] = -1
+    else:  # none held: made here (a free swarm never needs them)
+        lam = np.zeros((n, nbr.shape[1]), np.float32)
+        lamw = np.zeros((2, n), np.float32)
+        lamid = np.full((2, n), -1, np.int32)
     sweeps, overlap, more = _gs_solve(
         src, dst, ref, lam, lamw, lamid, grid, num, omega, wall_omega, cell, cell_start, perm,
         nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc, bodies, pistons,
         new_row, sweeps, count, everyone,
     )  # fmt: skip
-    return sweeps, overlap, builds + more, in_scratch, True
+    return sweeps, overlap, builds + more, in_scratch, lam, lamw, lamid, True
 
 
 @njit(cache=True)

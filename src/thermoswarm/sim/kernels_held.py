@@ -36,12 +36,13 @@ def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, keep, big2, f
     below :data:`HELD_MIN` they are dropped): the starting guess of the projection
     (pushes no longer needed are taken back by the passes).  Writes ``dst``; ``flag[i]``
     is set where robot i would move farther than ``sqrt(big2)``.  Returns the largest
-    squared distance from ``ref``, the number of robots flagged and the number of
-    pushes still held."""
+    squared distance from ``ref``, the number of robots flagged, the number of pushes
+    still held and the largest (mm)."""
     cap = nbr.shape[1]
     far = 0.0
     big = 0
     held = 0
+    top = 0.0
     for i in prange(src.shape[0]):
         px = src[i, 0]
         py = src[i, 1]
@@ -57,6 +58,7 @@ def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, keep, big2, f
                 lam[i, kk] = L
                 if L != 0.0:
                     h += 1
+                    top = max(top, np.float64(L))
                     j = nbr[i, kk]
                     dx = px - src[j, 0]
                     dy = py - src[j, 1]
@@ -71,6 +73,7 @@ def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, keep, big2, f
             lamw[slot, i] = lw
             if lw != 0.0:
                 h += 1
+                top = max(top, np.float64(lw))
                 s = lamid[slot, i]
                 _, nxs, nys = _seg_gap(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
                 mx += lw * nxs
@@ -86,7 +89,7 @@ def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, keep, big2, f
         flag[i] = f
         big += f
         held += h
-    return far, big, held
+    return far, big, held, top
 
 
 @njit(cache=True)
