@@ -93,7 +93,7 @@ def test_a_column_pressed_into_a_wall_stops_at_it_in_a_tenth_of_the_jacobi_sweep
     """The exact solution is that no robot moves.  Both solves get there (every robot
     within the overlap tolerance of its place per robot below it, no overlap above the
     tolerance); Jacobi sweeps need ~L^1.5 sweeps a step for L robots (141 for 10, 397 for
-    20), the default solve ~4 L on the first step and a few once warm."""
+    20), the default solve ~6 L on the first step and a few once warm."""
     tol = EngineParams().overlap_tol * D
     total = {}
     default = engine.GS_AFTER
