@@ -12,11 +12,14 @@ scenario runner does, and reports per step:
 - wall seconds of the run and microseconds a robot-step (timing, so it lives here and
   not in the tests; the machine is shared: compare ratios from one command).
 
+Two solves, one after the other from the same seed: ``jacobi`` (Jacobi sweeps only: the
+engine's solve before the Gauss-Seidel passes, bit for bit) and ``default`` (the
+engine's solve: a Jacobi sweep, then symmetric over-relaxed Gauss-Seidel passes).
+
 Usage::
 
-    python benchmarks/engine_jam.py                       # the slowest combination
-    python benchmarks/engine_jam.py --duration 150 --set heading_law=uniform
-    python benchmarks/engine_jam.py --set engine.warm_start=false   # the old solve
+    python benchmarks/engine_jam.py                       # the slowest combination, both
+    python benchmarks/engine_jam.py --solve default --duration 150 --set heading_law=uniform
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import time
 import numpy as np
 from scipy.spatial import cKDTree
 
+import thermoswarm.sim.engine as engine
 from thermoswarm.scenarios.runner import build, resolve
 from thermoswarm.studies.mechanism import SETTINGS
 
@@ -97,10 +101,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--set", action="append", default=[], help="extra KEY=VALUE overrides")
     ap.add_argument("--check-every", type=int, default=5, help="KD-tree check every K steps")
+    ap.add_argument("--solve", choices=("both", "jacobi", "default"), default="both")
     a = ap.parse_args(argv)
-    out = run(a.set, a.duration, a.seed, a.check_every)
     print(" ".join([*SLOWEST, *a.set]), f"seed {a.seed}, {a.duration:g} s")
-    print(json.dumps(out, indent=1))
+    default = engine.GS_AFTER
+    for solve in ("jacobi", "default") if a.solve == "both" else (a.solve,):
+        # Jacobi only: the Gauss-Seidel passes would start after more sweeps than allowed
+        engine.GS_AFTER = 10**9 if solve == "jacobi" else default
+        out = run(a.set, a.duration, a.seed, a.check_every)
+        print(solve, json.dumps(out), flush=True)
+    engine.GS_AFTER = default
     return 0
 
 

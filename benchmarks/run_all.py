@@ -4,7 +4,7 @@ Each step prints a header, the command that prints its table on its own (the sam
 command, so a figure quoted in README.md or docs/ can be traced to one line here), and
 its table: the engine beside its peers (NumPy + cKDTree, JAX-MD, VMAS, pymunk) from
 1,200 to 1,000,000 robots, the engine's fraction of a STREAM-style bandwidth, the jammed
-mechanism run with the cold and the warm-started solve, the GPU script's rehearsal on
+mechanism run with Jacobi sweeps alone and with the default solve, the GPU script's rehearsal on
 the CPU (numba-cuda's simulator), the compression claims, then analysis, tracking, the
 U-Net, light, I/O, sweeps, real-tracking and the viewer.  The full JSON of each JSON step
 goes to ``bench-out/<name>.json`` and the text of each other step to
@@ -130,12 +130,8 @@ STEPS = [
          title="engine beside NumPy + cKDTree, JAX-MD, VMAS, pymunk (same workload)"),
     Step("limit", "bench_engine", [*LIMIT, "--n", "1000000"], LIMIT,
          title="engine against the machine's bandwidth"),
-    Step("jam_cold", "engine_jam", ["--set", "engine.warm_start=false"],
-         ["--duration", "150", "--set", "engine.warm_start=false"],
-         title="jammed swarm, cold solve"),
-    Step("jam_warm", "engine_jam", ["--set", "engine.warm_start=true"],
-         ["--duration", "150", "--set", "engine.warm_start=true"],
-         title="jammed swarm, warm-started solve"),
+    Step("jam", "engine_jam", [], ["--duration", "150"],
+         title="jammed swarm: Jacobi sweeps alone, then the default solve"),
     Step("gpu_rehearse", "bench_gpu",
          ["--rehearse", "--out", "bench-out/gpu_rehearse.json", "--skip", "unet", "tests"],
          ["--rehearse", "--out", "bench-out/gpu_rehearse.json", "--skip", "unet", "tests",

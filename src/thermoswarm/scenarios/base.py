@@ -59,9 +59,6 @@ class Numerics:
         Neighbour-grid cell size (mm); default from the diameter and the density.
     desync : bool
         Stagger the robots' control periods (real robots are not synchronised).
-    warm_start : bool
-        Start each step's contact solve from the last step's contact pushes (see
-        :class:`EngineParams`; experimental, off by default).
     backend : str
         ``"cpu"`` (Numba) or ``"gpu"`` (numba-cuda: :mod:`thermoswarm.sim.gpu`).
     """
@@ -74,7 +71,6 @@ class Numerics:
     skin: float = 0.5
     cell_size: float | None = None
     desync: bool = True
-    warm_start: bool = False
     backend: Literal["cpu", "gpu"] = "cpu"
 
     def engine(
@@ -95,7 +91,6 @@ class Numerics:
             skin=self.skin,
             cell_size=self.cell_size,
             desync=self.desync,
-            warm_start=self.warm_start,
         )
 
 

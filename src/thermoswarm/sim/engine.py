@@ -21,6 +21,17 @@ that robots exert on a body or wall is ``g_r x (the correction the robots receiv
 summed over the step; for a force-driven wall in steady state it balances the applied
 force, which is how pressure is measured.
 
+Jams: robots that keep pushing into a wall or a crowd need one Jacobi sweep per robot
+layer of the pile for a push to cross it.  When :data:`GS_AFTER` sweeps have not
+resolved a step, symmetric projected Gauss-Seidel passes take over (forward, then
+backward in row order), over-relaxed (:data:`OMEGA`), with each contact's push
+accumulated so that an overshoot is taken back.  The pushes a jammed step ends with
+are kept (``state.held_pairs``), and the next step starts from them (a warm start,
+:data:`KEEP`) if they carry a push through a pile (:data:`JAM_PUSH`): a steady jam
+then takes a few passes a step.  The contact force on a body or piston is taken from
+the corrections its robots received in each pass.  The result is the same on any
+number of threads.
+
 Sweeping stops once the largest overlap is below ``overlap_tol`` (0.5 % of the diameter
 by default).  The overlap each sweep measures is exact, and the step's result is the
 configuration the last sweep measured, so the overlap the engine reports
@@ -133,18 +144,6 @@ class EngineParams:
         ``max(2 r (1 + skin), sqrt(area / n))``.
     desync : bool
         Stagger the robots' control periods (real robots are not synchronised).
-    warm_start : bool
-        Keep each contact's accumulated push (per listed pair and off the nearest wall)
-        from step to step: a step starts from the last step's pushes, and a push that a
-        pair or wall no longer needs is taken back within the step.  A jammed swarm
-        (robots that keep pushing into a wall or a crowd) then needs a few sweeps a
-        step instead of one per robot layer of the jam (``docs/engine_performance.md``).
-        ``False`` (default): every step starts from the commanded motion and pushes
-        are never taken back (the engine before the warm start, bit for bit).
-        *Experimental, off by default*: in the mechanism study's jam it cuts the sweeps
-        5x at the same exact overlap, but its Jacobi pulls can ratchet the held pushes
-        up in dense uniform-heading jams (packing 0.75, 33 mm/s, tau 1 s: a robot was
-        pushed through a wall), see ``docs/engine_performance.md``.
     """
 
     dt: float = 0.1
@@ -159,7 +158,6 @@ class EngineParams:
     skin: float = 0.5
     cell_size: float | None = None
     desync: bool = True
-    warm_start: bool = False
 
     def __post_init__(self) -> None:
         check(self.dt > 0 and math.isfinite(self.dt), "dt", "a positive number (s)", self.dt)
@@ -237,10 +235,10 @@ class SwarmState:
         lists are a function of it, so it travels with the state: a resumed run rebuilds
         exactly the lists it had).  Default: a copy of ``pos``.
     held_pairs : (n, capacity) float32 mm, the push each listed pair held at the end of
-        the last step (row i, the slot of its neighbour in i's list; overdamped with
-        ``warm_start``); ``held_walls`` : (2, n) float32 mm, each robot's pushes off up
-        to two static segments, whose indices are in ``held_wall_ids`` (2, n) int32.
-        None: no pushes held yet.
+        the last step (row i, the slot of its neighbour in i's list), the next step's
+        warm start; ``held_walls`` : (2, n) float32 mm, each robot's pushes off up to
+        two static segments, whose indices are in ``held_wall_ids`` (2, n) int32.  None:
+        no pushes held (the last step was not jammed).
     """
 
     pos: np.ndarray
@@ -482,32 +480,47 @@ def _auto_threads(n: int) -> int | None:
     return current
 
 
-#: Fraction of a held contact's opened gap taken back per sweep (warm start).
-PULL = 0.5
-#: Fraction of the last step's held pushes a step starts from (warm start).
+#: Over-relaxation of the Gauss-Seidel passes of a jammed step (robot pairs and walls):
+#: projected successive over-relaxation converges for 0 < omega < 2, the fastest near
+#: 2 / (1 + sin(pi / (2 L + 1))) for a chain of L robots pressed into a wall (1.7 for L
+#: of 10).  On the mechanism study's jam (``benchmarks/engine_jam.py``, cold passes)
+#: 1.7 made the fewest sweeps of 1.0, 1.5, 1.7, 1.8, 1.9 and 1.95.
+OMEGA = 1.7
+#: The same against static walls.
+WALL_OMEGA = 1.7
+#: Jacobi sweeps a step without held pushes makes before the Gauss-Seidel passes take
+#: over.  A free swarm never gets there (1,200 robots at packing 0.5, 10 mm/s, tau 0.1 s:
+#: at most 10 sweeps in 1,500 steps), nor does a crowd pushing an object
+#: (``transport-free``'s defaults: 13 a step on average): their steps are the parallel
+#: Jacobi sweeps', bit for bit.  With 12, a third of that crowd's steps reached the
+#: serial passes.
+GS_AFTER = 40
+#: A step is warm-started only if the largest push held exceeds this many times the
+#: largest commanded displacement (a push carried through a pile of robots: a jam).  A
+#: free swarm's occasional crowd, resolved by the passes, holds pushes of one or two
+#: displacements, and its next step is cold again (else its passes would go on step
+#: after step).  On the mechanism study's jam the ratio is 6.4-14 (5th-95th percentile).
+JAM_PUSH = 3.0
+#: Fraction of the last step's held pushes a jammed step starts from: pushes that only
+#: cancel each other (self-stress, which a hyperstatic jam can build up without moving
+#: anything) decay instead of growing step after step.
 KEEP = 0.95
-#: Sweeping stops once no held push exceeds what its contact needs by more than this
-#: many times ``overlap_tol`` (warm start).
+#: The Gauss-Seidel passes stop once no accumulated push exceeds what its contact
+#: needs by more than this many times ``overlap_tol``.
 SLACK = 1.0
 
 
-def _held(
-    state: SwarmState, ws: _Workspace, warm: bool
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The state's held pushes (pairs, walls, wall indices), made (nothing held) where
-    missing or of another shape; empty arrays when the warm start is off."""
+def _held(state: SwarmState, ws: _Workspace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The state's held pushes (pairs, walls, wall indices), or empty arrays when there
+    are none or they are of another shape (another engine's: the step starts cold)."""
     n, cap = state.n, ws.neighbours.shape[1]
-    if not warm:
-        return _NO_PAIRS, _NO_WALLS, _NO_IDS
     ok = (
         state.held_pairs is not None and state.held_pairs.shape == (n, cap)
         and state.held_walls is not None and state.held_walls.shape == (2, n)
         and state.held_wall_ids is not None and state.held_wall_ids.shape == (2, n)
     )  # fmt: skip
     if not ok:
-        state.held_pairs = np.zeros((n, cap), np.float32)
-        state.held_walls = np.zeros((2, n), np.float32)
-        state.held_wall_ids = np.full((2, n), -1, np.int32)
+        return _NO_PAIRS, _NO_WALLS, _NO_IDS
     return state.held_pairs, state.held_walls, state.held_wall_ids
 
 
@@ -552,8 +565,9 @@ class _Workspace:
             tol=params.overlap_tol * 2 * r, relax=float(params.relax),
             cutoff=float(self.cutoff), half_skin=0.5 * skin_mm,
             min_sweeps=params.iterations, max_sweeps=params.max_iterations,
-            warm=bool(params.warm_start), pull=PULL,
-            slack_tol=SLACK * params.overlap_tol * 2 * r, keep=KEEP,
+            slack_tol=SLACK * params.overlap_tol * 2 * r,
+            keep=KEEP,
+            warm=False, pull=0.0,  # unused
         )  # fmt: skip
         ncell = nx * ny
         self.cell = np.empty(n, np.int32)  # each robot's cell when the lists were built
@@ -825,12 +839,14 @@ class Simulator:
                 self._decide(state, None)
             elif due.size:
                 self._decide(state, due)
-            lam, lamw, lamid = _held(state, ws, p.warm_start)
             restore = _auto_threads(state.n)
             try:
-                sweeps, overlap, builds, in_scratch = K.overdamped_step(
+                lam, lamw, lamid = _held(state, ws)
+                sweeps, overlap, builds, in_scratch, lam, lamw, lamid, held = K.overdamped_step(
                     state.pos, ws.scratch, state.ref, state.fcols, state.icols, state.udir,
-                    lam, lamw, lamid, ws.grid, ws.numerics, ws.lists_of is state.ref, ws.cell,
+                    lam, lamw, lamid, lam.shape[0] == state.n, ws.grid,
+                    ws.numerics, OMEGA, WALL_OMEGA, GS_AFTER, JAM_PUSH, ws.lists_of is state.ref,
+                    ws.cell,
                     ws.cell_start,
                     ws.perm, ws.neighbours, ws.n_neighbours, ws.overflows, ws.visits,
                     ws.result, ws.mark, ws.near_moved, ws.cell_near_static, w.segments,
@@ -840,6 +856,10 @@ class Simulator:
                 if restore is not None:
                     numba.set_num_threads(restore)
             ws.lists_of = state.ref
+            # the pushes a jammed step ended with travel with the state (None: not jammed)
+            state.held_pairs = lam if held else None
+            state.held_walls = lamw if held else None
+            state.held_wall_ids = lamid if held else None
             if in_scratch:  # the final positions are in the second buffer: swap, no copy
                 state.pos, ws.scratch = ws.scratch, state.pos
             self.list_builds += builds

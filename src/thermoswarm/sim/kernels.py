@@ -12,8 +12,8 @@ Modules (by stage; this module is their one namespace, ``kernels.X`` for any of 
 :mod:`~thermoswarm.sim.kernels_grid` the state's layout, the cell grid, re-sorting and
 the Verlet lists; :mod:`~thermoswarm.sim.kernels_walls` walls, bodies and pistons;
 :mod:`~thermoswarm.sim.kernels_sweep` the Jacobi sweep and the next sweep's robots;
-:mod:`~thermoswarm.sim.kernels_held` the experimental warm start (held pushes,
-Gauss-Seidel); here: the decision's checks, the commanded motion, the whole step
+:mod:`~thermoswarm.sim.kernels_held` the Gauss-Seidel passes of a jammed step; here:
+the decision's checks, the commanded motion, the whole step
 (:func:`overdamped_step`), the independent overlap check and the elastic gas.
 
 Layout
@@ -132,8 +132,9 @@ from thermoswarm.sim.kernels_grid import (  # noqa: F401  (the kernels' one name
 )
 from thermoswarm.sim.kernels_held import (  # noqa: F401  (the kernels' one namespace)
     _add_flagged,
+    _drop_pushes,
     _gs_pass,
-    _held_solve,
+    _gs_solve,
     _inverse,
     _measure,
     _rebuild,
@@ -225,9 +226,9 @@ def _move(pos, udir, speed, timer, ref, dt):
 
 @njit(cache=True)
 def overdamped_step(
-    pos, scratch, ref, fcols, icols, udir, lam, lamw, lamid, grid, num, lists_ready, cell,
-    cell_start, perm, nbr, nnb, overflows, visits, result, mark, near, cell_flag, seg, sdisc,
-    bodies, pistons,
+    pos, scratch, ref, fcols, icols, udir, lam, lamw, lamid, warm, grid, num, omega,
+    wall_omega, gs_after, jam_push, lists_ready, cell, cell_start, perm, nbr, nnb, overflows,
+    visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons,
 ):  # fmt: skip
     """Advance the overdamped swarm by one step ``num.dt``.
 
@@ -237,49 +238,135 @@ def overdamped_step(
        are re-sorted by cell and the Verlet lists rebuilt; if the lists are not in the
        workspace yet (``lists_ready`` false: a new or resumed state) they are rebuilt
        from ``ref``, exactly as they were.  Held pushes move to the new lists' slots.
-    3. **Warm start** (``num.warm``): every robot takes the pushes its contacts held at
-       the end of the last step (:func:`_warm_start`).  A jammed swarm pushed by the same
-       commands as in the last step then starts next to its solution instead of one
-       robot layer of it per sweep.
-    4. **Projection**: Jacobi sweeps (:func:`_sweep`), each measuring the exact largest
-       overlap of the current configuration (and, warm, the largest push held that is
-       no longer needed), until they are below ``num.tol`` and ``num.slack_tol`` (after
-       at least ``num.min_sweeps`` sweeps) or ``num.max_sweeps`` sweeps were made.  The last
-       sweep only measures: the configuration it measured is the result, so the overlap
-       returned is that of the final positions.  After each applied sweep the list
-       validity is checked again and the lists rebuilt (without re-sorting) if needed.
-       The first sweep (and the first after a rebuild) visits every robot, later ones
-       only the robots whose surroundings changed (:func:`_next_active`).
+    3. **Warm start** (``warm``: the last step ended with pushes held, a jam): every
+       robot takes the pushes its contacts held, scaled by ``num.keep``
+       (:func:`_warm_start`); a robot they would move farther than ``skin / 2`` drops
+       its pushes instead (:func:`_drop_pushes`: self-stress that a hyperstatic jam can
+       build up without moving anything may not throw a robot).  Then step 5 -- if the
+       largest push held exceeds ``jam_push`` x the largest commanded displacement
+       (a push carried through a pile: a jam); else the pushes are dropped and the step
+       is cold (a free swarm's occasional crowd).
+    4. **Projection, Jacobi** (no pushes held): parallel sweeps (:func:`_sweep`), each
+       measuring the exact largest overlap of the current configuration and correcting
+       it, until it is below ``num.tol`` (after at least ``num.min_sweeps`` sweeps) or
+       ``gs_after`` sweeps were made.  A free swarm is done here.
+    5. **Projection, Gauss-Seidel** (a jam: robots pressed into a wall or a crowd, where
+       a Jacobi sweep carries a push only one robot layer further): symmetric projected
+       Gauss-Seidel passes over-relaxed by ``omega`` (``wall_omega`` against walls),
+       each contact's push accumulated so that an overshoot is taken back
+       (:func:`_gs_solve`), until the largest overlap and the largest unneeded push are
+       below ``num.tol`` and ``num.slack_tol`` or ``num.max_sweeps`` sweeps were made.
+
+    The last sweep only measures: the configuration it measured is the result, so the
+    overlap returned is that of the final positions.  After each applied sweep or pass
+    the list validity is checked again and the lists rebuilt (without re-sorting) if
+    needed.  The first sweep (and the first after a rebuild) visits every robot, later
+    ones only the robots whose surroundings changed (:func:`_next_active`).
 
     ``lam`` (n, capacity) float32 holds the push (mm) of each listed pair, ``lamw`` (2, n)
     float32 those off up to two walls per robot, ``lamid`` (2, n) int32 those walls'
-    segment indices (state: they travel with it).  ``scratch`` is an
-    (n, 2) buffer that takes every other sweep's positions; the final positions are in
-    ``scratch`` when the last value returned is true (the caller swaps the two arrays).
+    segment indices (the state's held pushes when ``warm``; else any arrays of those
+    types, empty ones included: step 5 then makes its own).  ``scratch`` is an (n, 2)
+    buffer that takes every other sweep's positions; the final positions are in
+    ``scratch`` when ``in_scratch`` is true (the caller swaps the two arrays).
     ``overflows`` (1,) int64 holds the number of overflowing lists (kept with the
     lists); ``visits`` (2, n) int32 and ``result``, ``mark``, ``near`` (n,) uint8 are
-    work arrays.  Returns ``(sweeps, overlap (mm), list builds, in_scratch)``.
+    work arrays.  Returns ``(sweeps, overlap (mm), list builds, in_scratch, lam, lamw,
+    lamid, held)``; ``held``: step 5 ran, and ``lam, lamw, lamid`` are the pushes it
+    ended with (for the next step's warm start).
     """
     n = pos.shape[0]
     r = num.radius
-    held = num.warm
-    contact2 = (2.0 * r - SLOP) * (2.0 * r - SLOP)  # as in _sweep
+    hs2 = num.half_skin * num.half_skin
     far = _move(pos, udir, fcols[SPEED], icols[TIMER], ref, num.dt)
     _move_bodies(bodies, pistons, seg, sdisc, num.dt)
 
     builds = 0
     new_row = visits[1]
-    if not lists_ready and (held or far <= num.half_skin * num.half_skin):
-        # the lists the state's held pushes belong to (or the ones the step will use)
+    if not lists_ready and (warm or far <= hs2):
+        # the lists the held pushes belong to (or the ones the step will use)
         overflows[0] = build_lists(ref, ref, grid, num.cutoff, cell, cell_start, perm, nbr, nnb)
         builds += 1
-    if not (far <= num.half_skin * num.half_skin):
-        sort_rows(pos, fcols, icols, udir, lamw, lamid, scratch, grid, cell, cell_start, perm)
-        _inverse(perm, new_row)
+    if not (far <= hs2):
+        if warm:  # the held pushes move with their robots, to the new lists' slots
+            sort_rows(pos, fcols, icols, udir, lamw, lamid, scratch, grid, cell, cell_start, perm)
+            _inverse(perm, new_row)
+        else:
+            sort_rows(pos, fcols, icols, udir, lamw[:0], lamid[:0], scratch, grid, cell,
+                      cell_start, perm)  # fmt: skip
         overflows[0] = _rebuild(pos, ref, grid, num, cell, cell_start, perm, nbr, nnb, lam,
-                                new_row, True)  # fmt: skip
+                                new_row, True, warm)  # fmt: skip
         builds += 1
+    src = pos
+    dst = scratch
+    in_scratch = False
+    if warm:
+        far, flagged, held, top = _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg,
+                                              r, num.keep, hs2, result)  # fmt: skip
+        while flagged:
+            _drop_pushes(result, nbr, nnb, lam, lamw)
+            far, flagged, held, top = _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid,
+                                                  seg, r, 1.0, hs2, result)  # fmt: skip
+        # a jam: a push held larger than jam_push robots' commanded displacements (a push
+        # carried through a pile); a free swarm's passes hold pushes of one or two
+        vmax = 0.0
+        speed = fcols[SPEED]
+        for i in range(n):
+            vmax = max(vmax, speed[i])
+        warm = held > 0 and top > jam_push * vmax * num.dt
+    if warm:
+        src, dst = dst, src
+        in_scratch = True
+        if not (far <= hs2):
+            overflows[0] = _rebuild(src, ref, grid, num, cell, cell_start, perm, nbr, nnb,
+                                    lam, new_row, False, True)  # fmt: skip
+            builds += 1
+        sweeps, overlap, more = _gs_solve(
+            src, dst, ref, lam, lamw, lamid, grid, num, omega, wall_omega, cell, cell_start,
+            perm, nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc, bodies,
+            pistons, new_row, 0, n, True,
+        )  # fmt: skip
+        return sweeps, overlap, builds + more, in_scratch, lam, lamw, lamid, True
+    sweeps, overlap, more, in_scratch, count, everyone, jam = _jacobi(
+        src, dst, ref, grid, num, gs_after, cell, cell_start, perm, nbr, nnb, overflows,
+        visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam,
+    )  # fmt: skip
+    builds += more
+    if not jam:
+        return sweeps, overlap, builds, in_scratch, lam, lamw, lamid, False
+    if in_scratch:
+        src, dst = dst, src
+    # a jam: Gauss-Seidel from here, the pushes accumulated from zero
+    if lam.shape[0] == n:
+        lam[:] = 0.0
+        lamw[:] = 0.0
+        lamid[:] = -1
+    else:  # none held: made here (a free swarm never needs them)
+        lam = np.zeros((n, nbr.shape[1]), np.float32)
+        lamw = np.zeros((2, n), np.float32)
+        lamid = np.full((2, n), -1, np.int32)
+    sweeps, overlap, more = _gs_solve(
+        src, dst, ref, lam, lamw, lamid, grid, num, omega, wall_omega, cell, cell_start, perm,
+        nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc, bodies, pistons,
+        new_row, sweeps, count, everyone,
+    )  # fmt: skip
+    return sweeps, overlap, builds + more, in_scratch, lam, lamw, lamid, True
 
+
+@njit(cache=True)
+def _jacobi(
+    pos, scratch, ref, grid, num, gs_after, cell, cell_start, perm, nbr, nnb, overflows,
+    visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam,
+):  # fmt: skip
+    """Jacobi sweeps (step 4 of :func:`overdamped_step`), alternating between ``pos``
+    and ``scratch``.  Returns ``(sweeps, overlap, list builds, in_scratch, count,
+    everyone, jam)``: ``jam`` when ``gs_after`` sweeps did not reach the tolerance, the
+    configuration (not measured yet) then in ``scratch`` if ``in_scratch``, and the
+    robots the next sweep must visit in ``visits[0][:count]`` (every robot when
+    ``everyone``)."""
+    n = pos.shape[0]
+    r = num.radius
+    contact2 = (2.0 * r - SLOP) * (2.0 * r - SLOP)  # as in _sweep
     nb = bodies.shape[0]
     npis = pistons.shape[0]
     moved_b = np.zeros(nb, np.uint8)
@@ -290,24 +377,10 @@ def overdamped_step(
     src = pos
     dst = scratch
     in_scratch = False
-    if held:
-        far = _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, num.keep)
-        src, dst = dst, src
-        in_scratch = True
-        if not (far <= num.half_skin * num.half_skin):
-            overflows[0] = _rebuild(src, ref, grid, num, cell, cell_start, perm, nbr, nnb,
-                                    lam, new_row, False)  # fmt: skip
-            builds += 1
-    if held:
-        sweeps, overlap, more = _held_solve(
-            src, dst, ref, lam, lamw, lamid, grid, num, cell, cell_start, perm, nbr, nnb,
-            overflows, visits, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row,
-        )  # fmt: skip
-        return sweeps, overlap, builds + more, in_scratch
     everyone = True
     count = n
     sweeps = 0
-    overlap = 0.0
+    builds = 0
     while True:
         _bodies_pass(src, cell_start, perm, grid, r, num.drag, num.dt, bodies, pistons, contact)
         overlap, far = _sweep(
@@ -316,14 +389,14 @@ def overdamped_step(
         )  # fmt: skip
         sweeps += 1
         if (sweeps >= num.min_sweeps and overlap < num.tol) or sweeps >= num.max_sweeps:
-            break  # src is the result; its overlaps were just measured
+            break  # src, just measured, is the result
         # apply the sweep: dst is the configuration now, bodies and pistons take their steps
         any_moved = _apply_body_steps(bodies, pistons, contact, moved_b, moved_p, seg, sdisc)
         src, dst = dst, src
         in_scratch = not in_scratch
         if not (far <= num.half_skin * num.half_skin):
             overflows[0] = _rebuild(src, ref, grid, num, cell, cell_start, perm, nbr, nnb,
-                                    lam, new_row, False)  # fmt: skip
+                                    lam, new_row, False, False)  # fmt: skip
             builds += 1
             everyone = True
             count = n
@@ -334,12 +407,17 @@ def overdamped_step(
             if any_moved:
                 _near_moved(src, bodies, moved_b, pistons, moved_p, r, grid.cell_size, near)
             count = _next_active(
-                visit, count, everyone, result, src, contact2, nbr, nnb, lam, held, near,
+                visit, count, everyone, result, src, contact2, nbr, nnb, lam, False, near,
                 any_moved, mark, visit_next,
             )  # fmt: skip
             visit, visit_next = visit_next, visit
             everyone = False
-    return sweeps, overlap, builds, in_scratch
+        if sweeps >= gs_after and not overflows[0]:
+            if not everyone:
+                visit[:count].sort()  # row order: the passes sweep across the swarm
+                visits[0][:count] = visit[:count]  # (visit may be either row of visits)
+            return sweeps, overlap, builds, in_scratch, count, everyone, True
+    return sweeps, overlap, builds, in_scratch, count, everyone, False
 
 
 @njit(cache=True, parallel=True)

@@ -1,6 +1,7 @@
-"""Kernels of the engine: the experimental warm start -- held contact pushes carried from
-step to step and solved by projected Gauss-Seidel (``EngineParams.warm_start``; see
-:mod:`thermoswarm.sim.kernels` and ``docs/engine_performance.md``)."""
+"""Kernels of the engine: the contact solve of a jammed step -- symmetric projected
+Gauss-Seidel passes, over-relaxed, with each contact's push accumulated within the
+step so that an overshoot can be taken back (see :mod:`thermoswarm.sim.kernels` and
+``docs/engine_performance.md``, "Jammed swarms")."""
 
 from __future__ import annotations
 
@@ -11,36 +12,53 @@ from numba import njit, prange
 
 from thermoswarm.sim.kernels_grid import SLOP, build_lists
 from thermoswarm.sim.kernels_walls import (
+    _applied_steps,
     _apply_body_steps,
     _bodies_pass,
+    _movables_applied,
     _near_moved,
     _seg_gap,
     _walls_and_bodies,
     _walls_held,
 )
 
+#: Held pushes below this (mm) are dropped at the warm start: once a jam has dissolved,
+#: its pushes, decaying by ``keep`` a step, end and the steps are cold again.
+HELD_MIN = 1e-4
+
 
 @njit(cache=True, parallel=True)
-def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, keep):
+def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, keep, big2, flag):
     """Every robot takes the pushes its contacts held at the end of the last step
     (``lam`` along each listed pair's present normal, ``lamw`` off its held walls), the
     held pushes first scaled by ``keep`` (< 1: pushes that only cancel each other, which
-    a jam can pile up without moving anything, decay instead of growing step by step):
-    the starting guess of the projection (pushes no longer needed are taken back by the
-    sweeps).  Writes ``dst``; returns the largest squared distance from ``ref``."""
+    a jam can pile up without moving anything, decay instead of growing step by step;
+    below :data:`HELD_MIN` they are dropped): the starting guess of the projection
+    (pushes no longer needed are taken back by the passes).  Writes ``dst``; ``flag[i]``
+    is set where robot i would move farther than ``sqrt(big2)``.  Returns the largest
+    squared distance from ``ref``, the number of robots flagged, the number of pushes
+    still held and the largest (mm)."""
     cap = nbr.shape[1]
     far = 0.0
+    big = 0
+    held = 0
+    top = 0.0
     for i in prange(src.shape[0]):
         px = src[i, 0]
         py = src[i, 1]
         mx = 0.0
         my = 0.0
+        h = 0
         m = nnb[i]
         if m <= cap:
             for kk in range(m):
                 L = np.float32(keep * lam[i, kk])
+                if L < HELD_MIN:
+                    L = np.float32(0.0)
                 lam[i, kk] = L
                 if L != 0.0:
+                    h += 1
+                    top = max(top, np.float64(L))
                     j = nbr[i, kk]
                     dx = px - src[j, 0]
                     dy = py - src[j, 1]
@@ -50,8 +68,12 @@ def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, keep):
                         my += L * dy / d
         for slot in range(2):
             lw = np.float32(keep * lamw[slot, i])
+            if lw < HELD_MIN:
+                lw = np.float32(0.0)
             lamw[slot, i] = lw
             if lw != 0.0:
+                h += 1
+                top = max(top, np.float64(lw))
                 s = lamid[slot, i]
                 _, nxs, nys = _seg_gap(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
                 mx += lw * nxs
@@ -63,7 +85,29 @@ def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, keep):
         ex = x - ref[i, 0]
         ey = y - ref[i, 1]
         far = max(far, ex * ex + ey * ey)
-    return far
+        f = mx * mx + my * my > big2
+        flag[i] = f
+        big += f
+        held += h
+    return far, big, held, top
+
+
+@njit(cache=True)
+def _drop_pushes(flag, nbr, nnb, lam, lamw):
+    """The flagged robots' held pushes (both copies of each pair's) are dropped."""
+    cap = nbr.shape[1]
+    for i in range(flag.shape[0]):
+        if flag[i]:
+            lamw[0, i] = 0.0
+            lamw[1, i] = 0.0
+            if nnb[i] <= cap:
+                for kk in range(nnb[i]):
+                    if lam[i, kk] != 0.0:
+                        lam[i, kk] = 0.0
+                        j = nbr[i, kk]
+                        sj = _slot_of(nbr, nnb, j, i)
+                        if sj >= 0:
+                            lam[j, sj] = 0.0
 
 
 @njit(cache=True, inline="always")
@@ -77,44 +121,45 @@ def _slot_of(nbr, nnb, j, i):
 
 @njit(cache=True)
 def _gs_pass(
-    pos, other, ref, nbr, nnb, lam, lamw, lamid, cell, cell_flag, num, seg, sdisc, bodies,
-    pistons, active, count, everyone, mark, out,
+    pos, other, ref, nbr, nnb, lam, lamw, lamid, cell, cell_flag, num, omega, wall_omega, seg,
+    sdisc, bodies, pistons, applied, active, count, everyone, backward, mark, out,
 ):  # fmt: skip
-    """One projected Gauss-Seidel pass with held pushes (``num.warm``), serial and in place.
+    """One projected Gauss-Seidel pass, serial and in place, over-relaxed by ``omega``.
 
-    For each robot of ``active[:count]`` (every robot when ``everyone``), in that order:
-    its walls (:func:`_walls_held`), static discs, bodies and pistons, then each listed
-    pair, both robots moving at once by half the overlap each (times ``relax``) or, apart
-    with a held push, taking back up to ``pull`` x half the gap; both copies of the held
-    push are updated.  Sequential updates cannot ratchet the held pushes the way
-    simultaneous (Jacobi) ones do, and the order is fixed: the result does not depend on
-    the number of threads.  Each move is mirrored into ``other`` (the second position
-    buffer stays equal for every robot not visited).  A robot whose list overflowed
-    pushes only (its pairs are not held).
+    For each robot of ``active[:count]`` (every robot when ``everyone``), in that order
+    (reversed when ``backward``): its walls (:func:`_walls_held`, over-relaxed by
+    ``wall_omega``), static discs, bodies and pistons (:func:`_movables_applied`, their
+    corrections added to ``applied`` as they are made), then each listed pair, both
+    robots moving at once by ``omega`` x half the overlap each or, apart with a push
+    held (``lam``, accumulated within the step), taking back up to ``omega`` x half the
+    gap: projected successive over-relaxation of the contact impulses, which can undo
+    an overshoot.  Both copies of the held push are updated.  The order is fixed: the
+    result does not depend on the number of threads.  Each move is mirrored into
+    ``other``.  A robot whose list overflowed pushes only (its pairs are not held).
 
     Writes into ``out`` the robots the next pass must visit -- every robot that moved and
-    every robot on its list -- and returns ``(how many, largest squared distance from
-    ref of any robot that moved)``.
+    every robot on its list -- and returns ``(how many (-1: everyone), largest squared
+    distance from ref of any robot that moved)``.
     """
     cap = nbr.shape[1]
     r = num.radius
     d_rr = 2.0 * r
     c2 = (d_rr - SLOP) * (d_rr - SLOP)
-    half = 0.5 * num.relax
-    pull = num.pull
+    half = 0.5 * omega
     movables = bodies.shape[0] + pistons.shape[0] > 0
     far = 0.0
     k = 0
-    for q in range(count):
+    for qq in range(count):
+        q = count - 1 - qq if backward else qq
         i = np.int64(q) if everyone else np.int64(active[q])
         near = cell_flag[cell[i]] != 0
         mx = 0.0
         my = 0.0
         if near or lamw[0, i] != 0.0 or lamw[1, i] != 0.0:
-            mx, my, _, _ = _walls_held(pos[i, 0], pos[i, 1], r, i, lamw, lamid, pull, seg)
+            mx, my, _, _ = _walls_held(pos[i, 0], pos[i, 1], r, i, lamw, lamid, wall_omega, seg)
         if near or movables:
-            ax, ay, _ = _walls_and_bodies(
-                pos[i, 0], pos[i, 1], r, near, seg[:0], sdisc, bodies, pistons
+            ax, ay = _movables_applied(
+                pos[i, 0] + mx, pos[i, 1] + my, r, near, sdisc, bodies, pistons, applied
             )
             mx += ax
             my += ay
@@ -141,7 +186,7 @@ def _gs_pass(
                 d = math.sqrt(d2)
                 g = 0.5 * (d - d_rr)
                 if g > SLOP:
-                    step = -min(L, pull * g)
+                    step = -min(L, omega * g)
             if step == 0.0:
                 continue
             held = m <= cap and nnb[j] <= cap
@@ -193,6 +238,8 @@ def _gs_pass(
             full = True
     for q in range(k):
         mark[out[q]] = 0
+    if not full:
+        out[:k].sort()  # row order (cells): the next pass sweeps across the swarm
     return (-1 if full else k), far
 
 
@@ -282,15 +329,18 @@ def _add_flagged(flag, out, k, mark):
 
 
 @njit(cache=True)
-def _held_solve(
-    src, dst, ref, lam, lamw, lamid, grid, num, cell, cell_start, perm, nbr, nnb, overflows,
-    visits, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row,
+def _gs_solve(
+    src, dst, ref, lam, lamw, lamid, grid, num, omega, wall_omega, cell, cell_start, perm,
+    nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row,
+    sweeps, count, everyone,
 ):  # fmt: skip
-    """The projection with held pushes: measure (:func:`_measure`), and while the largest
-    overlap or unneeded held push is above its tolerance, one Gauss-Seidel pass
+    """The projection by symmetric Gauss-Seidel: measure (:func:`_measure`) the robots
+    ``visits[0][:count]`` (every robot when ``everyone``), and while the largest overlap
+    or unneeded push is above its tolerance, a forward and a backward over-relaxed pass
     (:func:`_gs_pass`) over the robots whose surroundings changed, bodies and pistons
-    taking their steps after it.  Positions stay in ``src`` (mirrored into ``dst``).
-    Returns ``(sweeps, overlap, list builds)``; a sweep is a measure or a pass."""
+    taking their steps after each.  Positions stay in ``src`` (mirrored into ``dst``);
+    ``sweeps`` were made before.  Returns ``(sweeps, overlap, list builds)``; a sweep
+    is a measure or a pass."""
     n = src.shape[0]
     r = num.radius
     nb = bodies.shape[0]
@@ -298,11 +348,9 @@ def _held_solve(
     moved_b = np.zeros(nb, np.uint8)
     moved_p = np.zeros(npis, np.uint8)
     contact = np.zeros((nb + npis, 2))
+    applied = np.zeros((nb + npis, 2))
     visit = visits[0]
     visit_next = visits[1]
-    everyone = True
-    count = n
-    sweeps = 0
     builds = 0
     while True:
         overlap, slack = _measure(
@@ -313,29 +361,37 @@ def _held_solve(
         done = overlap < num.tol and slack < num.slack_tol
         if (sweeps >= num.min_sweeps and done) or sweeps >= num.max_sweeps:
             return sweeps, overlap, builds
-        _bodies_pass(src, cell_start, perm, grid, r, num.drag, num.dt, bodies, pistons, contact)
-        k, far = _gs_pass(
-            src, dst, ref, nbr, nnb, lam, lamw, lamid, cell, cell_flag, num, seg, sdisc,
-            bodies, pistons, visit, count, everyone, mark, visit_next,
-        )  # fmt: skip
-        sweeps += 1
-        any_moved = _apply_body_steps(bodies, pistons, contact, moved_b, moved_p, seg, sdisc)
-        if not (far <= num.half_skin * num.half_skin):
-            overflows[0] = _rebuild(src, ref, grid, num, cell, cell_start, perm, nbr, nnb,
-                                    lam, new_row, False)  # fmt: skip
-            builds += 1
-            everyone = True
-            count = n
-        elif overflows[0] or k < 0:  # an incomplete list: visit everyone (rare)
-            everyone = True
-            count = n
-        else:
-            if any_moved:  # and the robots near a body or piston that moved
-                _near_moved(src, bodies, moved_b, pistons, moved_p, r, grid.cell_size, near)
-                k = _add_flagged(near, visit_next, k, mark)
-            visit, visit_next = visit_next, visit
-            count = k
-            everyone = False
+        for backward in (False, True):
+            _bodies_pass(src, cell_start, perm, grid, r, num.drag, num.dt, bodies, pistons,
+                         contact)  # fmt: skip
+            applied[:] = 0.0
+            k, far = _gs_pass(
+                src, dst, ref, nbr, nnb, lam, lamw, lamid, cell, cell_flag, num, omega,
+                wall_omega, seg, sdisc, bodies, pistons, applied, visit, count, everyone,
+                backward, mark, visit_next,
+            )  # fmt: skip
+            sweeps += 1
+            _applied_steps(bodies, pistons, applied, num.drag, num.dt, contact)
+            any_moved = _apply_body_steps(bodies, pistons, contact, moved_b, moved_p, seg,
+                                          sdisc)  # fmt: skip
+            if not (far <= num.half_skin * num.half_skin):
+                overflows[0] = _rebuild(src, ref, grid, num, cell, cell_start, perm, nbr, nnb,
+                                        lam, new_row, False, True)  # fmt: skip
+                builds += 1
+                everyone = True
+                count = n
+            elif overflows[0] or k < 0:  # an incomplete list: visit everyone (rare)
+                everyone = True
+                count = n
+            else:
+                if any_moved:  # and the robots near a body or piston that moved
+                    _near_moved(src, bodies, moved_b, pistons, moved_p, r, grid.cell_size, near)
+                    k = _add_flagged(near, visit_next, k, mark)
+                visit, visit_next = visit_next, visit
+                count = k
+                everyone = False
+            if sweeps >= num.max_sweeps - 1:
+                break
 
 
 @njit(cache=True)
@@ -382,12 +438,14 @@ def _restore_held(si, sj, sl, new_row, renumber, nbr, nnb, lam):
 
 # ----------------------------------------------------------------- the whole step
 @njit(cache=True)
-def _rebuild(at, ref, grid, num, cell, cell_start, perm, nbr, nnb, lam, new_row, renumber):
+def _rebuild(at, ref, grid, num, cell, cell_start, perm, nbr, nnb, lam, new_row, renumber,
+             carry):  # fmt: skip
     """Rebuild the lists at ``at`` (recorded in ``ref``), carrying the held pushes over
-    (rows renumbered by ``new_row`` when ``renumber``).  Returns the overflow count."""
-    si, sj, sl = _stash_held(nbr, nnb, lam, num.warm)
+    when ``carry`` (rows renumbered by ``new_row`` when ``renumber``).  Returns the
+    overflow count."""
+    si, sj, sl = _stash_held(nbr, nnb, lam, carry)
     overflows = build_lists(at, ref, grid, num.cutoff, cell, cell_start, perm, nbr, nnb)
-    if num.warm:
+    if carry:
         _restore_held(si, sj, sl, new_row, renumber, nbr, nnb, lam)
     return overflows
 

@@ -235,11 +235,12 @@ def _walls_and_bodies(px, py, r, near_static, seg, sdisc, bodies, pistons):
 
 @njit(cache=True)
 def _walls_held(px, py, r, i, lw, lid, pull, seg):
-    """Static segments with held pushes: every overlap is pushed out in full (as in
-    :func:`_walls_and_bodies`) and, for up to two segments per robot, accumulated in
-    ``lw[:, i]`` (mm) with the segment's index in ``lid[:, i]``; a held segment no longer
-    touched takes back up to ``pull`` x the gap of its push (a wall pushes, never pulls:
-    a held push it no longer needs is undone).  Writes only column ``i``.
+    """Static segments with held pushes: every overlap is pushed out, over-relaxed by
+    ``pull`` (1: in full, as in :func:`_walls_and_bodies`), and, for up to two segments
+    per robot, accumulated in ``lw[:, i]`` (mm) with the segment's index in
+    ``lid[:, i]``; a held segment no longer touched takes back up to ``pull`` x the gap
+    of its push (a wall pushes, never pulls: a held push it no longer needs is undone).
+    Writes only column ``i``.
 
     Returns ``(mx, my, largest overlap, slack)``; ``slack = min(held push, gap)`` is how
     far the robot stands off a wall on account of a push it no longer needs."""
@@ -251,8 +252,8 @@ def _walls_held(px, py, r, i, lw, lid, pull, seg):
         g, nxs, nys = _seg_gap(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
         slot = 0 if lid[0, i] == s else (1 if lid[1, i] == s else -1)
         if -g > SLOP:
-            mx -= g * nxs
-            my -= g * nys
+            mx -= pull * g * nxs
+            my -= pull * g * nys
             if -g > w:
                 w = -g
             if slot < 0:  # a free slot (nothing held) takes this segment
@@ -260,7 +261,7 @@ def _walls_held(px, py, r, i, lw, lid, pull, seg):
                 if slot >= 0:
                     lid[slot, i] = s
             if slot >= 0:
-                lw[slot, i] = lw[slot, i] - g
+                lw[slot, i] = lw[slot, i] - pull * g
         elif slot >= 0 and lw[slot, i] > 0.0 and g > SLOP:
             L = np.float64(lw[slot, i])
             if min(L, g) > slack:
@@ -375,6 +376,78 @@ def _bodies_pass(pos, cell_start, perm, grid, r, gamma_r, dt, bodies, pistons, c
             pistons[p, PISTON_STEP] = -side * gamma_r * s / den  # away from the robots
         pistons[p, PISTON_SHARE] = share
         contact[nb + p, 0] = -side * gamma_r * share * s / dt
+
+
+@njit(cache=True)
+def _movables_applied(px, py, r, near_static, sdisc, bodies, pistons, applied):
+    """Correction (mx, my) of a robot against static discs (``near_static``), bodies and
+    pistons, as :func:`_walls_and_bodies` (static segments excepted), each body's and
+    piston's part added to ``applied`` as it is applied (row b: body b's (x, y); row
+    B + p, column 0: piston p's, along its axis), so that the contact force of a
+    Gauss-Seidel pass is that of the corrections the robots actually received."""
+    mx = 0.0
+    my = 0.0
+    if near_static:
+        for s in range(sdisc.shape[0]):
+            dx = px - sdisc[s, 0]
+            dy = py - sdisc[s, 1]
+            R = sdisc[s, 2] + r
+            d2 = dx * dx + dy * dy
+            if d2 < (R - SLOP) * (R - SLOP):
+                d = math.sqrt(d2)
+                if d > 1e-12:
+                    mx += (R - d) * dx / d
+                    my += (R - d) * dy / d
+    nb = bodies.shape[0]
+    for b in range(nb):
+        dx = px + mx - bodies[b, BODY_X]
+        dy = py + my - bodies[b, BODY_Y]
+        R = bodies[b, BODY_RADIUS] + r
+        d2 = dx * dx + dy * dy
+        if d2 < (R - SLOP) * (R - SLOP):
+            d = math.sqrt(d2)
+            if d > 1e-12:
+                f = bodies[b, BODY_SHARE] * (R - d) / d
+                mx += f * dx
+                my += f * dy
+                applied[b, 0] += f * dx
+                applied[b, 1] += f * dy
+    for p in range(pistons.shape[0]):
+        a = int(pistons[p, PISTON_AXIS])
+        q = py + my if a == 0 else px + mx
+        if q < pistons[p, PISTON_LO] or q > pistons[p, PISTON_HI]:
+            continue
+        v = px + mx if a == 0 else py + my
+        gap = pistons[p, PISTON_SIDE] * (v - pistons[p, PISTON_POSITION])
+        if gap < r - SLOP:
+            corr = pistons[p, PISTON_SHARE] * (r - gap) * pistons[p, PISTON_SIDE]
+            if a == 0:
+                mx += corr
+            else:
+                my += corr
+            applied[nb + p, 0] += corr
+    return mx, my
+
+
+@njit(cache=True)
+def _applied_steps(bodies, pistons, applied, gamma_r, dt, contact):
+    """After a Gauss-Seidel pass: each body's and piston's contact force from the
+    corrections its robots received in the pass (``applied``, mm; force ``-g_r x
+    correction / dt``) into ``contact``, and its step from that force (``force x dt /
+    drag``: the step and the force agree exactly, as in :func:`_bodies_pass`)."""
+    nb = bodies.shape[0]
+    for b in range(nb):
+        drag = bodies[b, BODY_DRAG]
+        for c in range(2):
+            contact[b, c] = -gamma_r * applied[b, c] / dt
+        fin = not math.isinf(drag)
+        bodies[b, BODY_STEP_X] = contact[b, 0] * dt / drag if fin else 0.0
+        bodies[b, BODY_STEP_Y] = contact[b, 1] * dt / drag if fin else 0.0
+    for p in range(pistons.shape[0]):
+        drag = pistons[p, PISTON_DRAG]
+        contact[nb + p, 0] = -gamma_r * applied[nb + p, 0] / dt
+        fin = not math.isinf(drag)
+        pistons[p, PISTON_STEP] = contact[nb + p, 0] * dt / drag if fin else 0.0
 
 
 @njit(cache=True)
