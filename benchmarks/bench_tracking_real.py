@@ -267,6 +267,31 @@ def run_peer(
     return peer_table(time_peer(name, peer_detections(frames), fps, options)[0])
 
 
+def seq_fps(folder: Path, default: float) -> float:
+    """Frame rate of a sequence folder: ``frameRate`` of its ``seqinfo.ini`` (the
+    MOTChallenge layout) if there is one, else ``default`` (``--fps``)."""
+    ini = folder / "seqinfo.ini"
+    if ini.exists():
+        for line in ini.read_text().splitlines():
+            key, _, value = line.partition("=")
+            if key.strip() == "frameRate" and value.strip():
+                return float(value)
+    return default
+
+
+def considered_gt(gt: np.ndarray, mot15: bool = False) -> np.ndarray:
+    """Ground-truth rows that count: those not marked 0 in column 7 (MOTChallenge's
+    "ignore"), with an absent class (-1) written as 1 (pedestrian), so that
+    TrackEval's MOT17 preprocessing and ours read the same rows.  ``mot15``: the
+    MOT15 layout, whose columns 8-10 are world coordinates, not class and
+    visibility (every row is then of class 1)."""
+    gt = gt[gt[:, 6] != 0].copy()
+    if mot15:
+        gt[:, 7:10] = -1
+    gt[gt[:, 7] == -1, 7] = 1
+    return gt
+
+
 def _gmean(x: list[float]) -> float:
     return float(np.exp(np.mean(np.log(x))))
 
@@ -317,6 +342,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="timing: best of this many runs")
     ap.add_argument("--use-det", action="store_true", help="use <seq>/det/det.txt")
     ap.add_argument("--check-trackeval", action="store_true")
+    ap.add_argument(
+        "--mot15",
+        action="store_true",
+        help="ground truth in the MOT15 layout (columns 8-10: world coordinates)",
+    )
     ap.add_argument("--no-peer-tuning", action="store_true", help="peers at their defaults")
     ap.add_argument("--set", dest="overrides", nargs="*", default=[], metavar="KEY=VALUE",
                     help="our tracker's options (e.g. max_gap_s=0.5), for tuning")  # fmt: skip
@@ -355,8 +385,11 @@ def main(argv: list[str] | None = None) -> int:
     def load_gt(seq: str) -> np.ndarray:
         if seq in synth:
             return synthetic_boxes(synth[seq], args.synthetic_frames, seed=synth[seq])
-        gt = read_mot_table(args.data / seq / "gt" / "gt.txt")
+        gt = considered_gt(read_mot_table(args.data / seq / "gt" / "gt.txt"), args.mot15)
         return gt[gt[:, 0] <= limit[seq]] if seq in limit else gt
+
+    def fps_of(seq: str) -> float:
+        return args.fps if seq in synth else seq_fps(args.data / seq, args.fps)
 
     seqs = sorted(p.name for p in args.data.iterdir() if (p / "gt" / "gt.txt").exists())
     seqs += sorted(synth)
@@ -386,6 +419,7 @@ def main(argv: list[str] | None = None) -> int:
             for level, seed in runs:
                 cache[seq, level, seed] = (
                     gt,
+                    fps_of(seq),
                     _per_frame(detections(seq, gt, level, seed), int(gt[:, 0].max())),
                 )
         for name, grid in PEER_GRID.items():
@@ -393,9 +427,9 @@ def main(argv: list[str] | None = None) -> int:
             for values in itertools.product(*grid.values()):
                 opt = dict(zip(grid, values, strict=True))
                 score = np.mean([
-                    sum(evaluate_tables(gt, run_peer(name, fr, args.fps, opt))[k]
+                    sum(evaluate_tables(gt, run_peer(name, fr, fps, opt))[k]
                         for k in ("mota", "idf1"))
-                    for gt, fr in cache.values()])  # fmt: skip
+                    for gt, fps, fr in cache.values()])  # fmt: skip
                 if score > best:
                     best, peer_options[name] = score, opt
         print("peer options tuned on", ", ".join(tune), file=sys.stderr)
@@ -405,6 +439,7 @@ def main(argv: list[str] | None = None) -> int:
     for seq in seqs:
         gt = load_gt(seq)
         n_frames = int(gt[:, 0].max())
+        fps = fps_of(seq)
         for level, seed in runs:
             frames = _per_frame(detections(seq, gt, level, seed), n_frames)
             # Inputs built and outputs converted outside the timer; timed is each
@@ -417,10 +452,10 @@ def main(argv: list[str] | None = None) -> int:
             for _ in range(args.repeat):
                 for name in names:
                     if name == "ours":
-                        outs[name], secs = time_ours(inputs[name], args.fps, cfg)
+                        outs[name], secs = time_ours(inputs[name], fps, cfg)
                     else:
                         opts = peer_options[name]
-                        outs[name], secs = time_peer(name, inputs[name], args.fps, opts)
+                        outs[name], secs = time_peer(name, inputs[name], fps, opts)
                     best[name] = min(best[name], secs)
             preds = {"ours": outs["ours"].mot_table()}
             preds.update({n: peer_table(outs[n]) for n in names[1:]})

@@ -106,8 +106,12 @@ class TrackerConfig:
     angle_weight: float = 0.3
     hint_weight: float = 1.0
     max_cost: float = 2.0
+    min_iou: float = 0.0
+    relink_gate: bool = False
+    own_size: bool = False
     min_score: float = 0.0
     duplicate_radius: float = 0.5
+    duplicate_overlap: float = 1.0
     interpolate: bool = True
     fix_jumps: bool = True
     head_motion_speed_bl_s: float = 0.42
@@ -151,6 +155,20 @@ class TrackerConfig:
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
         check(0 <= self.min_score <= 1, "min_score", "in [0, 1]", self.min_score)
+        check(0 <= self.min_iou < 1, "min_iou", "in [0, 1)", self.min_iou)
+
+
+def _overlap_of_smaller(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(len(a), len(b))``: intersection of MOT boxes over the smaller one's area
+    (0 where either has no area)."""
+    x0 = np.maximum(a[:, None, 0], b[None, :, 0])
+    y0 = np.maximum(a[:, None, 1], b[None, :, 1])
+    x1 = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2])
+    y1 = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3])
+    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    small = np.minimum((a[:, 2] * a[:, 3])[:, None], (b[:, 2] * b[:, 3])[None, :])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(small > 0, inter / small, 0.0)
 
 
 def estimate_length_px(dets: FrameDetections) -> float | None:
@@ -419,9 +437,8 @@ class Tracker:
         ok = ~(dets.scores[cand] < c.min_score) & np.isfinite(pts[cand, 1]).all(axis=1)
         used = ~avail
         if used.any() and ok.any():
-            dd = np.linalg.norm(pts[used, 1][None, :, :] - pts[cand, 1][:, None, :], axis=-1)
-            ok &= ~np.any(dd < c.duplicate_radius * self.length_px, axis=1)
-        new = self._distinct(cand[ok], dets.scores, pts)
+            ok &= ~np.any(self._duplicates(pts, boxes, cand, np.flatnonzero(used)), axis=1)
+        new = self._distinct(cand[ok], dets.scores, pts, boxes)
         if not new.size:
             return
         p = association.orient_new(c, pts[new], hc[new])
@@ -433,19 +450,35 @@ class Tracker:
         )  # fmt: skip
         self._next_key += new.size
 
-    def _distinct(self, new: np.ndarray, scores: np.ndarray, pts: np.ndarray) -> np.ndarray:
-        """Birth candidates ``new`` less those within ``duplicate_radius`` body lengths
-        of a better-scored candidate (a split blob or doubled box starts one track, not
-        two); kept in their original order."""
+    def _duplicates(
+        self, pts: np.ndarray, boxes: np.ndarray, a: np.ndarray, b: np.ndarray
+    ) -> np.ndarray:
+        """``(len(a), len(b))``: whether detection ``a[i]`` duplicates ``b[j]``: body
+        points within ``duplicate_radius`` body lengths, or boxes whose intersection
+        covers at least ``duplicate_overlap`` of the smaller one (when that is below 1:
+        a fragment inside an object's box, or a doubled box)."""
+        c = self.config
+        dd = np.linalg.norm(pts[b, 1][None, :, :] - pts[a, 1][:, None, :], axis=-1)
+        dup = dd < c.duplicate_radius * self.length_px
+        if c.duplicate_overlap < 1:
+            dup |= _overlap_of_smaller(boxes[a], boxes[b]) >= c.duplicate_overlap
+        return dup
+
+    def _distinct(
+        self, new: np.ndarray, scores: np.ndarray, pts: np.ndarray, boxes: np.ndarray
+    ) -> np.ndarray:
+        """Birth candidates ``new`` less those that duplicate a better-scored candidate
+        (:meth:`_duplicates`: a split blob or doubled box starts one track, not two);
+        kept in their original order."""
         if new.size < 2:
             return new
         order = new[np.argsort(-np.nan_to_num(scores[new], nan=-1.0), kind="stable")]
+        dup = self._duplicates(pts, boxes, order, order)
         keep: list[int] = []
-        r = self.config.duplicate_radius * self.length_px
-        for j in order:
-            if all(np.linalg.norm(pts[j, 1] - pts[i, 1]) >= r for i in keep):
-                keep.append(int(j))
-        return np.sort(np.asarray(keep, dtype=new.dtype))
+        for k in range(order.size):
+            if not any(dup[k, i] for i in keep):
+                keep.append(k)
+        return np.sort(order[keep])
 
     def _confirm(self, t: int, removed: np.ndarray) -> None:
         """Give row ``t`` an identity: a lost track's if it continues one (the row is
@@ -465,6 +498,8 @@ class Tracker:
             dv = first_p[1] - b.last_points[lost, 1]
             s = np.hypot(dv[:, 0], dv[:, 1]) / reach
             s = np.where(np.isnan(s), np.inf, s)
+            if self.config.relink_gate:
+                s = np.where(self._in_coasting_gate(t, lost), s, np.inf)
             i = int(np.argmin(s))
             if s[i] < 1.0:
                 best = int(lost[i])
@@ -485,6 +520,16 @@ class Tracker:
         b.hits[best] += b.hits[t]
         b.misses[best] = b.misses[t]
         removed[t] = True
+
+    def _in_coasting_gate(self, t: int, lost: np.ndarray) -> np.ndarray:
+        """Whether the current position of new track ``t`` lies within ``gate_sigmas``
+        (Mahalanobis) of where each lost track in ``lost`` has coasted to (its Kalman
+        prediction for this frame, with the covariance grown over the gap)."""
+        b = self._bank
+        d = b.x[t, :2][None, :] - b.x[lost, :2]
+        S = b.P[lost][:, :2, :2] + self._r2 * np.eye(2)
+        m2 = np.einsum("ni,nij,nj->n", d, np.linalg.inv(S), d)
+        return m2 <= self.config.gate_sigmas**2
 
     # --------------------------------------------------------------------- output
     def _emit(
