@@ -40,6 +40,7 @@ def pair_costs(
     boxes: np.ndarray,
     length_px: float,
     hint_other: np.ndarray | None = None,
+    given_boxes: bool = True,
 ) -> np.ndarray:
     """Costs ``(n, m)`` of tracks and detections, :data:`BIG` outside the gate.
 
@@ -47,8 +48,11 @@ def pair_costs(
     [+ hint_weight]`` (``d`` the distance of the body points, ``da`` the angle between
     the body axes when both are known, the hint term where the detection was split off
     another track's prediction: ``hint_other`` ``(n, m)``).  Gate: Mahalanobis distance
-    of the innovation within ``gate_sigmas``, ``d`` within ``reach`` and the IoU of the
-    predicted and detected boxes at least ``min_iou``.
+    of the innovation within ``gate_sigmas``, ``d`` within ``reach`` and, for a
+    detector's own boxes (``given_boxes``; not boxes made from poses, whose overlap
+    drops when an ant turns), the IoU of the predicted and detected boxes at least
+    ``min_iou``.  With ``own_size`` ``d`` is in units of the track's own size (longer
+    side of its box) instead of ``length_px``.
 
     Tracks: innovation covariances ``S`` ``(n, 2, 2)``, predicted body points ``pred``
     ``(n, 2)``, boxes ``track_boxes`` ``(n, 4)`` and axes (head - tail) ``axes``
@@ -80,7 +84,7 @@ def pair_costs(
         float(c.distance_weight),
         float(c.angle_weight),
         float(c.hint_weight),
-        float(c.min_iou),
+        float(c.min_iou) if given_boxes else 0.0,
         bool(c.own_size),
         float(length_px),
         cost,

@@ -91,13 +91,13 @@ class TrackerConfig:
     defaults are the paper's ant (7.14 x 2.5 mm, 100 mm/s at most) in these units.
     """
 
-    n_init: int = 3
-    tentative_max_misses: int = 1
-    max_gap_s: float = 1.0
+    n_init: int = 4
+    tentative_max_misses: int = 0
+    max_gap_s: float = 0.5
     max_speed_bl_s: float = 14.0
-    accel_bl_s2: float = 28.0
+    accel_bl_s2: float = 8.0
     adapt: bool = True
-    adapt_range: float = 5.0
+    adapt_range: float = 25.0
     meas_noise_bl: float = 0.04605  # 1 px at the paper's 3.04 px/mm
     score_noise_power: float = 4.0
     gate_sigmas: float = 5.0
@@ -106,12 +106,13 @@ class TrackerConfig:
     angle_weight: float = 0.3
     hint_weight: float = 1.0
     max_cost: float = 2.0
-    min_iou: float = 0.0
-    relink_gate: bool = False
-    own_size: bool = False
+    min_iou: float = 0.3
+    relink_gate: bool = True
+    own_size: bool = True
+    coast_last: bool = True
     min_score: float = 0.0
-    duplicate_radius: float = 0.5
-    duplicate_overlap: float = 1.0
+    duplicate_radius: float = 0.0
+    duplicate_overlap: float = 0.3
     interpolate: bool = True
     fix_jumps: bool = True
     head_motion_speed_bl_s: float = 0.42
@@ -357,19 +358,27 @@ class Tracker:
             boxes=boxes,
             length_px=self.length_px,
             hint_other=hint_other,
+            given_boxes=dets.boxes is not None,
         )
         conf = b.out_id > 0
+        if c.coast_last:
+            # Tracks seen in the previous frame first, then coasting ones, then
+            # tentative ones: a coasting track cannot take a detection that a track
+            # on its object wants.
+            seen = b.misses == 0
+            groups = [conf & seen, conf & ~seen, ~conf]
+        else:
+            groups = [conf, ~conf]
         rows, cols = [], []
-        group = np.flatnonzero(conf)
-        if group.size:
-            r, j = association.assign(cost if group.size == b.n else cost[group], c.max_cost)
-            rows.append(group[r])
-            cols.append(j)
-            avail[j] = False
-        group = np.flatnonzero(~conf)
-        if group.size and avail.any():
-            sub = np.where(avail, cost[group], association.BIG)
-            r, j = association.assign(sub, c.max_cost)
+        for mask in groups:
+            group = np.flatnonzero(mask)
+            if not group.size or not avail.any():
+                continue
+            if group.size == b.n:
+                r, j = association.assign(cost, c.max_cost)
+            else:
+                sub = np.where(avail, cost[group], association.BIG)
+                r, j = association.assign(sub, c.max_cost)
             rows.append(group[r])
             cols.append(j)
             avail[j] = False
@@ -499,7 +508,9 @@ class Tracker:
             s = np.hypot(dv[:, 0], dv[:, 1]) / reach
             s = np.where(np.isnan(s), np.inf, s)
             if self.config.relink_gate:
-                s = np.where(self._in_coasting_gate(t, lost), s, np.inf)
+                # Beyond a one-frame gap, only where the lost track's motion leads.
+                near = (first_frame - last[lost] <= 2) | self._in_coasting_gate(t, lost)
+                s = np.where(near, s, np.inf)
             i = int(np.argmin(s))
             if s[i] < 1.0:
                 best = int(lost[i])
