@@ -202,8 +202,7 @@ def run_ours(
 #: that changed, at their old values (``--previous`` runs them beside the defaults).
 PREVIOUS_DEFAULTS: dict[str, Any] = dict(
     n_init=3, tentative_max_misses=1, max_gap_s=1.0, accel_bl_s2=28.0, adapt_range=5.0,
-    min_iou=0.0, relink_gate=False, own_size=False, coast_last=False,
-    duplicate_radius=0.5, duplicate_overlap=1.0,
+    min_iou=0.0, relink_gate=False, duplicate_radius=0.5, duplicate_overlap=1.0,
 )  # fmt: skip
 
 #: The peers' options searched on the tuning sequences (their own search spaces,

@@ -108,8 +108,8 @@ class TrackerConfig:
     max_cost: float = 2.0
     min_iou: float = 0.3
     relink_gate: bool = True
-    own_size: bool = True
-    coast_last: bool = True
+    own_size: bool = False
+    coast_last: bool = False
     min_score: float = 0.0
     duplicate_radius: float = 0.0
     duplicate_overlap: float = 0.3
