@@ -437,7 +437,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.peer_options is not None:
         # Options tuned by an earlier run on the same tuning sequences (its --json
         # output's "peer_options"): the grid search is the slow part.
-        peer_options.update(json.loads(args.peer_options.read_text())["peer_options"])
+        loaded = json.loads(args.peer_options.read_text())["peer_options"]
+        peer_options.update(loaded)
     elif tune and not args.no_peer_tuning:
         cache = {}
         for seq in tune:
@@ -467,10 +468,12 @@ def main(argv: list[str] | None = None) -> int:
         trackers["ours (previous)"] = ("ours", TrackerConfig(**PREVIOUS_DEFAULTS))
     tuned = bool(tune) and not args.no_peer_tuning
     for name in PEER_GRID:
-        if tuned:
+        # With --peer-options, only the peers it holds count as tuned.
+        if tuned and (args.peer_options is None or name in loaded):
             trackers[f"{name} (tuned)"] = (name, peer_options[name])
-        if not tuned or args.peer_defaults:
-            trackers[name] = (name, {})
+            if not args.peer_defaults:
+                continue
+        trackers[name] = (name, {})
     names = list(trackers)
 
     for seq in seqs:
