@@ -198,6 +198,13 @@ def run_ours(
     return time_ours(our_detections(frames), fps, config, tracker)[0].mot_table()
 
 
+#: Our tracker's defaults before the real-box work (issue 26, item 6): the fields
+#: that changed, at their old values (``--previous`` runs them beside the defaults).
+PREVIOUS_DEFAULTS: dict[str, Any] = dict(
+    n_init=3, tentative_max_misses=1, max_gap_s=1.0, accel_bl_s2=28.0, adapt_range=5.0,
+    min_iou=0.0, relink_gate=False, duplicate_radius=0.5, duplicate_overlap=1.0,
+)  # fmt: skip
+
 #: The peers' options searched on the tuning sequences (their own search spaces,
 #: ``trackers``' ``search_space``, on a coarse grid); the defaults are in every grid.
 PEER_GRID = {
@@ -267,6 +274,31 @@ def run_peer(
     return peer_table(time_peer(name, peer_detections(frames), fps, options)[0])
 
 
+def seq_fps(folder: Path, default: float) -> float:
+    """Frame rate of a sequence folder: ``frameRate`` of its ``seqinfo.ini`` (the
+    MOTChallenge layout) if there is one, else ``default`` (``--fps``)."""
+    ini = folder / "seqinfo.ini"
+    if ini.exists():
+        for line in ini.read_text().splitlines():
+            key, _, value = line.partition("=")
+            if key.strip() == "frameRate" and value.strip():
+                return float(value)
+    return default
+
+
+def considered_gt(gt: np.ndarray, mot15: bool = False) -> np.ndarray:
+    """Ground-truth rows that count: those not marked 0 in column 7 (MOTChallenge's
+    "ignore"), with an absent class (-1) written as 1 (pedestrian), so that
+    TrackEval's MOT17 preprocessing and ours read the same rows.  ``mot15``: the
+    MOT15 layout, whose columns 8-10 are world coordinates, not class and
+    visibility (every row is then of class 1)."""
+    gt = gt[gt[:, 6] != 0].copy()
+    if mot15:
+        gt[:, 7:10] = -1
+    gt[gt[:, 7] == -1, 7] = 1
+    return gt
+
+
 def _gmean(x: list[float]) -> float:
     return float(np.exp(np.mean(np.log(x))))
 
@@ -317,7 +349,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="timing: best of this many runs")
     ap.add_argument("--use-det", action="store_true", help="use <seq>/det/det.txt")
     ap.add_argument("--check-trackeval", action="store_true")
+    ap.add_argument(
+        "--mot15",
+        action="store_true",
+        help="ground truth in the MOT15 layout (columns 8-10: world coordinates)",
+    )
     ap.add_argument("--no-peer-tuning", action="store_true", help="peers at their defaults")
+    ap.add_argument(
+        "--peer-defaults",
+        action="store_true",
+        help="with tuning: also the peers at their defaults (rows without '(tuned)')",
+    )
+    ap.add_argument(
+        "--peer-options",
+        type=Path,
+        metavar="JSON",
+        help="take the peers' tuned options from an earlier --json output",
+    )
+    ap.add_argument(
+        "--previous",
+        action="store_true",
+        help="also our tracker at its previous defaults (PREVIOUS_DEFAULTS)",
+    )
     ap.add_argument("--set", dest="overrides", nargs="*", default=[], metavar="KEY=VALUE",
                     help="our tracker's options (e.g. max_gap_s=0.5), for tuning")  # fmt: skip
     ap.add_argument(
@@ -355,15 +408,17 @@ def main(argv: list[str] | None = None) -> int:
     def load_gt(seq: str) -> np.ndarray:
         if seq in synth:
             return synthetic_boxes(synth[seq], args.synthetic_frames, seed=synth[seq])
-        gt = read_mot_table(args.data / seq / "gt" / "gt.txt")
+        gt = considered_gt(read_mot_table(args.data / seq / "gt" / "gt.txt"), args.mot15)
         return gt[gt[:, 0] <= limit[seq]] if seq in limit else gt
+
+    def fps_of(seq: str) -> float:
+        return args.fps if seq in synth else seq_fps(args.data / seq, args.fps)
 
     seqs = sorted(p.name for p in args.data.iterdir() if (p / "gt" / "gt.txt").exists())
     seqs += sorted(synth)
     if not seqs:
         print(f"{args.data}: no <sequence>/gt/gt.txt found", file=sys.stderr)
         return 2
-    names = ["ours", "ByteTrack", "OC-SORT", "SORT"]
     rows = []
     import itertools
     import tempfile
@@ -379,13 +434,19 @@ def main(argv: list[str] | None = None) -> int:
     # IDF1 over their detection runs); their defaults if no sequence is for tuning.
     peer_options: dict[str, dict] = {n: {} for n in PEER_GRID}
     tune = [s for s in seqs if s in args.tune]
-    if tune and not args.no_peer_tuning:
+    if args.peer_options is not None:
+        # Options tuned by an earlier run on the same tuning sequences (its --json
+        # output's "peer_options"): the grid search is the slow part.
+        loaded = json.loads(args.peer_options.read_text())["peer_options"]
+        peer_options.update(loaded)
+    elif tune and not args.no_peer_tuning:
         cache = {}
         for seq in tune:
             gt = load_gt(seq)
             for level, seed in runs:
                 cache[seq, level, seed] = (
                     gt,
+                    fps_of(seq),
                     _per_frame(detections(seq, gt, level, seed), int(gt[:, 0].max())),
                 )
         for name, grid in PEER_GRID.items():
@@ -393,37 +454,54 @@ def main(argv: list[str] | None = None) -> int:
             for values in itertools.product(*grid.values()):
                 opt = dict(zip(grid, values, strict=True))
                 score = np.mean([
-                    sum(evaluate_tables(gt, run_peer(name, fr, args.fps, opt))[k]
+                    sum(evaluate_tables(gt, run_peer(name, fr, fps, opt))[k]
                         for k in ("mota", "idf1"))
-                    for gt, fr in cache.values()])  # fmt: skip
+                    for gt, fps, fr in cache.values()])  # fmt: skip
                 if score > best:
                     best, peer_options[name] = score, opt
         print("peer options tuned on", ", ".join(tune), file=sys.stderr)
         for name, opt in peer_options.items():
             print(f"  {name}: {opt}", file=sys.stderr)
+    # Every tracker run: label -> (ours or the peer's name, its options).
+    trackers: dict[str, tuple[str, Any]] = {"ours": ("ours", cfg)}
+    if args.previous:
+        trackers["ours (previous)"] = ("ours", TrackerConfig(**PREVIOUS_DEFAULTS))
+    tuned = bool(tune) and not args.no_peer_tuning
+    for name in PEER_GRID:
+        # With --peer-options, only the peers it holds count as tuned.
+        if tuned and (args.peer_options is None or name in loaded):
+            trackers[f"{name} (tuned)"] = (name, peer_options[name])
+            if not args.peer_defaults:
+                continue
+        trackers[name] = (name, {})
+    names = list(trackers)
 
     for seq in seqs:
         gt = load_gt(seq)
         n_frames = int(gt[:, 0].max())
+        fps = fps_of(seq)
         for level, seed in runs:
             frames = _per_frame(detections(seq, gt, level, seed), n_frames)
             # Inputs built and outputs converted outside the timer; timed is each
             # tracker's own per-frame work (time_ours, time_peer), interleaved (ours,
             # peer, peer, ..., repeated) so that load changes hit all alike.
-            inputs = {"ours": our_detections(frames)}
-            inputs.update({n: peer_detections(frames) for n in names[1:]})
+            inputs = {
+                name: our_detections(frames) if kind == "ours" else peer_detections(frames)
+                for name, (kind, _) in trackers.items()
+            }
             best = dict.fromkeys(names, np.inf)
             outs: dict[str, Any] = {}
             for _ in range(args.repeat):
-                for name in names:
-                    if name == "ours":
-                        outs[name], secs = time_ours(inputs[name], args.fps, cfg)
+                for name, (kind, opts) in trackers.items():
+                    if kind == "ours":
+                        outs[name], secs = time_ours(inputs[name], fps, opts)
                     else:
-                        opts = peer_options[name]
-                        outs[name], secs = time_peer(name, inputs[name], args.fps, opts)
+                        outs[name], secs = time_peer(kind, inputs[name], fps, opts)
                     best[name] = min(best[name], secs)
-            preds = {"ours": outs["ours"].mot_table()}
-            preds.update({n: peer_table(outs[n]) for n in names[1:]})
+            preds = {
+                name: outs[name].mot_table() if kind == "ours" else peer_table(outs[name])
+                for name, (kind, _) in trackers.items()
+            }
             for name in names:
                 pred, secs = preds[name], best[name]
                 m = evaluate_tables(gt, pred)
@@ -441,7 +519,7 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps({"peer_options": peer_options, "rows": rows}, indent=1))
         return 0
     # Mean over seeds per sequence, level and tracker.
-    print(f"{'sequence':24s} {'split':8s} {'dets':9s} {'tracker':9s} "
+    print(f"{'sequence':24s} {'split':8s} {'dets':9s} {'tracker':17s} "
           f"{'MOTA':>6s} {'IDF1':>6s} {'HOTA':>6s} {'IDSW':>5s} {'FP':>6s} {'FN':>6s} "
           f"{'frames/s':>9s} "
           f"{'ours/it':>8s}")  # fmt: skip
@@ -450,7 +528,7 @@ def main(argv: list[str] | None = None) -> int:
         group = [r for r in rows if key(r) == k]
         for name in names:
             g = [r for r in group if r["tracker"] == name]
-            print(f"{k[0]:24s} {g[0]['split']:8s} {k[1]:9s} {name:9s} "
+            print(f"{k[0]:24s} {g[0]['split']:8s} {k[1]:9s} {name:17s} "
                   f"{np.mean([r['mota'] for r in g]):6.3f} {np.mean([r['idf1'] for r in g]):6.3f} "
                   f"{np.mean([r['hota'] for r in g]):6.3f} {np.mean([r['idsw'] for r in g]):5.1f} "
                   f"{np.mean([r['fp'] for r in g]):6.0f} {np.mean([r['fn'] for r in g]):6.0f} "

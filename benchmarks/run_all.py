@@ -125,6 +125,12 @@ ENGINE_FULL = ["--n", "1200", "--n", "10000", "--n", "100000", "--n", "1000000",
 ENGINE_QUICK = ["--n", "1200", "--n", "10000", "--phi", "0.5", "--budget-s", "2"]
 LIMIT = ["--limit", "--settle", "2", "--phi", "0.5", "--n", "10000", "--n", "100000"]
 
+#: Our tracker and its peers on MOT15's public Faster R-CNN boxes (real detector output
+#: with ground truth); DATA is ``--boxes-data`` (not shipped: docs/tracking.md says how
+#: to make it), tuned on five sequences, the other six held out.
+BOXES = ["DATA", "--mot15", "--use-det", "--tune", "ADL-Rundle-6", "ETH-Bahnhof",
+         "KITTI-13", "PETS09-S2L1", "TUD-Stadtmitte", "--check-trackeval"]  # fmt: skip
+
 STEPS = [
     Step("engine", "bench_engine", ENGINE_FULL, ENGINE_QUICK,
          title="engine beside NumPy + cKDTree, JAX-MD, VMAS, pymunk (same workload)"),
@@ -152,6 +158,9 @@ STEPS = [
          needs="distributed"),
     Step("tracking_real", "bench_tracking_real", ["--synthetic", "50", "100", "200"],
          ["--synthetic", "50", "--seeds", "0", "--levels", "moderate"], needs="trackers"),
+    Step("tracking_boxes", "bench_tracking_real", BOXES, BOXES, needs="trackers",
+         title="ours, ByteTrack, OC-SORT, SORT on real detector boxes (MOT15; DATA: "
+         "--boxes-data, see docs/tracking.md)"),
     Step("viewer", "bench_viewer", [], ["--sizes", "10000,100000", "--seconds", "3"]),
 ]  # fmt: skip
 #: Steps that ``--quick`` leaves out (no quick size says anything).
@@ -164,6 +173,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", choices=[s.name for s in STEPS])
     ap.add_argument("--tracking-data", type=Path, default=None,
                     help="folder of <sequence>/gt/gt.txt for the real-tracking step")  # fmt: skip
+    ap.add_argument("--boxes-data", type=Path, default=None,
+                    help="MOT15 folder (<sequence>/det/det.txt, gt/gt.txt) for the "
+                    "real-detector-boxes step")  # fmt: skip
     a = ap.parse_args(argv)
     t_all = time.perf_counter()
     with tempfile.TemporaryDirectory() as empty:
@@ -181,6 +193,10 @@ def main(argv: list[str] | None = None) -> int:
                 tune = ["--tune", "Seq0006Object21Image64"] if a.tracking_data else []
                 args = [str(data), *tune, *args]
                 shown = shown.replace(".py", f".py {data if a.tracking_data else 'EMPTY_DIR'}", 1)
+            if step.name == "tracking_boxes":
+                data = a.boxes_data or Path(empty)
+                args = [str(data) if x == "DATA" else x for x in args]
+                shown += f"   (DATA = {data if a.boxes_data else 'EMPTY_DIR: pass --boxes-data'})"
             print(f"command: {shown}\n", flush=True)
             d = _run(step, args)
             if d is not None:

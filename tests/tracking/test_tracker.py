@@ -253,8 +253,9 @@ def _box_frames(centres_per_frame: list[np.ndarray], scores: list[float]) -> lis
 )
 def test_doubled_boxes_born_together_start_one_track(offset, n_tracks):
     # Two boxes from the first frame on, moving together at 1 px/frame, the second
-    # scored lower: a box doubled by the detector (closer than duplicate_radius body
-    # lengths, 0.5 x 40 px) must start one track, two animals far apart two.
+    # scored lower: a box doubled by the detector (4 px apart, so that each covers
+    # nearly all of the other: duplicate_overlap) must start one track, two animals
+    # far apart two.
     n = 30
     frames = [np.array([[100.0 + k, 100.0], [100.0 + k + offset, 100.0]]) for k in range(n)]
     res = track_detections(_box_frames(frames, [0.9, 0.6]), fps=25, length_px=40.0)
@@ -263,3 +264,47 @@ def test_doubled_boxes_born_together_start_one_track(offset, n_tracks):
     # The kept track follows the better-scored box.
     first = table[table[:, 1] == table[0, 1]]
     np.testing.assert_allclose(first[:, 2] + first[:, 4] / 2, 100.0 + first[:, 0] - 1, atol=1.0)
+
+
+def _sized_boxes(objects_per_frame):
+    """FrameDetections of box-only detections: per frame a list of ``(cx, cy, w, h)``."""
+    out = []
+    for objs in objects_per_frame:
+        b = np.array([[cx - w / 2, cy - h / 2, w, h] for cx, cy, w, h in objs], float)
+        b = b.reshape(-1, 4)
+        pts = np.full((len(b), 3, 2), np.nan)
+        pts[:, 1] = b[:, :2] + b[:, 2:] / 2
+        out.append(FrameDetections(pts, np.ones(len(b)), boxes=b))
+    return out
+
+
+@pytest.mark.parametrize("where", ["on its path", "elsewhere"])
+def test_a_lost_identity_continues_only_where_its_motion_leads(where):
+    # One 20 x 40 px object walks right at 2 px/frame (30 fps) for 20 frames, is missed
+    # for 4 frames (0.13 s < max_gap_s), then a box appears either where it has walked
+    # to, or 40 px above that path (within the old max-speed reach of 14 body lengths a
+    # second, far outside the coasted Kalman gate): the first continues the identity,
+    # the second is another object.
+    frames = [[(100 + 2 * k, 100, 20, 40)] for k in range(20)] + [[] for _ in range(4)]
+    dy = 0 if where == "on its path" else 40
+    frames += [[(100 + 2 * k, 100 + dy, 20, 40)] for k in range(24, 34)]
+    res = track_detections(_sized_boxes(frames), fps=30)
+    ids = np.unique(res.ids)
+    assert len(ids) == (1 if where == "on its path" else 2)
+    # Re-linking by reach alone (the previous default) gives the box above the identity.
+    old = TrackerConfig(relink_gate=False)
+    assert np.unique(track_detections(_sized_boxes(frames), fps=30, config=old).ids).size == 1
+
+
+def test_a_fragment_inside_an_object_starts_no_track_but_a_close_neighbour_does():
+    # Two 20 x 60 px objects side by side, 24 px apart (closer than half their length:
+    # the old duplicate_radius would have suppressed one), and in every frame a small
+    # false box inside the first (a fragment: all of it within the object's box).
+    frames = [
+        [(100 + k, 100, 20, 60), (124 + k, 100, 20, 60), (100 + k, 90, 8, 10)] for k in range(30)
+    ]
+    res = track_detections(_sized_boxes(frames), fps=10)
+    assert np.unique(res.ids).size == 2
+    assert np.all(np.bincount(res.frames) == 2)
+    old = TrackerConfig(duplicate_radius=0.5, duplicate_overlap=1.0)
+    assert np.unique(track_detections(_sized_boxes(frames), fps=10, config=old).ids).size != 2

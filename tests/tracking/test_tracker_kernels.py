@@ -50,7 +50,12 @@ def _reference_costs(c, b, frame, r2, pad, step_px, pts, boxes, L, hint_other):
     half = b.half
     pboxes[unknown] = np.concatenate([pred - half, 2 * half], axis=1)[unknown]
     iou = anatomy.box_iou(pboxes, boxes)
-    total = c.iou_weight * (1 - iou) + c.distance_weight * dist / L
+    ok &= iou >= c.min_iou
+    size = np.full(len(pboxes), float(L))
+    if c.own_size:
+        side = np.maximum(pboxes[:, 2], pboxes[:, 3])
+        size = np.where(side > np.finfo(np.float64).eps, side, L)
+    total = c.iou_weight * (1 - iou) + c.distance_weight * dist / size[:, None]
     ta = poses[:, 0] - poses[:, 2]
     da = pts[:, 0] - pts[:, 2]
     if c.angle_weight > 0 and np.isfinite(ta).any() and np.isfinite(da).any():
@@ -86,6 +91,8 @@ def test_pair_costs_equal_the_array_expressions(seed):
         distance_weight=[1.0, 1.3][seed % 2],
         angle_weight=[0.3, 0.0, 0.45][seed % 3],
         gate_sigmas=[5.0, 2.0][seed % 2],
+        min_iou=[0.0, 0.3, 0.05][seed % 3],
+        own_size=seed % 4 < 2,
     )
     hint_other = (rng.random((n, m)) < 0.2) if seed % 4 == 1 else None
     frame, r2, pad, step, L = 100, 1.7, 3.2, 6.0, 20.0
@@ -289,7 +296,10 @@ def test_exact_tracks_on_a_hand_checkable_case():
         pts = np.full((len(rows), 3, 2), np.nan)
         pts[:, 1] = bx[:, :2] + bx[:, 2:] / 2
         dets.append(FrameDetections(pts, np.array(sc), boxes=bx))
-    res = track_detections(dets, fps=10)
+    # The confirmation and coasting this case was written for (n_init 3, one miss
+    # allowed while tentative, one second of coasting).
+    cfg = TrackerConfig(n_init=3, tentative_max_misses=1, max_gap_s=1.0)
+    res = track_detections(dets, fps=10, config=cfg)
     want.sort(key=lambda w: (w[0], w[1]))
     assert res.frames.tolist() == [w[0] for w in want]
     assert res.ids.tolist() == [w[1] for w in want]

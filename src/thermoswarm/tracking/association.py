@@ -40,6 +40,7 @@ def pair_costs(
     boxes: np.ndarray,
     length_px: float,
     hint_other: np.ndarray | None = None,
+    given_boxes: bool = True,
 ) -> np.ndarray:
     """Costs ``(n, m)`` of tracks and detections, :data:`BIG` outside the gate.
 
@@ -47,7 +48,11 @@ def pair_costs(
     [+ hint_weight]`` (``d`` the distance of the body points, ``da`` the angle between
     the body axes when both are known, the hint term where the detection was split off
     another track's prediction: ``hint_other`` ``(n, m)``).  Gate: Mahalanobis distance
-    of the innovation within ``gate_sigmas`` and ``d`` within ``reach``.
+    of the innovation within ``gate_sigmas``, ``d`` within ``reach`` and, for a
+    detector's own boxes (``given_boxes``; not boxes made from poses, whose overlap
+    drops when an ant turns), the IoU of the predicted and detected boxes at least
+    ``min_iou``.  With ``own_size`` ``d`` is in units of the track's own size (longer
+    side of its box) instead of ``length_px``.
 
     Tracks: innovation covariances ``S`` ``(n, 2, 2)``, predicted body points ``pred``
     ``(n, 2)``, boxes ``track_boxes`` ``(n, 4)`` and axes (head - tail) ``axes``
@@ -79,6 +84,8 @@ def pair_costs(
         float(c.distance_weight),
         float(c.angle_weight),
         float(c.hint_weight),
+        float(c.min_iou) if given_boxes else 0.0,
+        bool(c.own_size),
         float(length_px),
         cost,
     )
@@ -107,7 +114,7 @@ def _maximum(a: float, b: float) -> float:  # np.maximum: NaN wins
 @njit(cache=True, error_model="numpy")
 def _gated_costs(
     pred, Sinv, reach, pboxes, body, dboxes, ta, da, hint_other,
-    gate2, w_iou, w_dist, w_angle, w_hint, length_px, out,
+    gate2, w_iou, w_dist, w_angle, w_hint, min_iou, own_size, length_px, out,
 ):  # fmt: skip
     """The loop of :func:`pair_costs` (one pass over the pairs instead of some forty
     array operations, each of which costs more than its arithmetic at tens of
@@ -145,7 +152,17 @@ def _gated_costs(
             iou = 0.0
             if union > _EPS and area_a > _EPS and area_b > _EPS:
                 iou = inter / union
-            total = w_iou * (1 - iou) + w_dist * dist / length_px
+            if iou < min_iou:
+                out[i, j] = BIG
+                continue
+            size = length_px
+            if own_size:
+                # The track's own size (longer side of its box): objects of one kind
+                # but of many sizes on the image (perspective) keep their own scale.
+                size = a2 if a2 >= a3 else a3
+                if not size > _EPS:
+                    size = length_px
+            total = w_iou * (1 - iou) + w_dist * dist / size
             if use_angle:
                 cross = ta[i, 0] * da[j, 1] - ta[i, 1] * da[j, 0]
                 norm = np.hypot(ta[i, 0], ta[i, 1]) * np.hypot(da[j, 0], da[j, 1])

@@ -91,13 +91,13 @@ class TrackerConfig:
     defaults are the paper's ant (7.14 x 2.5 mm, 100 mm/s at most) in these units.
     """
 
-    n_init: int = 3
-    tentative_max_misses: int = 1
-    max_gap_s: float = 1.0
+    n_init: int = 4
+    tentative_max_misses: int = 0
+    max_gap_s: float = 0.5
     max_speed_bl_s: float = 14.0
-    accel_bl_s2: float = 28.0
+    accel_bl_s2: float = 8.0
     adapt: bool = True
-    adapt_range: float = 5.0
+    adapt_range: float = 25.0
     meas_noise_bl: float = 0.04605  # 1 px at the paper's 3.04 px/mm
     score_noise_power: float = 4.0
     gate_sigmas: float = 5.0
@@ -106,8 +106,13 @@ class TrackerConfig:
     angle_weight: float = 0.3
     hint_weight: float = 1.0
     max_cost: float = 2.0
+    min_iou: float = 0.3
+    relink_gate: bool = True
+    own_size: bool = False
+    coast_last: bool = False
     min_score: float = 0.0
-    duplicate_radius: float = 0.5
+    duplicate_radius: float = 0.0
+    duplicate_overlap: float = 0.3
     interpolate: bool = True
     fix_jumps: bool = True
     head_motion_speed_bl_s: float = 0.42
@@ -151,6 +156,20 @@ class TrackerConfig:
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
         check(0 <= self.min_score <= 1, "min_score", "in [0, 1]", self.min_score)
+        check(0 <= self.min_iou < 1, "min_iou", "in [0, 1)", self.min_iou)
+
+
+def _overlap_of_smaller(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(len(a), len(b))``: intersection of MOT boxes over the smaller one's area
+    (0 where either has no area)."""
+    x0 = np.maximum(a[:, None, 0], b[None, :, 0])
+    y0 = np.maximum(a[:, None, 1], b[None, :, 1])
+    x1 = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2])
+    y1 = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3])
+    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    small = np.minimum((a[:, 2] * a[:, 3])[:, None], (b[:, 2] * b[:, 3])[None, :])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(small > 0, inter / small, 0.0)
 
 
 def estimate_length_px(dets: FrameDetections) -> float | None:
@@ -339,19 +358,27 @@ class Tracker:
             boxes=boxes,
             length_px=self.length_px,
             hint_other=hint_other,
+            given_boxes=dets.boxes is not None,
         )
         conf = b.out_id > 0
+        if c.coast_last:
+            # Tracks seen in the previous frame first, then coasting ones, then
+            # tentative ones: a coasting track cannot take a detection that a track
+            # on its object wants.
+            seen = b.misses == 0
+            groups = [conf & seen, conf & ~seen, ~conf]
+        else:
+            groups = [conf, ~conf]
         rows, cols = [], []
-        group = np.flatnonzero(conf)
-        if group.size:
-            r, j = association.assign(cost if group.size == b.n else cost[group], c.max_cost)
-            rows.append(group[r])
-            cols.append(j)
-            avail[j] = False
-        group = np.flatnonzero(~conf)
-        if group.size and avail.any():
-            sub = np.where(avail, cost[group], association.BIG)
-            r, j = association.assign(sub, c.max_cost)
+        for mask in groups:
+            group = np.flatnonzero(mask)
+            if not group.size or not avail.any():
+                continue
+            if group.size == b.n:
+                r, j = association.assign(cost, c.max_cost)
+            else:
+                sub = np.where(avail, cost[group], association.BIG)
+                r, j = association.assign(sub, c.max_cost)
             rows.append(group[r])
             cols.append(j)
             avail[j] = False
@@ -419,9 +446,8 @@ class Tracker:
         ok = ~(dets.scores[cand] < c.min_score) & np.isfinite(pts[cand, 1]).all(axis=1)
         used = ~avail
         if used.any() and ok.any():
-            dd = np.linalg.norm(pts[used, 1][None, :, :] - pts[cand, 1][:, None, :], axis=-1)
-            ok &= ~np.any(dd < c.duplicate_radius * self.length_px, axis=1)
-        new = self._distinct(cand[ok], dets.scores, pts)
+            ok &= ~np.any(self._duplicates(pts, boxes, cand, np.flatnonzero(used)), axis=1)
+        new = self._distinct(cand[ok], dets.scores, pts, boxes)
         if not new.size:
             return
         p = association.orient_new(c, pts[new], hc[new])
@@ -433,19 +459,35 @@ class Tracker:
         )  # fmt: skip
         self._next_key += new.size
 
-    def _distinct(self, new: np.ndarray, scores: np.ndarray, pts: np.ndarray) -> np.ndarray:
-        """Birth candidates ``new`` less those within ``duplicate_radius`` body lengths
-        of a better-scored candidate (a split blob or doubled box starts one track, not
-        two); kept in their original order."""
+    def _duplicates(
+        self, pts: np.ndarray, boxes: np.ndarray, a: np.ndarray, b: np.ndarray
+    ) -> np.ndarray:
+        """``(len(a), len(b))``: whether detection ``a[i]`` duplicates ``b[j]``: body
+        points within ``duplicate_radius`` body lengths, or boxes whose intersection
+        covers at least ``duplicate_overlap`` of the smaller one (when that is below 1:
+        a fragment inside an object's box, or a doubled box)."""
+        c = self.config
+        dd = np.linalg.norm(pts[b, 1][None, :, :] - pts[a, 1][:, None, :], axis=-1)
+        dup = dd < c.duplicate_radius * self.length_px
+        if c.duplicate_overlap < 1:
+            dup |= _overlap_of_smaller(boxes[a], boxes[b]) >= c.duplicate_overlap
+        return dup
+
+    def _distinct(
+        self, new: np.ndarray, scores: np.ndarray, pts: np.ndarray, boxes: np.ndarray
+    ) -> np.ndarray:
+        """Birth candidates ``new`` less those that duplicate a better-scored candidate
+        (:meth:`_duplicates`: a split blob or doubled box starts one track, not two);
+        kept in their original order."""
         if new.size < 2:
             return new
         order = new[np.argsort(-np.nan_to_num(scores[new], nan=-1.0), kind="stable")]
+        dup = self._duplicates(pts, boxes, order, order)
         keep: list[int] = []
-        r = self.config.duplicate_radius * self.length_px
-        for j in order:
-            if all(np.linalg.norm(pts[j, 1] - pts[i, 1]) >= r for i in keep):
-                keep.append(int(j))
-        return np.sort(np.asarray(keep, dtype=new.dtype))
+        for k in range(order.size):
+            if not any(dup[k, i] for i in keep):
+                keep.append(k)
+        return np.sort(order[keep])
 
     def _confirm(self, t: int, removed: np.ndarray) -> None:
         """Give row ``t`` an identity: a lost track's if it continues one (the row is
@@ -465,6 +507,10 @@ class Tracker:
             dv = first_p[1] - b.last_points[lost, 1]
             s = np.hypot(dv[:, 0], dv[:, 1]) / reach
             s = np.where(np.isnan(s), np.inf, s)
+            if self.config.relink_gate:
+                # Beyond a one-frame gap, only where the lost track's motion leads.
+                near = (first_frame - last[lost] <= 2) | self._in_coasting_gate(t, lost)
+                s = np.where(near, s, np.inf)
             i = int(np.argmin(s))
             if s[i] < 1.0:
                 best = int(lost[i])
@@ -485,6 +531,16 @@ class Tracker:
         b.hits[best] += b.hits[t]
         b.misses[best] = b.misses[t]
         removed[t] = True
+
+    def _in_coasting_gate(self, t: int, lost: np.ndarray) -> np.ndarray:
+        """Whether the current position of new track ``t`` lies within ``gate_sigmas``
+        (Mahalanobis) of where each lost track in ``lost`` has coasted to (its Kalman
+        prediction for this frame, with the covariance grown over the gap)."""
+        b = self._bank
+        d = b.x[t, :2][None, :] - b.x[lost, :2]
+        S = b.P[lost][:, :2, :2] + self._r2 * np.eye(2)
+        m2 = np.einsum("ni,nij,nj->n", d, np.linalg.inv(S), d)
+        return m2 <= self.config.gate_sigmas**2
 
     # --------------------------------------------------------------------- output
     def _emit(
