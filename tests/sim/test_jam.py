@@ -120,6 +120,26 @@ def test_a_jam_resumes_bit_for_bit_with_its_held_pushes():
     assert np.array_equal(state.counters, copy.counters)
 
 
+def test_held_pushes_naming_walls_this_world_lacks_start_the_step_cold():
+    """A state whose held wall pushes name a wall index past this world's walls (a
+    state from another world of the same size) is stepped as if nothing were held: the
+    kernels index the walls unchecked, so the engine refuses such pushes first."""
+    from thermoswarm.sim.engine import _held
+
+    sim, state, _ = _jam(n=250)
+    for _ in range(60):
+        sim.step(state)
+    assert state.held_wall_ids is not None and state.held_wall_ids.max() >= 0
+    ws = sim._ensure_ws(state)
+    n_seg = len(sim.world.segments)
+    assert _held(state, ws, n_seg)[2] is state.held_wall_ids  # valid: kept
+    bad = state.copy()
+    bad.held_wall_ids = np.where(bad.held_wall_ids >= 0, n_seg + 7, -1).astype(np.int32)
+    assert all(a.size == 0 for a in _held(bad, ws, n_seg))
+    sim.step(bad)  # and the step runs cold
+    assert np.all(np.isfinite(bad.pos))
+
+
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 Numba threads")
 def test_a_jam_is_bit_identical_on_1_and_2_threads():
     out = []

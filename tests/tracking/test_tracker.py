@@ -78,6 +78,10 @@ def test_config_is_checked():
         TrackerConfig(n_init=0)
     with pytest.raises(ConfigError, match="max_speed_bl_s"):
         TrackerConfig(max_speed_bl_s=-1)
+    # at 0 every birth would be a "duplicate" of any matched box: no track born
+    for bad in (0.0, -0.1, float("nan")):
+        with pytest.raises(ConfigError, match="duplicate_overlap"):
+            TrackerConfig(duplicate_overlap=bad)
 
 
 @pytest.fixture(scope="module")
@@ -307,4 +311,4 @@ def test_a_fragment_inside_an_object_starts_no_track_but_a_close_neighbour_does(
     assert np.unique(res.ids).size == 2
     assert np.all(np.bincount(res.frames) == 2)
     old = TrackerConfig(duplicate_radius=0.5, duplicate_overlap=1.0)
-    assert np.unique(track_detections(_sized_boxes(frames), fps=10, config=old).ids).size != 2
+    assert np.unique(track_detections(_sized_boxes(frames), fps=10, config=old).ids).size == 1

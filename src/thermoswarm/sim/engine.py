@@ -510,14 +510,19 @@ KEEP = 0.95
 SLACK = 1.0
 
 
-def _held(state: SwarmState, ws: _Workspace) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _held(
+    state: SwarmState, ws: _Workspace, n_segments: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The state's held pushes (pairs, walls, wall indices), or empty arrays when there
-    are none or they are of another shape (another engine's: the step starts cold)."""
+    are none or they are of another shape or name walls this world does not have
+    (another engine's: the step starts cold; the kernels index walls unchecked)."""
     n, cap = state.n, ws.neighbours.shape[1]
     ok = (
         state.held_pairs is not None and state.held_pairs.shape == (n, cap)
         and state.held_walls is not None and state.held_walls.shape == (2, n)
         and state.held_wall_ids is not None and state.held_wall_ids.shape == (2, n)
+        and (n == 0 or (-1 <= int(state.held_wall_ids.min())  # -1: no wall held
+                        and int(state.held_wall_ids.max()) < n_segments))
     )  # fmt: skip
     if not ok:
         return _NO_PAIRS, _NO_WALLS, _NO_IDS
@@ -841,7 +846,7 @@ class Simulator:
                 self._decide(state, due)
             restore = _auto_threads(state.n)
             try:
-                lam, lamw, lamid = _held(state, ws)
+                lam, lamw, lamid = _held(state, ws, len(self.world.segments))
                 sweeps, overlap, builds, in_scratch, lam, lamw, lamid, held = K.overdamped_step(
                     state.pos, ws.scratch, state.ref, state.fcols, state.icols, state.udir,
                     lam, lamw, lamid, lam.shape[0] == state.n, ws.grid,

@@ -250,7 +250,7 @@ def _measure(
 ):  # fmt: skip
     """Read-only: the largest overlap (exact: the lists are valid) and the largest held
     push no longer needed (``min(push, gap)``, mm) of the robots ``active[:count]``
-    (every robot when ``everyone``), for the Gauss-Seidel solve (:func:`_held_solve`)."""
+    (every robot when ``everyone``), for the Gauss-Seidel solve (:func:`_gs_solve`)."""
     cap = nbr.shape[1]
     r = num.radius
     d_rr = 2.0 * r

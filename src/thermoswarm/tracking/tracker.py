@@ -157,6 +157,8 @@ class TrackerConfig:
             check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
         check(0 <= self.min_score <= 1, "min_score", "in [0, 1]", self.min_score)
         check(0 <= self.min_iou < 1, "min_iou", "in [0, 1)", self.min_iou)
+        v = self.duplicate_overlap
+        check(v > 0 and not math.isnan(v), "duplicate_overlap", "a positive number (>= 1: off)", v)
 
 
 def _overlap_of_smaller(a: np.ndarray, b: np.ndarray) -> np.ndarray:
