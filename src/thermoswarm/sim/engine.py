@@ -572,7 +572,6 @@ class _Workspace:
             min_sweeps=params.iterations, max_sweeps=params.max_iterations,
             slack_tol=SLACK * params.overlap_tol * 2 * r,
             keep=KEEP,
-            warm=False, pull=0.0,  # unused
         )  # fmt: skip
         ncell = nx * ny
         self.cell = np.empty(n, np.int32)  # each robot's cell when the lists were built

@@ -72,10 +72,8 @@ class Numerics(NamedTuple):
     half_skin: float  # rebuild once any robot is farther than this from where it was
     min_sweeps: int
     max_sweeps: int
-    warm: bool  # keep each contact's accumulated correction and warm-start the next step
-    pull: float  # fraction of a held contact's opened gap closed per sweep (warm only)
     slack_tol: float  # stop sweeping once no held push unneeded by more than this (mm)
-    keep: float  # fraction of the last step's held pushes a step starts from (warm only)
+    keep: float  # fraction of the last step's held pushes a jammed step starts from
 
 
 # --------------------------------------------------------------------------- grid
