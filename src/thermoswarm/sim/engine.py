@@ -468,16 +468,18 @@ def threads_for(n: int) -> int:
     return current
 
 
-def _auto_threads(n: int) -> int | None:
-    """Lower Numba to one thread for a small swarm when no count was given; returns the
-    count to restore after the step (None: nothing changed).  Costs ~1 us."""
-    if _EXPLICIT_THREADS is not None or n >= SERIAL_BELOW:
-        return None
+def _auto_threads(n: int) -> tuple[int | None, bool]:
+    """Lower Numba to one thread for a small swarm when no count was given.  Returns the
+    count to restore after the step (None: nothing changed) and whether the step runs on
+    one thread (then the kernels call their loops' serial twins).  Costs ~1 us; with an
+    explicit count, nothing."""
+    if _EXPLICIT_THREADS is not None:
+        return None, _EXPLICIT_THREADS == 1
     current = numba.get_num_threads()
-    if current == 1 or current != numba.config.NUMBA_NUM_THREADS:
-        return None  # one thread already, or a count the caller chose
+    if n >= SERIAL_BELOW or current == 1 or current != numba.config.NUMBA_NUM_THREADS:
+        return None, current == 1  # all threads, one already, or a count the caller chose
     numba.set_num_threads(1)
-    return current
+    return current, True
 
 
 #: Over-relaxation of the Gauss-Seidel passes of a jammed step (robot pairs and walls):
@@ -585,7 +587,8 @@ class _Workspace:
         self.overflows = np.zeros(1, np.int64)  # robots whose list overflowed
         self.visits = np.empty((2, n), np.int32)  # the robots a sweep visits, and the next
         self.result = np.zeros(n, np.uint8)  # each visited robot: moved, overlapping
-        self.mark = np.zeros(n, np.uint8)
+        # padded to a multiple of 8 bytes: kernels_sweep._collect_marked reads it by words
+        self.mark = np.zeros(-(-max(n, 1) // 8) * 8, np.uint8)
         self.near_moved = np.zeros(n, np.uint8)  # near a body or piston that moved
         self.cell_near_static = np.zeros(ncell, np.uint8)
         K.flag_cells_near(world.segments, world.static_discs, self.grid, r + skin_mm,
@@ -730,6 +733,7 @@ class Simulator:
         self._ws: _Workspace | None = None
         #: neighbour-list builds so far (statistics: at step starts and within steps)
         self.list_builds = 0
+        self._tau_steps = params.tau_steps
 
     # ------------------------------------------------------------------ init
     def init(
@@ -838,12 +842,12 @@ class Simulator:
         w = self.world
         if p.mode == "overdamped":
             # the robots whose period is over (their timers refilled), then their decisions
-            due, everyone = K.due_robots(state.timer, p.tau_steps)
+            due, everyone = K.due_robots(state.icols[K.TIMER], self._tau_steps)
             if everyone:
                 self._decide(state, None)
             elif due.size:
                 self._decide(state, due)
-            restore = _auto_threads(state.n)
+            restore, serial = _auto_threads(state.n)
             try:
                 lam, lamw, lamid = _held(state, ws, len(self.world.segments))
                 sweeps, overlap, builds, in_scratch, lam, lamw, lamid, held = K.overdamped_step(
@@ -854,7 +858,7 @@ class Simulator:
                     ws.cell_start,
                     ws.perm, ws.neighbours, ws.n_neighbours, ws.overflows, ws.visits,
                     ws.result, ws.mark, ws.near_moved, ws.cell_near_static, w.segments,
-                    w.static_discs, state.bodies, state.pistons,
+                    w.static_discs, state.bodies, state.pistons, serial,
                 )  # fmt: skip
             finally:
                 if restore is not None:
@@ -867,10 +871,13 @@ class Simulator:
             if in_scratch:  # the final positions are in the second buffer: swap, no copy
                 state.pos, ws.scratch = ws.scratch, state.pos
             self.list_builds += builds
-            state.counters[0] += sweeps
-            state.counters[1] = max(state.counters[1], int(overlap * 1e6))
+            counters = state.counters
+            counters[0] += sweeps
+            top = int(overlap * 1e6)
+            if top > counters[1]:
+                counters[1] = top
         else:
-            restore = _auto_threads(state.n)
+            restore, _ = _auto_threads(state.n)
             try:
                 K.inertial_step(
                     state.pos, state.vel, state.fcols, state.icols, ws.grid, ws.cell,

@@ -127,6 +127,7 @@ from thermoswarm.sim.kernels_grid import (  # noqa: F401  (the kernels' one name
     _permute,
     _permute_pairs,
     build_lists,
+    serial_twin,
     sort_by_cell,
     sort_rows,
 )
@@ -144,9 +145,11 @@ from thermoswarm.sim.kernels_held import (  # noqa: F401  (the kernels' one name
     _warm_start,
 )
 from thermoswarm.sim.kernels_sweep import (  # noqa: F401  (the kernels' one namespace)
+    _collect_marked,
     _next_active,
     _pair_push,
     _sweep,
+    _sweep_serial,
 )
 from thermoswarm.sim.kernels_walls import (  # noqa: F401  (the kernels' one namespace)
     _apply_body_steps,
@@ -224,11 +227,14 @@ def _move(pos, udir, speed, timer, ref, dt):
     return far
 
 
+_move_serial = serial_twin(_move, "_move_serial")
+
+
 @njit(cache=True)
 def overdamped_step(
     pos, scratch, ref, fcols, icols, udir, lam, lamw, lamid, warm, grid, num, omega,
     wall_omega, gs_after, jam_push, lists_ready, cell, cell_start, perm, nbr, nnb, overflows,
-    visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons,
+    visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons, serial,
 ):  # fmt: skip
     """Advance the overdamped swarm by one step ``num.dt``.
 
@@ -278,7 +284,10 @@ def overdamped_step(
     n = pos.shape[0]
     r = num.radius
     hs2 = num.half_skin * num.half_skin
-    far = _move(pos, udir, fcols[SPEED], icols[TIMER], ref, num.dt)
+    if serial:  # one thread: the parallel loops' serial twins (no launch cost)
+        far = _move_serial(pos, udir, fcols[SPEED], icols[TIMER], ref, num.dt)
+    else:
+        far = _move(pos, udir, fcols[SPEED], icols[TIMER], ref, num.dt)
     _move_bodies(bodies, pistons, seg, sdisc, num.dt)
 
     builds = 0
@@ -330,6 +339,7 @@ def overdamped_step(
     sweeps, overlap, more, in_scratch, count, everyone, jam = _jacobi(
         src, dst, ref, grid, num, gs_after, cell, cell_start, perm, nbr, nnb, overflows,
         visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam,
+        serial,
     )  # fmt: skip
     builds += more
     if not jam:
@@ -356,7 +366,7 @@ def overdamped_step(
 @njit(cache=True)
 def _jacobi(
     pos, scratch, ref, grid, num, gs_after, cell, cell_start, perm, nbr, nnb, overflows,
-    visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam,
+    visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam, serial,
 ):  # fmt: skip
     """Jacobi sweeps (step 4 of :func:`overdamped_step`), alternating between ``pos``
     and ``scratch``.  Returns ``(sweeps, overlap, list builds, in_scratch, count,
@@ -366,7 +376,6 @@ def _jacobi(
     ``everyone``)."""
     n = pos.shape[0]
     r = num.radius
-    contact2 = (2.0 * r - SLOP) * (2.0 * r - SLOP)  # as in _sweep
     nb = bodies.shape[0]
     npis = pistons.shape[0]
     moved_b = np.zeros(nb, np.uint8)
@@ -383,12 +392,19 @@ def _jacobi(
     builds = 0
     while True:
         _bodies_pass(src, cell_start, perm, grid, r, num.drag, num.dt, bodies, pistons, contact)
-        overlap, far = _sweep(
-            src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg, sdisc,
-            bodies, pistons, visit, count, everyone, result,
-        )  # fmt: skip
+        if serial:
+            overlap, far = _sweep_serial(
+                src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg,
+                sdisc, bodies, pistons, visit, count, everyone, result, mark,
+            )  # fmt: skip
+        else:
+            overlap, far = _sweep(
+                src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg,
+                sdisc, bodies, pistons, visit, count, everyone, result, mark,
+            )  # fmt: skip
         sweeps += 1
         if (sweeps >= num.min_sweeps and overlap < num.tol) or sweeps >= num.max_sweeps:
+            mark[:] = 0
             break  # src, just measured, is the result
         # apply the sweep: dst is the configuration now, bodies and pistons take their steps
         any_moved = _apply_body_steps(bodies, pistons, contact, moved_b, moved_p, seg, sdisc)
@@ -400,16 +416,16 @@ def _jacobi(
             builds += 1
             everyone = True
             count = n
+            mark[:] = 0
         elif overflows[0]:  # a list is incomplete: visit everyone (rare: large overlaps only)
             everyone = True
             count = n
+            mark[:] = 0
         else:
             if any_moved:
                 _near_moved(src, bodies, moved_b, pistons, moved_p, r, grid.cell_size, near)
-            count = _next_active(
-                visit, count, everyone, result, src, contact2, nbr, nnb, lam, False, near,
-                any_moved, mark, visit_next,
-            )  # fmt: skip
+            # the robots the sweep marked (see _sweep), in row order
+            count = _collect_marked(mark, near, any_moved, visit_next)
             visit, visit_next = visit_next, visit
             everyone = False
         if sweeps >= gs_after and not overflows[0]:

@@ -4,10 +4,15 @@ by cell and the Verlet neighbour lists (see :mod:`thermoswarm.sim.kernels`)."""
 from __future__ import annotations
 
 import math
+import types
 from typing import NamedTuple
 
 import numpy as np
+from llvmlite import ir
 from numba import njit, prange
+from numba import types as nbtypes
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 INF = np.inf
 
@@ -74,6 +79,51 @@ class Numerics(NamedTuple):
     max_sweeps: int
     slack_tol: float  # stop sweeping once no held push unneeded by more than this (mm)
     keep: float  # fraction of the last step's held pushes a jammed step starts from
+
+
+def serial_twin(kernel, name: str):
+    """The same kernel compiled without ``parallel``: its ``prange`` loops run as plain
+    loops.  On one thread this skips the parallel launch (the scheduler, a reduction's
+    per-thread arrays: ~1-3 us a call), which is most of a small swarm's fixed cost a
+    step (a step makes several sweeps).  The twin is its own function, ``name``, so
+    that Numba's on-disk cache, which keys a function by its qualified name and not by
+    its compile flags, keeps the two apart.  Results are bit-identical: every parallel
+    loop writes only its own elements and reduces by maxima only.
+    """
+    f = kernel.py_func
+    twin = types.FunctionType(f.__code__, f.__globals__, name, f.__defaults__, f.__closure__)
+    twin.__qualname__ = name
+    twin.__doc__ = f"{f.__name__} on one thread (see :func:`serial_twin`)."
+    return njit(cache=True)(twin)
+
+
+@intrinsic
+def prefetch(typingctx, arr, row):
+    """Ask the CPU to start loading ``arr[row]`` (its first element: the row's cache
+    line) into cache, without waiting for it: LLVM's ``llvm.prefetch`` (read, high
+    locality), which Numba does not expose.  No effect on results; an index past the end
+    is never dereferenced (a prefetch does not fault) but is not made here either."""
+    if not isinstance(arr, nbtypes.Array):
+        return None
+
+    def codegen(context, builder, signature, args):
+        aryty, rowty = signature.args
+        ary = context.make_array(aryty)(context, builder, args[0])
+        first = [context.cast(builder, args[1], rowty, nbtypes.intp)]
+        first += [context.get_constant(nbtypes.intp, 0)] * (aryty.ndim - 1)
+        ptr = cgutils.get_item_pointer2(
+            context, builder, ary.data, cgutils.unpack_tuple(builder, ary.shape),
+            cgutils.unpack_tuple(builder, ary.strides), aryty.layout, first,
+            wraparound=False, boundscheck=False,
+        )  # fmt: skip
+        i32 = ir.IntType(32)
+        ptr = builder.bitcast(ptr, ir.IntType(8).as_pointer())  # one declaration for all
+        fnty = ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, "llvm.prefetch.p0")
+        builder.call(fn, [ptr, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+
+    return nbtypes.void(arr, row), codegen
 
 
 # --------------------------------------------------------------------------- grid

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from thermoswarm.sim.kernels_grid import MOVED, OVERLAPPING, SLOP
+from thermoswarm.sim.kernels_grid import MOVED, OVERLAPPING, SLOP, prefetch, serial_twin
 from thermoswarm.sim.kernels_walls import _walls_and_bodies
 
 
@@ -33,10 +33,34 @@ def _pair_push(px, py, src, i, j, c2, d_rr, half, mx, my, w):
     return mx, my, w
 
 
+#: How many visits ahead a later sweep starts loading a robot's rows (see
+#: :func:`_prefetch_visit`).
+AHEAD = 8
+
+
+@njit(cache=True, inline="always")
+def _prefetch_visit(src, dst, ref, nbr, nnb, cell, active, k, cap):
+    """Start loading what the visits ``AHEAD`` and ``AHEAD / 2`` ahead of visit ``k``
+    read: the robot's own rows at ``AHEAD``, its neighbours' positions at ``AHEAD / 2``
+    (their indices were loaded by the first).  A later sweep visits a few per cent of
+    the robots, spread over the swarm: at a million robots each visit would otherwise
+    wait for memory, twice in a chain (the list row, then the neighbours)."""
+    a = active[k + AHEAD]
+    prefetch(src, a)
+    prefetch(dst, a)
+    prefetch(ref, a)
+    prefetch(nbr, a)
+    prefetch(nnb, a)
+    prefetch(cell, a)
+    b = active[k + AHEAD // 2]
+    for kk in range(min(nnb[b], cap)):
+        prefetch(src, nbr[b, kk])
+
+
 @njit(cache=True, parallel=True)
 def _sweep(
     src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg, sdisc,
-    bodies, pistons, active, count, everyone, result,
+    bodies, pistons, active, count, everyone, result, mark,
 ):  # fmt: skip
     """One Jacobi sweep: measure every overlap of ``src`` and write the corrected
     positions to ``dst``.
@@ -46,7 +70,14 @@ def _sweep(
     (``everyone``) or the ``count`` robots ``active[:count]`` -- the others have no
     overlap and ``dst`` already holds their position (see :func:`_next_active`).
     ``result[k]`` gets the :data:`MOVED` and :data:`OVERLAPPING` bits of the k-th robot
-    visited.
+    visited.  ``mark`` (all zero on entry) gets a 1 for each robot the next sweep must
+    visit (collected by :func:`_collect_marked`): those that moved or overlap, and each
+    robot on a mover's list that the mover now overlaps -- in the next sweep's
+    configuration, where a robot that did not move is at its ``src`` position (one that
+    moved is marked by its own visit).  The set is :func:`_next_active`'s, found while the
+    neighbours' positions are still in cache instead of in a second pass over the
+    scattered robots.  Threads may write the same 1 to the same byte: the result does
+    not depend on their order.
 
     Returns the largest overlap of ``src`` (exact: the lists are valid) and the largest
     squared distance from ``ref`` of any robot that moved.
@@ -62,6 +93,8 @@ def _sweep(
     worst = 0.0
     far = 0.0
     for k in prange(count):
+        if not everyone and k + AHEAD < count:
+            _prefetch_visit(src, dst, ref, nbr, nnb, cell, active, k, cap)
         i = np.int64(k) if everyone else np.int64(active[k])
         fl = 0
         fi = 0.0  # squared distance from ref, if it moves
@@ -100,10 +133,47 @@ def _sweep(
             fi = ex * ex + ey * ey
         if w > 0.0:
             fl |= OVERLAPPING
+        if fl != 0:
+            mark[i] = 1
+            if fl & MOVED and m <= cap:  # (an overflowing list: every robot is visited next)
+                for kk in range(m):
+                    j = nbr[i, kk]
+                    ex = src[j, 0] - x  # _next_active's test, with the same rounding
+                    ey = src[j, 1] - y
+                    if ex * ex + ey * ey < c2:
+                        mark[j] = 1
         result[k] = fl
         worst = max(worst, w)
         far = max(far, fi)
     return worst, far
+
+
+_sweep_serial = serial_twin(_sweep, "_sweep_serial")
+
+
+@njit(cache=True)
+def _collect_marked(mark, near, use_near, out):
+    """The rows ``mark`` flags (and, ``use_near``, those ``near`` flags), in ascending
+    order, into ``out``; clears ``mark``; returns how many.  ``mark``'s length is a
+    multiple of 8 (padded with zeros): it is read 8 bytes at a time, so the rows a
+    later sweep skips (most of them) cost an eighth of a read each."""
+    k = 0
+    if use_near:  # a body or piston moved (rare): byte by byte
+        for i in range(near.shape[0]):
+            if mark[i] != 0 or near[i] != 0:
+                out[k] = i
+                k += 1
+            mark[i] = 0
+        return k
+    words = mark.view(np.uint64)
+    for w in range(words.shape[0]):
+        if words[w] != 0:
+            for i in range(8 * w, 8 * w + 8):
+                if mark[i] != 0:
+                    out[k] = i
+                    k += 1
+                    mark[i] = 0
+    return k
 
 
 @njit(cache=True)
