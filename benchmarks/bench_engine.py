@@ -80,9 +80,14 @@ MIN_STEPS = 2
 SETTLE_STEPS = 0
 #: The clock of the timed blocks: wall time, except with ``--ours-only`` (one thread),
 #: which times the thread's CPU time (``time.thread_time``), far less disturbed than
-#: wall time on a busy shared machine, and runs every settle step (no budget cap).
+#: wall time on a busy shared machine, runs every settle step (no budget cap: the
+#: budget is the timed blocks'), and times at least SETTLED_MIN_STEPS steps a block.
 CLOCK = time.perf_counter
 FULL_SETTLE = False
+#: Steps a timed block makes at least with ``--ours-only``: the lists are rebuilt every
+#: 4-6 steps (a rebuild costs ~3 steps' sweeps at a million robots), so a block of 2
+#: steps, the fastest of three, could miss the rebuilds and understate the cost.
+SETTLED_MIN_STEPS = 30
 
 
 def kd_overlap(pos: np.ndarray, side: float) -> float:
@@ -132,11 +137,13 @@ def _timed(step, n: int, positions, side: float, overlap=None, rss0: int | None 
     """Time a tool within :data:`BUDGET` wall seconds (the first step apart).
 
     The first step (compilation, warm-up) is timed apart, outside the budget; then up
-    to SETTLE_STEPS untimed steps, stopped once they have taken half the budget (the number done is
-    reported); then BLOCKS blocks of at least MIN_STEPS steps filling the rest of the
-    budget, or one block of MIN_STEPS steps where a step is too long for more; the
-    fastest block is reported. The exact overlap (KD-tree, not timed) is measured on the
-    final state (``overlap(positions())``, default :func:`kd_overlap`). Memory: peak
+    to SETTLE_STEPS untimed steps, stopped once they have taken half the budget (the
+    number done is reported); then BLOCKS blocks of at least MIN_STEPS steps filling the
+    rest of the budget, or one block of MIN_STEPS steps where a step is too long for
+    more (with ``--ours-only``: every settle step, then three blocks of at least
+    SETTLED_MIN_STEPS steps, the budget counted from the end of settling); the fastest
+    block is reported.  The exact overlap (KD-tree, not timed) is measured on the final
+    state (``overlap(positions())``, default :func:`kd_overlap`).  Memory: peak
     resident set growth over ``rss0`` (bytes, before the final overlap check) per robot.
     """
     if overlap is None:
@@ -152,12 +159,15 @@ def _timed(step, n: int, positions, side: float, overlap=None, rss0: int | None 
     while settled < SETTLE_STEPS and (FULL_SETTLE or time.perf_counter() - t0 < BUDGET / 2):
         step()
         settled += 1
+    if FULL_SETTLE:  # the budget is the timed blocks'
+        t_all = time.perf_counter()
     t0 = CLOCK()
     step()
     one = CLOCK() - t0
     left = max(0.0, BUDGET - (time.perf_counter() - t_all))
-    blocks = BLOCKS if left >= BLOCKS * MIN_STEPS * one else 1
-    per_block = max(MIN_STEPS, int(left / blocks / max(one, 1e-6)))
+    least = SETTLED_MIN_STEPS if FULL_SETTLE else MIN_STEPS
+    blocks = BLOCKS if left >= BLOCKS * MIN_STEPS * one or FULL_SETTLE else 1
+    per_block = max(least, int(left / blocks / max(one, 1e-6)))
     walls, cpu = [], 0.0
     for _ in range(blocks):
         c0, t0 = time.process_time(), CLOCK()

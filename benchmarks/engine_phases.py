@@ -5,8 +5,9 @@ The bench workload (``thermoswarm.sim.bench.workload``, packing ``--phi``) runs
 in the order ``kernels.overdamped_step`` calls them on its default (cold Jacobi) path:
 the decision, the commanded move, the re-sort, the list builds, the first sweep (every
 robot), the later sweeps (the robots whose surroundings changed) and the choice of the
-robots the next sweep visits.  Each phase's CPU time (``time.thread_time``) is printed in
-ns per robot-step, with the later sweeps' visits per robot-step and their ns per visit.
+robots the next sweep visits (collecting the rows the sweep marked).  Each phase's CPU
+time (``time.thread_time``) is printed in ns per robot-step, with the later sweeps'
+visits per robot-step and their ns per visit.
 A twin state stepped by the engine itself checks the replica: the line ends with
 "replica = engine" when the two end bit-identical (a replica that drifted from the
 engine's step says so instead of timing something else).  Phases called from Python
@@ -43,7 +44,7 @@ def _step(sim, state, t: dict, c: dict) -> None:
     t1 = clock()
     t["decide"] += t1 - t0
     pos, ref = state.pos, state.ref
-    far = K._move(pos, state.udir, state.speed, state.timer, ref, num.dt)
+    far = K._move_serial(pos, state.udir, state.speed, state.timer, ref, num.dt)
     t["move"] += clock() - t1
     no_f, no_i = np.zeros((0, 0), np.float32), np.zeros((0, 0), np.int32)
     new_row = ws.visits[1]
@@ -55,24 +56,24 @@ def _step(sim, state, t: dict, c: dict) -> None:
         t3 = clock()
         ws.overflows[0] = K._rebuild(pos, ref, ws.grid, num, ws.cell, ws.cell_start,
                                      ws.perm, ws.neighbours, ws.n_neighbours, no_f, new_row,
-                                     True)  # fmt: skip
+                                     True, False)  # fmt: skip
         t["re-sort"] += t3 - t2
         t["build"] += clock() - t3
     visit, visit_next = ws.visits[0], ws.visits[1]
     src, dst, in_scratch = pos, ws.scratch, False
     everyone, count, sweeps = True, n, 0
-    c2 = (2 * num.radius - K.SLOP) ** 2
     while True:
         ta = clock()
-        overlap, far = K._sweep(
+        overlap, far = K._sweep_serial(
             src, dst, ref, ws.neighbours, ws.n_neighbours, ws.cell, ws.cell_start, ws.perm,
             ws.cell_near_static, ws.grid, num, w.segments, w.static_discs, state.bodies,
-            state.pistons, visit, count, everyone, ws.result,
+            state.pistons, visit, count, everyone, ws.result, ws.mark,
         )  # fmt: skip
         t["sweep 1" if sweeps == 0 else "sweeps 2+"] += clock() - ta
         c["visits"] += 0 if sweeps == 0 else count
         sweeps += 1
         if (sweeps >= num.min_sweeps and overlap < num.tol) or sweeps >= num.max_sweeps:
+            ws.mark[:] = 0
             break
         src, dst, in_scratch = dst, src, not in_scratch
         tb = clock()
@@ -80,13 +81,12 @@ def _step(sim, state, t: dict, c: dict) -> None:
             if not (far <= num.half_skin**2):
                 ws.overflows[0] = K._rebuild(src, ref, ws.grid, num, ws.cell, ws.cell_start,
                                              ws.perm, ws.neighbours, ws.n_neighbours, no_f,
-                                             new_row, False)  # fmt: skip
+                                             new_row, False, False)  # fmt: skip
             everyone, count = True, n
+            ws.mark[:] = 0
             t["build"] += clock() - tb
             continue
-        count = K._next_active(visit, count, everyone, ws.result, src, c2, ws.neighbours,
-                               ws.n_neighbours, no_f, False, ws.near_moved, False, ws.mark,
-                               visit_next)  # fmt: skip
+        count = K._collect_marked(ws.mark, ws.near_moved, False, visit_next)
         visit, visit_next, everyone = visit_next, visit, False
         t["next visits"] += clock() - tb
     if in_scratch:
@@ -108,7 +108,8 @@ def _compile(sim, state) -> None:
                 np.empty_like(pos), ws.grid, cell, start, perm)  # fmt: skip
     K._inverse(perm, row)
     for renumber in (True, False):
-        K._rebuild(pos, ref, ws.grid, num, cell, start, perm, nbr, nnb, no_f, row, renumber)
+        K._rebuild(pos, ref, ws.grid, num, cell, start, perm, nbr, nnb, no_f, row, renumber,
+                   False)  # fmt: skip
 
 
 def profile(n: int, phi: float, settle: int, steps: int) -> str:
