@@ -67,7 +67,7 @@ def _step(sim, state, t: dict, c: dict) -> None:
         overlap, far = K._sweep_serial(
             src, dst, ref, ws.neighbours, ws.n_neighbours, ws.cell, ws.cell_start, ws.perm,
             ws.cell_near_static, ws.grid, num, w.segments, w.static_discs, state.bodies,
-            state.pistons, visit, count, everyone, ws.result, ws.mark,
+            state.pistons, visit, count, everyone, ws.mark,
         )  # fmt: skip
         t["sweep 1" if sweeps == 0 else "sweeps 2+"] += clock() - ta
         c["visits"] += 0 if sweeps == 0 else count

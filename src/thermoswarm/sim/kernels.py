@@ -146,7 +146,6 @@ from thermoswarm.sim.kernels_held import (  # noqa: F401  (the kernels' one name
 )
 from thermoswarm.sim.kernels_sweep import (  # noqa: F401  (the kernels' one namespace)
     _collect_marked,
-    _next_active,
     _pair_push,
     _sweep,
     _sweep_serial,
@@ -267,7 +266,7 @@ def overdamped_step(
     overlap returned is that of the final positions.  After each applied sweep or pass
     the list validity is checked again and the lists rebuilt (without re-sorting) if
     needed.  The first sweep (and the first after a rebuild) visits every robot, later
-    ones only the robots whose surroundings changed (:func:`_next_active`).
+    ones only the robots whose surroundings changed (marked by :func:`_sweep`).
 
     ``lam`` (n, capacity) float32 holds the push (mm) of each listed pair, ``lamw`` (2, n)
     float32 those off up to two walls per robot, ``lamid`` (2, n) int32 those walls'
@@ -338,8 +337,7 @@ def overdamped_step(
         return sweeps, overlap, builds + more, in_scratch, lam, lamw, lamid, True
     sweeps, overlap, more, in_scratch, count, everyone, jam = _jacobi(
         src, dst, ref, grid, num, gs_after, cell, cell_start, perm, nbr, nnb, overflows,
-        visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam,
-        serial,
+        visits, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam, serial,
     )  # fmt: skip
     builds += more
     if not jam:
@@ -366,7 +364,7 @@ def overdamped_step(
 @njit(cache=True)
 def _jacobi(
     pos, scratch, ref, grid, num, gs_after, cell, cell_start, perm, nbr, nnb, overflows,
-    visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam, serial,
+    visits, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam, serial,
 ):  # fmt: skip
     """Jacobi sweeps (step 4 of :func:`overdamped_step`), alternating between ``pos``
     and ``scratch``.  Returns ``(sweeps, overlap, list builds, in_scratch, count,
@@ -395,12 +393,12 @@ def _jacobi(
         if serial:
             overlap, far = _sweep_serial(
                 src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg,
-                sdisc, bodies, pistons, visit, count, everyone, result, mark,
+                sdisc, bodies, pistons, visit, count, everyone, mark,
             )  # fmt: skip
         else:
             overlap, far = _sweep(
                 src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg,
-                sdisc, bodies, pistons, visit, count, everyone, result, mark,
+                sdisc, bodies, pistons, visit, count, everyone, mark,
             )  # fmt: skip
         sweeps += 1
         if (sweeps >= num.min_sweeps and overlap < num.tol) or sweeps >= num.max_sweeps:

@@ -60,7 +60,7 @@ def _prefetch_visit(src, dst, ref, nbr, nnb, cell, active, k, cap):
 @njit(cache=True, parallel=True)
 def _sweep(
     src, dst, ref, nbr, nnb, cell, cell_start, perm, cell_flag, grid, num, seg, sdisc,
-    bodies, pistons, active, count, everyone, result, mark,
+    bodies, pistons, active, count, everyone, mark,
 ):  # fmt: skip
     """One Jacobi sweep: measure every overlap of ``src`` and write the corrected
     positions to ``dst``.
@@ -68,16 +68,16 @@ def _sweep(
     Each overlapping pair moves apart by half its overlap each (times ``relax``); walls,
     bodies and pistons as in :func:`_walls_and_bodies`.  The sweep visits every robot
     (``everyone``) or the ``count`` robots ``active[:count]`` -- the others have no
-    overlap and ``dst`` already holds their position (see :func:`_next_active`).
-    ``result[k]`` gets the :data:`MOVED` and :data:`OVERLAPPING` bits of the k-th robot
-    visited.  ``mark`` (all zero on entry) gets a 1 for each robot the next sweep must
+    overlap and ``dst`` already holds their position (see ``mark`` below).
+    ``mark`` (all zero on entry) gets a 1 for each robot the next sweep must
     visit (collected by :func:`_collect_marked`): those that moved or overlap, and each
     robot on a mover's list that the mover now overlaps -- in the next sweep's
     configuration, where a robot that did not move is at its ``src`` position (one that
-    moved is marked by its own visit).  The set is :func:`_next_active`'s, found while the
-    neighbours' positions are still in cache instead of in a second pass over the
-    scattered robots.  Threads may write the same 1 to the same byte: the result does
-    not depend on their order.
+    moved is marked by its own visit).  Any other robot has no overlap: nothing it
+    overlaps moved, so the next sweep would leave it where it is and measure nothing.
+    The set is found while the neighbours' positions are still in cache, not in a
+    second pass over the scattered robots.  Threads may write the same 1 to the same
+    byte: the result does not depend on their order.
 
     Returns the largest overlap of ``src`` (exact: the lists are valid) and the largest
     squared distance from ``ref`` of any robot that moved.
@@ -138,11 +138,10 @@ def _sweep(
             if fl & MOVED and m <= cap:  # (an overflowing list: every robot is visited next)
                 for kk in range(m):
                     j = nbr[i, kk]
-                    ex = src[j, 0] - x  # _next_active's test, with the same rounding
+                    ex = src[j, 0] - x  # the sweep's own test, from j's side
                     ey = src[j, 1] - y
                     if ex * ex + ey * ey < c2:
                         mark[j] = 1
-        result[k] = fl
         worst = max(worst, w)
         far = max(far, fi)
     return worst, far
@@ -173,56 +172,4 @@ def _collect_marked(mark, near, use_near, out):
                     out[k] = i
                     k += 1
                     mark[i] = 0
-    return k
-
-
-@njit(cache=True)
-def _next_active(
-    active, count, everyone, result, pos, contact2, nbr, nnb, lam, held, near, use_near, mark,
-    out,
-):  # fmt: skip
-    """The robots the next sweep must visit, into ``out``; returns how many.
-
-    Those that moved in the last sweep, those that still overlap something, every robot
-    on a mover's list that the mover now overlaps (squared distance below ``contact2`` at
-    ``pos``, the configuration the next sweep starts from) or holds a push with (``lam``
-    nonzero: both copies of a held push must be updated in the same sweep), and
-    (``use_near``) those near a body or piston that moved.  Any other robot has no
-    overlap: nothing it overlaps moved (its pairs with robots that did not move, and
-    with static walls, are as the last sweep that visited it found them: free), so the
-    next sweep would leave it where it is and measure nothing.  Serial, over the robots
-    visited last (a few per cent of the swarm after the first sweep); ``mark`` (all
-    zero) is scratch.
-    """
-    k = 0
-    for q in range(count):
-        fl = result[q]
-        if fl == 0:
-            continue
-        i = np.int64(q) if everyone else np.int64(active[q])
-        if mark[i] == 0:
-            mark[i] = 1
-            out[k] = i
-            k += 1
-        if fl & MOVED:
-            px = pos[i, 0]
-            py = pos[i, 1]
-            for kk in range(nnb[i]):  # lists never overflow here (see the caller)
-                j = nbr[i, kk]
-                if mark[j] == 0:
-                    # the sweep's own test, from j's side (the same rounding)
-                    dx = pos[j, 0] - px
-                    dy = pos[j, 1] - py
-                    if dx * dx + dy * dy < contact2 or (held and lam[i, kk] != 0.0):
-                        mark[j] = 1
-                        out[k] = j
-                        k += 1
-    if use_near:
-        for i in range(near.shape[0]):
-            if near[i] and mark[i] == 0:
-                mark[i] = 1
-                out[k] = i
-                k += 1
-    for q in range(k):
-        mark[out[q]] = 0
     return k
