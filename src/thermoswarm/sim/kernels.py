@@ -227,7 +227,8 @@ def _move(pos, udir, speed, timer, ref, dt):
 @njit(cache=True)
 def overdamped_step(
     pos, scratch, ref, fcols, icols, udir, lam, lamw, lamid, warm, grid, num, omega,
-    wall_omega, gs_after, jam_push, lists_ready, cell, cell_start, perm, nbr, nnb, overflows,
+    wall_omega, warm_omega, warm_blind, gs_after, jam_push, lists_ready, cell, cell_start,
+    perm, nbr, nnb, overflows,
     visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons,
 ):  # fmt: skip
     """Advance the overdamped swarm by one step ``num.dt``.
@@ -322,9 +323,9 @@ def overdamped_step(
                                     lam, new_row, False, True)  # fmt: skip
             builds += 1
         sweeps, overlap, more = _gs_solve(
-            src, dst, ref, lam, lamw, lamid, grid, num, omega, wall_omega, cell, cell_start,
-            perm, nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc, bodies,
-            pistons, new_row, 0, n, True,
+            src, dst, ref, lam, lamw, lamid, grid, num, warm_omega, warm_omega, cell,
+            cell_start, perm, nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc,
+            bodies, pistons, new_row, 0, n, True, warm_blind,
         )  # fmt: skip
         return sweeps, overlap, builds + more, in_scratch, lam, lamw, lamid, True
     sweeps, overlap, more, in_scratch, count, everyone, jam = _jacobi(
@@ -348,7 +349,7 @@ def overdamped_step(
     sweeps, overlap, more = _gs_solve(
         src, dst, ref, lam, lamw, lamid, grid, num, omega, wall_omega, cell, cell_start, perm,
         nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc, bodies, pistons,
-        new_row, sweeps, count, everyone,
+        new_row, sweeps, count, everyone, 0,
     )  # fmt: skip
     return sweeps, overlap, builds + more, in_scratch, lam, lamw, lamid, True
 
