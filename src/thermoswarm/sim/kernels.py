@@ -243,10 +243,11 @@ def overdamped_step(
        robot takes the pushes its contacts held, scaled by ``num.keep``
        (:func:`_warm_start`); a robot they would move farther than ``skin / 2`` drops
        its pushes instead (:func:`_drop_pushes`: self-stress that a hyperstatic jam can
-       build up without moving anything may not throw a robot).  Then step 5 -- if the
-       largest push held exceeds ``jam_push`` x the largest commanded displacement
-       (a push carried through a pile: a jam); else the pushes are dropped and the step
-       is cold (a free swarm's occasional crowd).
+       build up without moving anything may not throw a robot).  Then step 5, its
+       passes over-relaxed by ``warm_omega`` and its first ``warm_blind`` rounds made
+       without a measure -- if the largest push held exceeds ``jam_push`` x the largest
+       commanded displacement (a push carried through a pile: a jam); else the pushes
+       are dropped and the step is cold (a free swarm's occasional crowd).
     4. **Projection, Jacobi** (no pushes held): parallel sweeps (:func:`_sweep`), each
        measuring the exact largest overlap of the current configuration and correcting
        it, until it is below ``num.tol`` (after at least ``num.min_sweeps`` sweeps) or
