@@ -12,13 +12,18 @@ scenario runner does, and reports per step:
 - wall seconds of the run and microseconds a robot-step (timing, so it lives here and
   not in the tests; the machine is shared: compare ratios from one command).
 
-Two solves, one after the other from the same seed: ``jacobi`` (Jacobi sweeps only: the
-engine's solve before the Gauss-Seidel passes, bit for bit) and ``default`` (the
-engine's solve: a Jacobi sweep, then symmetric over-relaxed Gauss-Seidel passes).
+Three solves, one after the other from the same seed: ``jacobi`` (Jacobi sweeps only:
+the engine's solve before the Gauss-Seidel passes, bit for bit), ``first`` (the
+Gauss-Seidel passes as first made: warm-started steps over-relaxed as cold ones,
+``OMEGA``, and measured before every round: the engine at bbd506a, bit for bit) and
+``default`` (the engine's solve: warm-started steps over-relaxed by ``WARM_OMEGA``, their
+first ``WARM_BLIND`` rounds unmeasured).  A markdown table of the solves run ends the
+output.
 
 Usage::
 
-    python benchmarks/engine_jam.py                       # the slowest combination, both
+    python benchmarks/engine_jam.py                       # the slowest combination, all
+    python benchmarks/engine_jam.py --solve first --solve default
     python benchmarks/engine_jam.py --solve default --duration 150 --set heading_law=uniform
 """
 
@@ -101,17 +106,50 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--set", action="append", default=[], help="extra KEY=VALUE overrides")
     ap.add_argument("--check-every", type=int, default=5, help="KD-tree check every K steps")
-    ap.add_argument("--solve", choices=("both", "jacobi", "default"), default="both")
+    ap.add_argument(
+        "--solve", action="append", choices=tuple(SOLVES), help="repeatable (default: all)"
+    )
     a = ap.parse_args(argv)
     print(" ".join([*SLOWEST, *a.set]), f"seed {a.seed}, {a.duration:g} s")
-    default = engine.GS_AFTER
-    for solve in ("jacobi", "default") if a.solve == "both" else (a.solve,):
-        # Jacobi only: the Gauss-Seidel passes would start after more sweeps than allowed
-        engine.GS_AFTER = 10**9 if solve == "jacobi" else default
-        out = run(a.set, a.duration, a.seed, a.check_every)
+    rows = []
+    for solve in a.solve or SOLVES:
+        saved = {k: getattr(engine, k) for k in SOLVES[solve]}
+        try:
+            for k, v in SOLVES[solve].items():
+                setattr(engine, k, getattr(engine, v) if isinstance(v, str) else v)
+            out = run(a.set, a.duration, a.seed, a.check_every)
+        finally:
+            for k, v in saved.items():
+                setattr(engine, k, v)
         print(solve, json.dumps(out), flush=True)
-    engine.GS_AFTER = default
+        rows.append((solve, out))
+    print(table(rows))
     return 0
+
+
+#: Each solve as the engine's constants it sets (a string: another constant's value).
+SOLVES: dict[str, dict[str, object]] = {
+    # the Gauss-Seidel passes would start after more sweeps than allowed
+    "jacobi": {"GS_AFTER": 10**9},
+    "first": {"WARM_OMEGA": "OMEGA", "WARM_BLIND": 0},
+    "default": {},
+}
+
+
+def table(rows: list[tuple[str, dict]]) -> str:
+    """The solves' results as a markdown table."""
+    out = [
+        "| solve | sweeps a step: mean / p99 / max | steps at the limit | exact overlap "
+        "(KD-tree) | wall s a run | us a robot-step |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for name, r in rows:
+        out.append(
+            f"| {name} | {r['sweeps_mean']:.1f} / {r['sweeps_p99']:.0f} / {r['sweeps_max']} "
+            f"| {r['steps_at_limit']} | {r['exact_overlap_pct']:.5f} % | {r['wall_s']:.1f} "
+            f"| {r['us_per_robot_step']:.1f} |"
+        )
+    return "\n".join(out)
 
 
 if __name__ == "__main__":

@@ -137,7 +137,7 @@ STEPS = [
     Step("limit", "bench_engine", [*LIMIT, "--n", "1000000"], LIMIT,
          title="engine against the machine's bandwidth"),
     Step("jam", "engine_jam", [], ["--duration", "150"],
-         title="jammed swarm: Jacobi sweeps alone, then the default solve"),
+         title="jammed swarm: Jacobi sweeps alone, the first Gauss-Seidel solve, the default"),
     Step("gpu_rehearse", "bench_gpu",
          ["--rehearse", "--out", "bench-out/gpu_rehearse.json", "--skip", "unet", "tests"],
          ["--rehearse", "--out", "bench-out/gpu_rehearse.json", "--skip", "unet", "tests",

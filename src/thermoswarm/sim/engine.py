@@ -27,10 +27,11 @@ resolved a step, symmetric projected Gauss-Seidel passes take over (forward, the
 backward in row order), over-relaxed (:data:`OMEGA`), with each contact's push
 accumulated so that an overshoot is taken back.  The pushes a jammed step ends with
 are kept (``state.held_pairs``), and the next step starts from them (a warm start,
-:data:`KEEP`) if they carry a push through a pile (:data:`JAM_PUSH`): a steady jam
-then takes a few passes a step.  The contact force on a body or piston is taken from
-the corrections its robots received in each pass.  The result is the same on any
-number of threads.
+:data:`KEEP`) if they carry a push through a pile (:data:`JAM_PUSH`): its passes are
+over-relaxed less (:data:`WARM_OMEGA`) and the first :data:`WARM_BLIND` rounds go
+unmeasured, and a steady jam then takes a few passes a step.  The contact force on a
+body or piston is taken from the corrections its robots received in each pass.  The
+result is the same on any number of threads.
 
 Sweeping stops once the largest overlap is below ``overlap_tol`` (0.5 % of the diameter
 by default).  The overlap each sweep measures is exact, and the step's result is the
@@ -490,6 +491,16 @@ def _auto_threads(n: int) -> tuple[int | None, bool]:
 OMEGA = 1.7
 #: The same against static walls.
 WALL_OMEGA = 1.7
+#: Over-relaxation of a warm-started step's passes (robot pairs and walls).  The warm
+#: start is close to the solution, and a smaller step overshoots it less: on the
+#: mechanism study's jam (``benchmarks/engine_jam.py``, 400 s, seeds 0-3) 1.4 made the
+#: fewest sweeps of 1.2-1.7 (1.2 let a step reach the sweep limit).
+WARM_OMEGA = 1.4
+#: Symmetric rounds (forward + backward pass) a warm-started step makes before its first
+#: measure.  On that jam no warm step ended in fewer than 3 rounds, so the measures
+#: before them were sweeps paid for nothing; 4 made fewer sweeps than 2 or 3 over
+#: seeds 0-3 (a steady jam whose warm start is already converged pays 8 passes).
+WARM_BLIND = 4
 #: Jacobi sweeps a step without held pushes makes before the Gauss-Seidel passes take
 #: over.  A free swarm never gets there (1,200 robots at packing 0.5, 10 mm/s, tau 0.1 s:
 #: at most 10 sweeps in 1,500 steps), nor does a crowd pushing an object
@@ -853,7 +864,8 @@ class Simulator:
                 sweeps, overlap, builds, in_scratch, lam, lamw, lamid, held = K.overdamped_step(
                     state.pos, ws.scratch, state.ref, state.fcols, state.icols, state.udir,
                     lam, lamw, lamid, lam.shape[0] == state.n, ws.grid,
-                    ws.numerics, OMEGA, WALL_OMEGA, GS_AFTER, JAM_PUSH, ws.lists_of is state.ref,
+                    ws.numerics, OMEGA, WALL_OMEGA, WARM_OMEGA, WARM_BLIND, GS_AFTER, JAM_PUSH,
+                    ws.lists_of is state.ref,
                     ws.cell,
                     ws.cell_start,
                     ws.perm, ws.neighbours, ws.n_neighbours, ws.overflows, ws.visits,

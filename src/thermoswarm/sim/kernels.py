@@ -232,8 +232,9 @@ _move_serial = serial_twin(_move, "_move_serial")
 @njit(cache=True)
 def overdamped_step(
     pos, scratch, ref, fcols, icols, udir, lam, lamw, lamid, warm, grid, num, omega,
-    wall_omega, gs_after, jam_push, lists_ready, cell, cell_start, perm, nbr, nnb, overflows,
-    visits, result, mark, near, cell_flag, seg, sdisc, bodies, pistons, serial,
+    wall_omega, warm_omega, warm_blind, gs_after, jam_push, lists_ready, cell, cell_start,
+    perm, nbr, nnb, overflows, visits, result, mark, near, cell_flag, seg, sdisc, bodies,
+    pistons, serial,
 ):  # fmt: skip
     """Advance the overdamped swarm by one step ``num.dt``.
 
@@ -247,10 +248,11 @@ def overdamped_step(
        robot takes the pushes its contacts held, scaled by ``num.keep``
        (:func:`_warm_start`); a robot they would move farther than ``skin / 2`` drops
        its pushes instead (:func:`_drop_pushes`: self-stress that a hyperstatic jam can
-       build up without moving anything may not throw a robot).  Then step 5 -- if the
-       largest push held exceeds ``jam_push`` x the largest commanded displacement
-       (a push carried through a pile: a jam); else the pushes are dropped and the step
-       is cold (a free swarm's occasional crowd).
+       build up without moving anything may not throw a robot).  Then step 5, its
+       passes over-relaxed by ``warm_omega`` and its first ``warm_blind`` rounds made
+       without a measure -- if the largest push held exceeds ``jam_push`` x the largest
+       commanded displacement (a push carried through a pile: a jam); else the pushes
+       are dropped and the step is cold (a free swarm's occasional crowd).
     4. **Projection, Jacobi** (no pushes held): parallel sweeps (:func:`_sweep`), each
        measuring the exact largest overlap of the current configuration and correcting
        it, until it is below ``num.tol`` (after at least ``num.min_sweeps`` sweeps) or
@@ -275,8 +277,11 @@ def overdamped_step(
     buffer that takes every other sweep's positions; the final positions are in
     ``scratch`` when ``in_scratch`` is true (the caller swaps the two arrays).
     ``overflows`` (1,) int64 holds the number of overflowing lists (kept with the
-    lists); ``visits`` (2, n) int32 and ``result``, ``mark``, ``near`` (n,) uint8 are
-    work arrays.  Returns ``(sweeps, overlap (mm), list builds, in_scratch, lam, lamw,
+    lists); ``visits`` (2, n) int32 and ``result``, ``mark`` (padded to a multiple of 8
+    bytes), ``near`` (n,) uint8 are work arrays.  ``serial``: the step runs on one
+    thread, and calls the serial twins of the parallel loops it makes every step
+    (:func:`serial_twin`; the same results, without the cost of a parallel launch).
+    Returns ``(sweeps, overlap (mm), list builds, in_scratch, lam, lamw,
     lamid, held)``; ``held``: step 5 ran, and ``lam, lamw, lamid`` are the pushes it
     ended with (for the next step's warm start).
     """
@@ -330,9 +335,9 @@ def overdamped_step(
                                     lam, new_row, False, True)  # fmt: skip
             builds += 1
         sweeps, overlap, more = _gs_solve(
-            src, dst, ref, lam, lamw, lamid, grid, num, omega, wall_omega, cell, cell_start,
-            perm, nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc, bodies,
-            pistons, new_row, 0, n, True,
+            src, dst, ref, lam, lamw, lamid, grid, num, warm_omega, warm_omega, cell,
+            cell_start, perm, nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc,
+            bodies, pistons, new_row, 0, n, True, warm_blind,
         )  # fmt: skip
         return sweeps, overlap, builds + more, in_scratch, lam, lamw, lamid, True
     sweeps, overlap, more, in_scratch, count, everyone, jam = _jacobi(
@@ -356,7 +361,7 @@ def overdamped_step(
     sweeps, overlap, more = _gs_solve(
         src, dst, ref, lam, lamw, lamid, grid, num, omega, wall_omega, cell, cell_start, perm,
         nbr, nnb, overflows, visits, mark, near, cell_flag, seg, sdisc, bodies, pistons,
-        new_row, sweeps, count, everyone,
+        new_row, sweeps, count, everyone, 0,
     )  # fmt: skip
     return sweeps, overlap, builds + more, in_scratch, lam, lamw, lamid, True
 
