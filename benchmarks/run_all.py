@@ -3,8 +3,9 @@
 Each step prints a header, the command that prints its table on its own (the same
 command, so a figure quoted in README.md or docs/ can be traced to one line here), and
 its table: the engine beside its peers (NumPy + cKDTree, JAX-MD, VMAS, pymunk) from
-1,200 to 1,000,000 robots, the engine's fraction of a STREAM-style bandwidth, the jammed
-mechanism run with Jacobi sweeps alone and with the default solve, the GPU script's rehearsal on
+1,200 to 1,000,000 robots, the engine's fraction of a STREAM-style bandwidth, its cost
+per robot-step from 1,200 to 1,000,000 robots, the jammed mechanism run with Jacobi
+sweeps alone, the first Gauss-Seidel solve and the default, the GPU script's rehearsal on
 the CPU (numba-cuda's simulator), the compression claims, then analysis, tracking, the
 U-Net, light, I/O, sweeps, real-tracking and the viewer.  The full JSON of each JSON step
 goes to ``bench-out/<name>.json`` and the text of each other step to
@@ -124,6 +125,10 @@ ENGINE_FULL = ["--n", "1200", "--n", "10000", "--n", "100000", "--n", "1000000",
                "--phi", "0.5", "--budget-s", "10"]  # fmt: skip
 ENGINE_QUICK = ["--n", "1200", "--n", "10000", "--phi", "0.5", "--budget-s", "2"]
 LIMIT = ["--limit", "--settle", "2", "--phi", "0.5", "--n", "10000", "--n", "100000"]
+#: The cost per robot-step from 1,200 to 1,000,000 robots (one thread, CPU time, after
+#: 20 simulated seconds), and the largest over the smallest.
+FLAT = ["--ours-only", "--settle", "20", "--phi", "0.5", "--n", "1200", "--n", "10000",
+        "--n", "100000"]  # fmt: skip
 
 #: Our tracker and its peers on MOT15's public Faster R-CNN boxes (real detector output
 #: with ground truth); DATA is ``--boxes-data`` (not shipped: docs/tracking.md says how
@@ -136,6 +141,8 @@ STEPS = [
          title="engine beside NumPy + cKDTree, JAX-MD, VMAS, pymunk (same workload)"),
     Step("limit", "bench_engine", [*LIMIT, "--n", "1000000"], LIMIT,
          title="engine against the machine's bandwidth"),
+    Step("flat", "bench_engine", [*FLAT, "--n", "1000000"], FLAT,
+         title="engine: cost per robot-step from 1,200 to 1,000,000 robots"),
     Step("jam", "engine_jam", [], ["--duration", "150"],
          title="jammed swarm: Jacobi sweeps alone, the first Gauss-Seidel solve, the default"),
     Step("gpu_rehearse", "bench_gpu",
