@@ -432,8 +432,7 @@ def _jacobi(
             visit, visit_next = visit_next, visit
             everyone = False
         if sweeps >= gs_after and not overflows[0]:
-            if not everyone:
-                visit[:count].sort()  # row order: the passes sweep across the swarm
+            if not everyone:  # already in row order (_collect_marked), as the passes need
                 visits[0][:count] = visit[:count]  # (visit may be either row of visits)
             return sweeps, overlap, builds, in_scratch, count, everyone, True
     return sweeps, overlap, builds, in_scratch, count, everyone, False

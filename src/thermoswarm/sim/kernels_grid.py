@@ -88,7 +88,8 @@ def serial_twin(kernel, name: str):
     step (a step makes several sweeps).  The twin is its own function, ``name``, so
     that Numba's on-disk cache, which keys a function by its qualified name and not by
     its compile flags, keeps the two apart.  Results are bit-identical: every parallel
-    loop writes only its own elements and reduces by maxima only.
+    loop writes only its own elements (or, like the sweep's marks, the same value
+    whoever writes it) and reduces by maxima only.
     """
     f = kernel.py_func
     twin = types.FunctionType(f.__code__, f.__globals__, name, f.__defaults__, f.__closure__)
