@@ -2,10 +2,10 @@
 
 Owns the detector interface and registry and the classical detector (background
 subtraction and blob moments, no training: :mod:`.classical`), the trained U-Net + pose
-detector (:mod:`.unet`, needs PyTorch) and the detection files other tools write (MOT,
-COCO, YOLO: :mod:`.files`). May import the floor (``tracking.anatomy``,
-``tracking.detection``, ``tracking.video``) and the configuration helpers; never
-``synth``, ``track``, ``train`` or the pipeline.
+detector (:mod:`.unet`, its networks in :mod:`.unet_model`; needs PyTorch) and the
+detection files other tools write (MOT, COCO, YOLO: :mod:`.files`). May import the
+floor (``tracking.anatomy``, ``tracking.detection``, ``tracking.video``) and the
+configuration helpers; never ``synth``, ``track``, ``train`` or the pipeline.
 """
 
 from thermoswarm.tracking.detect.classical import (
