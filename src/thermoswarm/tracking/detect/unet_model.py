@@ -54,7 +54,7 @@ class ModelConfig:
     network's levels (at 1/2, 1/4 and 1/4 of the crop).  ``keypoints``: names of the
     three points, in the order of the tracker's ``head, body, tail``.
     ``peak_reference``: the median confidence-map peak of correctly found ants, measured
-    after training (:func:`thermoswarm.tracking.train.fit.calibrate_peaks`); a detection's
+    after training (:func:`thermoswarm.tracking.train.loop.calibrate_peaks`); a detection's
     score is its peak divided by it (at most 1), so that a typical correct detection
     scores 1, as the tracker expects (it trusts detections less as their score falls).
     """
