@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -285,6 +285,72 @@ def _find_videos(labels: Any, path: Path, search: Sequence[Path]) -> None:
                 break
 
 
+def _open_slp(path: Path, image_root: str | os.PathLike | None) -> Any:
+    """The SLEAP labels of ``path``, their missing videos looked for by name in
+    ``image_root`` and beside the file."""
+    try:
+        import sleap_io as sio
+    except ImportError:
+        raise InputError(
+            f"{path}: reading SLEAP files needs sleap-io (pip install 'thermoswarm[io]')"
+        ) from None
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    try:
+        labels = sio.load_slp(str(path))
+    except Exception as exc:
+        raise InputError(f"{path}: not a readable SLEAP file ({type(exc).__name__})") from None
+    search = ([Path(image_root)] if image_root is not None else []) + [path.parent]
+    _find_videos(labels, path, search)
+    return labels
+
+
+def _slp_instances(
+    users: list[Any],
+    preds: list[Any],
+    mapped: Callable[[Any], tuple[np.ndarray, np.ndarray]],
+    track_no: dict[int, int],
+) -> tuple[list[np.ndarray], list[int], list[np.ndarray]]:
+    """One frame's labelled ants (head, body, tail), their track numbers and the
+    centres of its ``ignore`` regions (see :func:`read_slp`)."""
+    pts, trk, ign = [], [], []
+    covers = []
+    for inst in users or preds:
+        p, every = mapped(inst)
+        covers.append((every, _extent(every)))
+        if np.all(np.isfinite(p[1])):
+            pts.append(p)
+            trk.append(track_no.get(id(inst.track), -1) if inst.track is not None else -1)
+        elif (c := _centre(p, every)) is not None:
+            ign.append(c)
+    if users:
+        for inst in preds:
+            p, every = mapped(inst)
+            c = _centre(p, every)
+            if c is None:
+                continue
+            dup = any(_same_ant(every, u, 0.15 * r) for u, r in covers)
+            if not dup:
+                ign.append(c)
+    return pts, trk, ign
+
+
+def _slp_image(lf: Any, path: Path) -> np.ndarray:
+    """The RGB image of a SLEAP labelled frame."""
+    try:
+        img = np.asarray(lf.image)
+    except Exception as exc:
+        raise InputError(
+            f"{path}: image of frame {lf.frame_idx} of {lf.video.filename} cannot be "
+            f"read ({type(exc).__name__}); embed the images (a .pkg.slp) or put the "
+            f"video {_video_name(str(lf.video.filename))!r} beside the labels "
+            "(or in --image-root)"
+        ) from None
+    if img is None or img.ndim not in (2, 3):
+        raise InputError(f"{path}: frame {lf.frame_idx} has no image")
+    return _rgb(img)
+
+
 def read_slp(
     path: str | os.PathLike,
     *,
@@ -305,20 +371,7 @@ def read_slp(
     an ``ignore`` region, not background.
     """
     path = Path(path)
-    try:
-        import sleap_io as sio
-    except ImportError:
-        raise InputError(
-            f"{path}: reading SLEAP files needs sleap-io (pip install 'thermoswarm[io]')"
-        ) from None
-    if not path.is_file():
-        raise InputError(f"{path}: no such file")
-    try:
-        labels = sio.load_slp(str(path))
-    except Exception as exc:
-        raise InputError(f"{path}: not a readable SLEAP file ({type(exc).__name__})") from None
-    search = ([Path(image_root)] if image_root is not None else []) + [path.parent]
-    _find_videos(labels, path, search)
+    labels = _open_slp(path, image_root)
     frames: list[np.ndarray] = []
     points: list[np.ndarray] = []
     ignore: list[np.ndarray] = []
@@ -344,40 +397,10 @@ def read_slp(
         if not users and preds and not include_predicted:
             n_pred_only += 1
             continue
-        labelled = users or preds
-        if not labelled:
+        if not (users or preds):
             continue
-        pts, trk, ign = [], [], []
-        covers = []
-        for inst in labelled:
-            p, every = mapped(inst)
-            covers.append((every, _extent(every)))
-            if np.all(np.isfinite(p[1])):
-                pts.append(p)
-                trk.append(track_no.get(id(inst.track), -1) if inst.track is not None else -1)
-            elif (c := _centre(p, every)) is not None:
-                ign.append(c)
-        if users:
-            for inst in preds:
-                p, every = mapped(inst)
-                c = _centre(p, every)
-                if c is None:
-                    continue
-                dup = any(_same_ant(every, u, 0.15 * r) for u, r in covers)
-                if not dup:
-                    ign.append(c)
-        try:
-            img = np.asarray(lf.image)
-        except Exception as exc:
-            raise InputError(
-                f"{path}: image of frame {lf.frame_idx} of {lf.video.filename} cannot be "
-                f"read ({type(exc).__name__}); embed the images (a .pkg.slp) or put the "
-                f"video {_video_name(str(lf.video.filename))!r} beside the labels "
-                "(or in --image-root)"
-            ) from None
-        if img is None or img.ndim not in (2, 3):
-            raise InputError(f"{path}: frame {lf.frame_idx} has no image")
-        frames.append(_rgb(img))
+        pts, trk, ign = _slp_instances(users, preds, mapped, track_no)
+        frames.append(_slp_image(lf, path))
         points.append(np.asarray(pts, dtype=np.float64).reshape(-1, 3, 2))
         ignore.append(np.asarray(ign, dtype=np.float64).reshape(-1, 2))
         keys.append((video_no.get(id(lf.video), 0), int(lf.frame_idx)))
@@ -411,24 +434,9 @@ def _rgb(img: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(img[:, :, :3])
 
 
-def read_coco(
-    path: str | os.PathLike,
-    *,
-    px_per_mm: float,
-    image_root: str | os.PathLike | None = None,
-    nodes: Sequence[str] | None = None,
-) -> LabeledFrames:
-    """Labelled frames of a COCO keypoint JSON file and its images.
-
-    ``image_root`` (default: the JSON file's folder) is where ``file_name`` paths
-    start.  Keypoints with visibility 0 are not labelled (NaN); 1 and 2 count.  Only
-    categories that define ``keypoints`` are used.  An annotation without its body
-    point (or with no keypoint at all, or ``iscrowd``) is an ``ignore`` region at its
-    known points, else at its box's centre.
-    """
-    import cv2
-
-    path = Path(path)
+def _coco_doc(path: Path) -> dict[str, Any]:
+    """The COCO document of ``path``: a JSON object with lists of images, annotations
+    and categories."""
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     try:
@@ -439,7 +447,13 @@ def read_coco(
         isinstance(doc.get(k), list) for k in ("images", "annotations", "categories")
     ):
         raise InputError(f"{path}: not COCO keypoints (needs images, annotations, categories)")
-    root = Path(image_root) if image_root is not None else path.parent
+    return doc
+
+
+def _coco_categories(
+    doc: dict[str, Any], nodes: Sequence[str] | None, path: Path
+) -> dict[int, NodeMap]:
+    """The :class:`NodeMap` of each category that defines keypoints, by category id."""
     cats: dict[int, NodeMap] = {}
     for cat in doc["categories"]:
         try:
@@ -450,6 +464,14 @@ def read_coco(
             raise InputError(f"{path}: malformed category {cat!r:.80}") from None
     if not cats:
         raise InputError(f"{path}: no category defines keypoints")
+    return cats
+
+
+def _coco_annotations(
+    doc: dict[str, Any], cats: dict[int, NodeMap], path: Path
+) -> tuple[dict[int, list[np.ndarray]], dict[int, list[np.ndarray]]]:
+    """Per image id, the labelled ants (head, body, tail) and the centres of the
+    ``ignore`` regions (see :func:`read_coco`)."""
     by_image: dict[int, list[np.ndarray]] = {}
     ign_image: dict[int, list[np.ndarray]] = {}
     for i, ann in enumerate(doc["annotations"]):
@@ -478,6 +500,31 @@ def read_coco(
             c = box[:2] + box[2:] / 2
         if c is not None:
             ign_image.setdefault(img_id, []).append(c)
+    return by_image, ign_image
+
+
+def read_coco(
+    path: str | os.PathLike,
+    *,
+    px_per_mm: float,
+    image_root: str | os.PathLike | None = None,
+    nodes: Sequence[str] | None = None,
+) -> LabeledFrames:
+    """Labelled frames of a COCO keypoint JSON file and its images.
+
+    ``image_root`` (default: the JSON file's folder) is where ``file_name`` paths
+    start.  Keypoints with visibility 0 are not labelled (NaN); 1 and 2 count.  Only
+    categories that define ``keypoints`` are used.  An annotation without its body
+    point (or with no keypoint at all, or ``iscrowd``) is an ``ignore`` region at its
+    known points, else at its box's centre.
+    """
+    import cv2
+
+    path = Path(path)
+    doc = _coco_doc(path)
+    root = Path(image_root) if image_root is not None else path.parent
+    cats = _coco_categories(doc, nodes, path)
+    by_image, ign_image = _coco_annotations(doc, cats, path)
     frames: list[np.ndarray] = []
     points: list[np.ndarray] = []
     ignore: list[np.ndarray] = []
