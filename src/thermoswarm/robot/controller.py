@@ -26,6 +26,7 @@ DEFAULTS = {
     "mapping": "lit_cold",  # or "lit_hot" (PAPER_NOTES 6.3)
     "heading_law": "persistent",  # or "uniform" (Algorithm 5 as written)
     "kT_theta": 0.8,  # rad/s, steering temperature of the persistent law
+    "kT_theta_cold": None,  # rad/s, of cold robots (None: kT_theta in both phases)
     # Algorithm 2
     "group": 0,  # 0: goal at 0 deg (toward the light), 1: at 180 deg
     "sigma": 0.7854,  # rad (45 deg), the spread the paper does not give
@@ -121,6 +122,8 @@ class Config:
             raise ValueError("heading_law must be 'uniform' or 'persistent'")
         if self.group not in (0, 1):
             raise ValueError("group must be 0 or 1")
+        if self.kT_theta_cold is not None and not self.kT_theta_cold > 0:
+            raise ValueError("kT_theta_cold must be positive (or None)")
         if self.v_max is not None and not self.v_max > 0:
             raise ValueError("v_max must be positive (or None)")
 
@@ -188,7 +191,8 @@ class Controller:
             theta = wrap(goal + c.sigma * self.rng.normal())
         elif a == "transport-free" and c.heading_law == "persistent":
             # keep the heading; turn by omega * tau, |omega| ~ Exponential(kT_theta)
-            turn = self.rng.exponential(c.kT_theta * c.tau)
+            k = c.kT_theta if c.kT_theta_cold is None or self.phase else c.kT_theta_cold
+            turn = self.rng.exponential(k * c.tau)
             if self.rng.random() < 0.5:
                 turn = -turn
             theta = wrap((self.theta if previous is None else previous) + turn)
