@@ -217,9 +217,8 @@ class BoardRobot:
         """Read the board's next sleep: its duties act from now, it wakes ``us`` later."""
         while True:
             req = self.proc.request()
-            if req is None:  # the program ended (or failed: see close())
-                self.ended = True
-                self.wheel = [0.0, 0.0]
+            if req is None:  # the program ended (or failed: see close()); the
+                self.ended = True  # motors keep the last duties it set
                 return
             kind, us, duties = req
             if kind == "L":  # a line it printed, at this moment and pose

@@ -4,4 +4,7 @@ import machine
 machine.link()
 import main  # noqa: E402
 
-main.run()
+try:
+    main.run()
+finally:
+    machine._sleep(0)  # hand the host the last duties (the motors' state at the end)

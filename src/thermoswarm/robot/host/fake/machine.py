@@ -6,7 +6,8 @@
 #   "\x1eS <microseconds> <pin>=<duty_u16> ..."   (the duties changed since the last)
 # and blocks until the host answers with one line on stdin,
 #   "<pin>=<value> ..."   (an ADC pin's read_u16, or a digital input's value).
-# Unlinked: values from `_fake.json` in the current folder ({"26": 30000, ...}), else
+# Unlinked: values from `_fake.json` in the current folder ({"26": 30000, ...}, read
+# again whenever an ADC is made), else
 # 32768 for ADC pins and 1 for inputs; sleeps only advance the clock.
 import sys
 
@@ -15,14 +16,22 @@ _changed = {}
 _linked = [False]
 _now = [0]  # microseconds since start
 
-try:
-    import json
 
-    with open("_fake.json") as _f:
-        for _k, _v in json.load(_f).items():
-            _values[int(_k)] = _v
-except OSError:
-    pass
+def _load():
+    """Unlinked: (re)read the values of `_fake.json`, if there is one."""
+    if _linked[0]:
+        return
+    try:
+        import json
+
+        with open("_fake.json") as f:
+            for k, v in json.load(f).items():
+                _values[int(k)] = v
+    except OSError:
+        pass
+
+
+_load()
 
 
 def link():
@@ -80,6 +89,7 @@ class ADC:
 
     def __init__(self, pin, atten=None):
         self.id = pin.id if isinstance(pin, Pin) else pin
+        _load()
 
     def read_u16(self):
         return _values.get(self.id, 32768)
