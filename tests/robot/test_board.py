@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_controller import MICROPYTHON_MODULES, _imports
 
 import thermoswarm.robot.boards as boards
 from thermoswarm.robot.host.build import build
@@ -24,8 +25,6 @@ from thermoswarm.sim.robot_model import (
     paper_robot,
     warn_limits,
 )
-
-from test_controller import MICROPYTHON_MODULES, _imports
 
 BOARD_DIR = Path(boards.__file__).parent
 
