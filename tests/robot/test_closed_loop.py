@@ -22,7 +22,7 @@ def _replay(settings, seed, decisions, mapping="lit_cold"):
     for d in decisions:
         hot = d.phase == 1
         lit = hot if mapping == "lit_hot" else not hot
-        out.append(ctrl.decide(0.9 if lit else 0.1))
+        out.append(ctrl.decide(0.9 if lit else 0.1, d.previous))
     return out
 
 

@@ -3,7 +3,7 @@
 Loads ``config.json`` (and the board's ``calib.json``), builds the HAL and the
 controller, and runs control periods until a safe stop (low battery, driver fault) or
 ``periods`` periods; the motors are stopped whatever ends the run.  With ``log`` on, it
-prints one line per period: ``period K THETA V CONVERGED PHASE`` (floats as the hex of
+prints one line per period: ``period K THETA V CONVERGED PHASE PREVIOUS`` (floats as the hex of
 their IEEE-754 double bits, so that a host can compare decisions exactly).
 """
 
@@ -39,7 +39,7 @@ def run(cfg=None):
         while periods is None or k < periods:
             theta, v, ok = ctrl.period()
             if log:
-                print("period", k, bits(theta), bits(v), ok, ctrl.phase)
+                print("period", k, bits(theta), bits(v), ok, ctrl.phase, bits(ctrl.previous))
             k += 1
     except SafeStop as e:
         print("safe stop:", e)

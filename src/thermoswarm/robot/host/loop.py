@@ -119,6 +119,7 @@ class Decision:
     speed: float
     converged: bool
     phase: int
+    previous: float  # rad, the heading the persistent law turned from
     t: float  # s, when the period ended
     x: float  # mm
     y: float  # mm
@@ -238,9 +239,9 @@ class BoardRobot:
         out = []
         for line, (t, x, y, phi) in zip(self.proc.log, self.poses, strict=True):
             f = line.split()
-            if len(f) == 6 and f[0] == "period":
+            if len(f) == 7 and f[0] == "period":
                 out.append(Decision(int(f[1]), _double(f[2]), _double(f[3]), f[4] == "True",
-                                    int(f[5]), t, x, y, phi))  # fmt: skip
+                                    int(f[5]), _double(f[6]), t, x, y, phi))  # fmt: skip
         return out
 
     def close(self) -> str:
