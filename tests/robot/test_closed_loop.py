@@ -8,6 +8,7 @@ import json
 import math
 
 import numpy as np
+import pytest
 
 from thermoswarm.robot.controller import Config, Controller, wrap
 from thermoswarm.robot.host.build import build
@@ -66,3 +67,65 @@ def test_boards_make_cpython_decisions_on_the_tick_and_turn_where_asked(tmp_path
             assert err.max() < math.radians(4.0), np.degrees(err.max())
             goal = 0.0 if groups[b.id] == 0 else math.pi
             assert np.mean([abs(wrap(d.theta - goal)) for d in dec]) < 1.0  # sigma 45 deg
+
+
+@pytest.mark.slow
+def test_narrow_road_boards_cross_as_the_simulated_robots_do(tmp_path):
+    """A board of each group among the narrow road's simulated robots, 900 s, three
+    seeds; tau = 3 s so that group 1, which turns about a full turn each period (to
+    the light, then back), drives at all (docs/robot.md).  Transit times of the boards
+    against the simulated robots of their group (turns charged as on the board)."""
+    over = ["tau=3.0", "duration=900"]
+    build("rp2040-zero", "narrow-road", tmp_path / "build", overrides=tuple(over))
+    board_t: dict[int, list[float]] = {0: [], 1: []}
+    sim_t: dict[int, list[float]] = {0: [], 1: []}
+    for seed in (1, 2, 3):
+        run = resolve("narrow-road", overrides=over, seed=seed)
+        work = tmp_path / f"work{seed}"
+        with ClosedLoop(run, tmp_path / "build", [0, 5], work) as cl:
+            group = cl.state.by_id(cl.state.group).copy()
+            assert (group[0], group[5]) == (0, 1)
+            cl.run(900.0)
+            assert cl.close() == {0: "", 5: ""}
+            for b in cl.boards:
+                cfg = json.loads((work / f"robot{b.id}" / "config.json").read_text())
+                dec = b.decisions()
+                replay = _replay(cfg["controller"], cfg["seed"], dec)
+                assert [(d.theta, d.speed) for d in dec] == replay  # bit for bit
+            ev = cl.acc["events"][: int(cl.acc["n_events"])]
+        done = ev[(ev[:, 4] == 1.0) & np.isfinite(ev[:, 3])]
+        board_0 = done[done[:, 1] == 0, 3]
+        assert board_0.size >= 10  # the group-0 board crosses again and again
+        board_t[0] += board_0.tolist()
+        board_t[1] += done[done[:, 1] == 5, 3].tolist()
+        for g in (0, 1):
+            sims = done[(done[:, 2] == g) & ~np.isin(done[:, 1], [0, 5]), 3]
+            sim_t[g] += sims.tolist()
+    q25, q75 = np.percentile(sim_t[0], [25, 75])
+    assert q25 <= np.median(board_t[0]) <= q75, (np.median(board_t[0]), q25, q75)
+    # group 1 crosses rarely (3-6 crossings a run among four simulated robots)
+    assert len(board_t[1]) >= 1
+    assert min(sim_t[1]) / 2 <= min(board_t[1]) and max(board_t[1]) <= 2 * max(sim_t[1])
+
+
+@pytest.mark.slow
+def test_transport_free_boards_push_with_the_swarm(tmp_path):
+    """Ten boards among 130 robots carrying the object toward the light (photoresistor
+    sensing for everyone), 300 s: the boards make CPython's decisions, keep their tick,
+    and the object moves toward the light."""
+    over = ["n=130", "width=600", "height=900", "duration=300", "sensor.mode=photoresistor"]
+    build("rp2040-zero", "transport-free", tmp_path / "build", overrides=tuple(over))
+    run = resolve("transport-free", overrides=over, seed=1)
+    ids = list(range(0, 130, 13))
+    with ClosedLoop(run, tmp_path / "build", ids, tmp_path / "work") as cl:
+        y0 = float(cl.state.body_pos[0, 1])
+        cl.run(300.0)
+        moved = float(cl.state.body_pos[0, 1]) - y0
+        assert cl.close() == {i: "" for i in ids}
+        for b in cl.boards:
+            dec = b.decisions()
+            cfg = _settings(tmp_path, b.id)
+            replay = _replay(cfg["controller"], cfg["seed"], dec, run.params.mapping)
+            assert [(d.theta, d.speed) for d in dec] == replay  # bit for bit
+            assert len(dec) >= 100 and {d.phase for d in dec} <= {0, 1}
+    assert moved > 100.0  # mm toward the light (all simulated: 256-276 mm, seeds 1-3)

@@ -178,3 +178,22 @@ def test_trim_from_drift_cancels_the_arc():
     trim_l, trim_r = trim_from_drift(x, y, track)
     assert vl / trim_l == pytest.approx(vr / trim_r, rel=2e-3)
     assert trim_r > 1 > trim_l
+
+
+def test_calibrate_command_rejects_sensors_that_do_not_see_the_lamp(tmp_path, board):
+    """The CLI's prompts, and a one-line error when bright is not above dark (a
+    photoresistor wired wrong): nothing is written on the board."""
+    _mpremote_installed()
+    build = tmp_path / "build"
+    CliRunner().invoke(main, ["robot", "build", "--board", "rp2040-zero", "--scenario",
+                              "compression", "--out", str(build)])  # fmt: skip
+    assert (
+        CliRunner().invoke(main, ["robot", "deploy", str(build), "--port", board.port]).exit_code
+        == 0
+    )
+    (board.fs / "_fake.json").write_text(json.dumps({26: 900, 27: 40000, 28: 41000}))
+    res = CliRunner().invoke(main, ["robot", "calibrate", "--port", board.port], input="\n\n")
+    assert res.exit_code == 2, res.output
+    assert "Cover the robot" in res.output and "Shine the lamp" in res.output
+    assert "error: photoresistor(s) [1, 2, 3]: bright" in res.output
+    assert not (board.fs / "calib.json").exists()
