@@ -149,3 +149,36 @@ def test_low_battery_and_driver_fault_stop_the_robot(tmp_path):
         cl.run(2.0)
         assert [(b.x, b.y) for b in cl.boards] == x
         assert cl.close() == {0: "", 1: ""}
+
+
+def test_turn_held_charges_long_turns_in_full():
+    """A robot whose turns take 2.5 periods stands for 2.5 periods (TurnTimeCharged
+    would charge one), then its next decision is charged only what is left."""
+    from thermoswarm.policy import Action, Observation
+    from thermoswarm.robot.host.loop import TurnHeld
+
+    class Fixed:  # the heading it asks at each time (held robots' draws are dropped)
+        plan = {0.0: math.pi, 1.0: 2.0, 2.0: 2.0, 4.0: 0.5 * math.pi, 8.0: 0.4 * math.pi}
+
+        def act(self, obs, rng):
+            return Action(heading=np.array([self.plan[obs.time]]), speed=np.array([10.0]))
+
+    pol = TurnHeld(Fixed(), turn_rate=1.0)  # rad/s; tau = 1 s
+    h = 0.0
+
+    def decide(t, heading, light=1.0):
+        obs = Observation(time=t, index=np.array([0]), tau=1.0, ids=np.array([7]),
+                          heading=np.array([heading]), zero_heading=np.array([0.0]),
+                          light=np.array([light]))  # fmt: skip
+        a = pol.act(obs, np.random.default_rng(0))
+        return float(a.heading[0]), float(a.speed[0])
+
+    h, v = decide(0.0, h)  # to the light (0) then to pi: 3.14 s of turning
+    assert (h, v) == (math.pi, 0.0) and pol.busy[7] == pytest.approx(math.pi)
+    assert decide(1.0, h) == (math.pi, 0.0) and decide(2.0, h) == (math.pi, 0.0)  # held
+    h2, v2 = decide(4.0, h)  # 0.86 s past the turn's end: pi + pi/2 = 4.71 s, less 0.86
+    assert h2 == 0.5 * math.pi and v2 == 0.0 and pol.busy[7] == pytest.approx(4.0 + 3.855, 1e-3)
+    h3, v3 = decide(8.0, h2, light=0.0)  # dark: 0.1 pi from the last heading, less the wait
+    assert h3 == pytest.approx(0.4 * math.pi)
+    late = 8.0 - (4.0 + 1.5 * math.pi - (4.0 - math.pi))
+    assert v3 == pytest.approx(10.0 * (1.0 - (0.1 * math.pi - late)))

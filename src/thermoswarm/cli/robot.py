@@ -33,7 +33,7 @@ def build(board, scenario, out, config_file, overrides, seed, group) -> None:  #
 
 
 @robot.command()
-@click.argument("folder", type=click.Path(exists=True, file_okay=False))
+@click.argument("folder", type=click.Path(file_okay=False))
 @click.option("--port", required=True, help="Serial port of the board (e.g. /dev/ttyACM0).")
 def deploy(folder, port) -> None:  # type: ignore[no-untyped-def]
     """Copy a built FOLDER to the board with mpremote."""

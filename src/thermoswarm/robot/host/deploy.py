@@ -39,6 +39,8 @@ def deploy(folder: str | Path, port: str) -> list[str]:
     """Copy the built ``folder`` to the board on ``port``; returns the files written.
     The board's own ``calib.json`` is left as it is."""
     folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(f"{folder}: no such folder; make one with `thermoswarm robot build`")
     missing = [f for f in REQUIRED if not (folder / f).is_file()]
     if missing:
         raise InputError(

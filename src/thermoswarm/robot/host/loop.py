@@ -267,6 +267,49 @@ class _Boards:
         return Action(heading=h, speed=v)
 
 
+class TurnHeld:
+    """Turning time charged as the board pays it: a robot whose turns take ``t`` s
+    drives ``v (tau - t)`` in a period when ``t <= tau``; when ``t > tau`` it stands for
+    ``t`` (several periods: no new decision meanwhile) and its next decision is charged
+    only what is left after the time it waited past the turn's end.  Unlike
+    :class:`TurnTimeCharged`, which charges at most one period, so that a robot that
+    needs 2.5 s to turn loses 1 s.  Turns as in :class:`TurnTimeCharged` (the short way
+    to the light, then to the new heading; in the dark, the short way between the two).
+    """
+
+    def __init__(self, inner: Policy, turn_rate: float, dark_threshold: float = 0.05) -> None:
+        self.inner = inner
+        self.turn_rate = float(turn_rate)
+        self.dark_threshold = dark_threshold
+        self.busy = np.zeros(0)  # per robot id: when its last turn ends (s)
+
+    def act(self, obs: Observation, rng: np.random.Generator) -> Action:
+        a = self.inner.act(obs, rng)
+        ids = np.asarray(obs.ids, dtype=np.int64)
+        if ids.size and ids.max() >= self.busy.size:
+            self.busy = np.concatenate([self.busy, np.zeros(ids.max() + 1 - self.busy.size)])
+        t, tau = obs.time, obs.tau
+        h_prev = np.asarray(obs.heading, dtype=float)
+        h = np.asarray(a.heading, dtype=float).copy()
+        v = np.asarray(a.speed, dtype=float).copy()
+
+        def short(x: np.ndarray) -> np.ndarray:
+            return np.abs((x + np.pi) % (2 * np.pi) - np.pi)
+
+        zero = np.asarray(obs.zero_heading, dtype=float)
+        sees = np.asarray(obs.light) > self.dark_threshold
+        angle = np.where(sees, short(zero - h_prev) + short(h - zero), short(h - h_prev))
+        ends = self.busy[ids]
+        held = ends > t + 1e-9
+        late = np.where(held, 0.0, np.maximum(t - ends, 0.0))  # waited past a long turn
+        t_turn = np.maximum(angle / self.turn_rate - np.minimum(late, tau), 0.0)
+        v *= np.clip(1.0 - t_turn / tau, 0.0, 1.0)
+        self.busy[ids] = np.where(held, ends, np.where(t_turn > tau, t + t_turn, t + tau))
+        h = np.where(held, h_prev, h)
+        v = np.where(held, 0.0, v)
+        return Action(heading=h, speed=v)
+
+
 def robot_folder(build_dir: str | Path, folder: str | Path, **config: Any) -> Path:
     """Copy a built folder to ``folder`` with ``config`` over its ``config.json`` (e.g.
     ``seed``, ``log``, ``periods``, ``controller``: merged) and a ``calib.json`` for the
@@ -302,15 +345,16 @@ class ClosedLoop:
     seeds : dict id -> int, optional
         Each board's controller seed; default ``1000 * run.seed + id``.
     model : RobotModel
-    charge_turns : bool
+    charge_turns : bool or "hold"
         Wrap the scenario's policy in :class:`TurnTimeCharged` at the boards' turning
-        rate (unless it is already).
+        rate (unless it is already); ``"hold"``: in :class:`TurnHeld`, which charges
+        turns longer than a period in full, as the board pays them.
     battery_volts : float
     """
 
     def __init__(self, run: Any, build_dir: str | Path, ids: Sequence[int], work: str | Path,
                  *, seeds: dict[int, int] | None = None, model: RobotModel = paper_robot,
-                 charge_turns: bool = True, battery_volts: float = 3.9) -> None:  # fmt: skip
+                 charge_turns: bool | str = True, battery_volts: float = 3.9) -> None:  # fmt: skip
         from thermoswarm.scenarios import get
         from thermoswarm.sim.engine import Simulator
 
@@ -320,7 +364,9 @@ class ClosedLoop:
         built = json.loads((Path(build_dir) / "config.json").read_text())
         self.turn_rate = model.max_turn_rate * built["motor"]["turn_speed"]
         inner = setup.policy
-        if charge_turns and not isinstance(inner, TurnTimeCharged):
+        if charge_turns == "hold":
+            inner = TurnHeld(inner, self.turn_rate)  # type: ignore[arg-type]
+        elif charge_turns and not isinstance(inner, TurnTimeCharged):
             inner = TurnTimeCharged(inner, turn_rate=self.turn_rate)  # type: ignore[arg-type]
         self.sim = Simulator(setup.world, setup.engine, _Boards(inner, ids), setup.sensing)
         self.state = self.sim.init(setup.positions, rng, headings=setup.headings,
