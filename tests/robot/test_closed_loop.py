@@ -101,6 +101,11 @@ def test_narrow_road_boards_cross_as_the_simulated_robots_do(tmp_path):
         for g in (0, 1):
             sims = done[(done[:, 2] == g) & ~np.isin(done[:, 1], [0, 5]), 3]
             sim_t[g] += sims.tolist()
+    print(f"narrow road, group 0: boards {len(board_t[0])} crossings, median "
+          f"{np.median(board_t[0]):.1f} s, 10-90 % {np.percentile(board_t[0], [10, 90])}; "
+          f"simulated {len(sim_t[0])}, median {np.median(sim_t[0]):.1f} s, 10-90 % "
+          f"{np.percentile(sim_t[0], [10, 90])}; group 1: boards {board_t[1]}, simulated "
+          f"{len(sim_t[1])} in {min(sim_t[1]):.0f}-{max(sim_t[1]):.0f} s")  # fmt: skip
     q25, q75 = np.percentile(sim_t[0], [25, 75])
     assert q25 <= np.median(board_t[0]) <= q75, (np.median(board_t[0]), q25, q75)
     # group 1 crosses rarely (3-6 crossings a run among four simulated robots)
@@ -140,6 +145,8 @@ def test_transport_free_boards_push_the_object_as_simulated_robots_do(tmp_path):
     sims = np.array([_object_progress(tmp_path, s, []) for s in range(1, 7)])
     ids = list(range(0, 130, 13))
     boards = np.array([_object_progress(tmp_path, s, ids, check=s == 1) for s in (1, 2, 3)])
+    print(f"transport-free: boards {boards.round(1)} mm, simulated {sims.round(1)} mm "
+          f"(mean {sims.mean():.0f}, sd {sims.std(ddof=1):.0f})")  # fmt: skip
     assert sims.min() > 100.0  # the swarm carries the object toward the light
     # the boards' runs within the simulated swarm's spread over seeds: their mean within
     # three standard errors of the simulated mean, none below half the lowest
