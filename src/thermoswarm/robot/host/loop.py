@@ -39,7 +39,8 @@ from thermoswarm.policy import Action, Observation, Policy, TurnTimeCharged
 from thermoswarm.sim.light import DirectionalLight, read_sensors
 from thermoswarm.sim.robot_model import RobotModel, drive_arc, paper_robot
 
-__all__ = ["FAKE", "micropython", "BoardProcess", "BoardRobot", "ClosedLoop", "Decision"]
+__all__ = ["FAKE", "micropython", "BoardProcess", "BoardRobot", "ClosedLoop", "Decision",
+           "TurnHeld", "robot_folder"]  # fmt: skip
 
 #: the fake machine/time modules and the boot script
 FAKE = Path(__file__).with_name("fake")
