@@ -270,6 +270,13 @@ def _loop(
     tracks = open_run_tracks(store)
     metrics = scen.metrics(setup, acc, tracks, sim, state)
     metrics.update(overlap_metrics(sim, state))  # every scenario, one definition
+    if sim.params.mode == "overdamped" and "speed" in tracks and "heading" in tracks:
+        from thermoswarm.sim.robot_model import limit_report, paper_robot, warn_limits
+
+        lim = limit_report(tracks["speed"], tracks["heading"], scen.recording.interval,
+                           sim.params.tau, paper_robot)  # fmt: skip
+        metrics["robot_limits"] = {"robot": "paper_robot", **lim}
+        warn_limits(lim)
     steps_run = state.step - start_step
     metrics["performance"] = {
         "wall_seconds": wall,
