@@ -26,6 +26,7 @@ _KEYWORD = {"fmt": "format", "read_option": "read_options", "no_report": "report
 
 #: Data-quality counters worth a line on the terminal when they are not zero.
 _NOTABLE = (
+    ("n_shared_positions_masked", "samples at another individual's position masked"),
     ("n_missing_timestamps", "samples without a timestamp dropped"),
     ("n_decreasing_timestamps", "backward time steps (rows sorted)"),
     ("n_duplicate_rows", "exact duplicate rows dropped"),
@@ -190,6 +191,19 @@ def _p(p: float | None, n_boot: int | None) -> str:
     show_default=True,
     help="Steps longer than this many of the individual's median steps are gaps.",
 )
+@click.option(
+    "--speed-source",
+    type=click.Choice(["auto", "positions", "recorded"]),
+    default="auto",
+    show_default=True,
+    help="Speeds of the energies: displacements, the input's speed variable, or auto "
+    "(recorded for a thermoswarm simulation).",
+)
+@click.option(
+    "--mask-shared-positions",
+    is_flag=True,
+    help="Make missing the samples whose position another individual has in that frame.",
+)
 @click.option("--keypoint", default=None, help="Keypoint to follow (default: the centroid).")
 @click.option(
     "--min-confidence",
@@ -342,6 +356,7 @@ def summary_lines(fits: dict[str, Any]) -> list[str]:
     if notes:
         lines.append("data quality: " + "; ".join(notes))
     lines.append(f"left out of the fits: {fits['excluded']['statement']}")
+    lines.extend(recording_lines(fits.get("recording")))
     e = fits["energy"]
     if "one_phase" in e:
         two = e["two_phase"]
@@ -368,3 +383,22 @@ def summary_lines(fits: dict[str, Any]) -> list[str]:
             f"(p {_p(d['p_value'], None)})"
         )
     return lines
+
+
+def recording_lines(rec: dict[str, Any] | None) -> list[str]:
+    """What ``analyze`` prints of ``fits.json["recording"]`` (nothing for plain tracks)."""
+    if not rec or not (rec.get("simulated") or rec.get("speed_source") == "recorded"):
+        return []
+    dt, tau = rec.get("sampling_interval_s"), rec.get("control_period_s")
+    text = f"recording: sampled every {_fmt(dt, '.3g')} s"
+    if tau is not None:
+        text += f", control period {tau:g} s ({rec['mixed_step_fraction']:.0%} of steps mix two)"
+    if rec["speed_source"] == "recorded":
+        text += f"; energies from the recorded {rec['speed_kind']} speeds"
+        ratio, slowed = rec.get("realized_to_recorded_energy"), rec.get("slowed_fraction")
+        if ratio is not None:
+            text += (f" (from positions: {ratio:.3g} of their mean energy, "
+                     f"{slowed:.1%} of steps slowed by contacts)")  # fmt: skip
+    else:
+        text += "; energies from positions"
+    return [text]
