@@ -103,3 +103,32 @@ def test_the_real_row_states_its_rule_and_source():
     assert row["verdict"] == "reproduced" and "rms speed is 0.77 mm/s" in row["why"]
     assert compare("unified_law", {})[0]["verdict"] == "not measured"
     assert rows[1]["claim"].startswith("ants (synthetic control)")
+
+
+def test_the_real_row_is_the_analyze_command_it_prints(fitted, tmp_path, monkeypatch):
+    """Issue 33: the report's real-ant row prints the ``analyze`` command that gives its
+    numbers; run that command (from the checkout's root) and compare every number."""
+    import json
+    import shlex
+
+    from click.testing import CliRunner
+
+    from thermoswarm.cli import cli
+
+    study, counts = fitted
+    words = shlex.split(counts["command"])
+    assert words[:2] == ["thermoswarm", "analyze"] and "--mask-shared-positions" in words
+    words[words.index("OUT")] = str(tmp_path / "res")
+    monkeypatch.chdir(ANTRAX_JS16.parents[3])
+    got = CliRunner().invoke(cli, words[1:])
+    assert got.exit_code == 0, got.output
+    fits = json.loads((tmp_path / "res" / "fits.json").read_text())
+    want = study.fits["energy"]
+    e = fits["energy"]
+    assert e["preferred"] == want["preferred"] and e["n"] == want["n"] == counts["steps"]["used"]
+    assert e["lr_p_value"] == want["lr_p_value"]
+    assert e["one_phase"]["kT"] == want["one_phase"]["kT"]
+    for k in ("phi", "kT1", "kT2", "p_value"):
+        assert e["two_phase"][k] == want["two_phase"][k]
+    shared = fits["data_quality"]["n_shared_positions_masked"]
+    assert shared == counts["samples"]["cluster_shared"] == _shared_in_csv()

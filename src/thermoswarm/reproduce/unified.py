@@ -33,6 +33,8 @@ _SYSTEM_NAMES = {"ants_real": "ants, real (anTraX JS16)", "ants": "ants, synthet
 #: ``{n_bootstrap}`` filled in; OUT is any new directory).
 REAL_ANTS_COMMAND = ("thermoswarm analyze {path} --mask-shared-positions --seed {seed} "
                      "--bootstrap {n_bootstrap} --out OUT")  # fmt: skip
+#: The ``analyze`` command of a simulated (or synthetic) system's row.
+SYSTEM_COMMAND = "thermoswarm analyze {path} --seed {seed} --bootstrap {n_bootstrap} --out OUT"
 #: Where the excerpt comes from (tests/data/antrax_js16/README.md has the details).
 ANTRAX_SOURCE = (
     "anTraX-data (github.com/Social-Evolution-and-Behavior/anTraX-data, commit 37ed5e9a, "
@@ -96,19 +98,19 @@ def _simulate(
 ) -> tuple[list[tuple[str, str, Any]], dict[str, Any], dict[str, float]]:
     """The synthetic ants, the elastic gas and the light-switched robots: ``(key, label,
     tracks)`` per system, the gas's metrics and the robots' two temperatures."""
-    import xarray as xr
-
+    from thermoswarm.io import read_tracks, write_tracks
     from thermoswarm.maxent import kT_for_mean_speed
     from thermoswarm.tracking.synth import SynthConfig, generate
 
-    ants = generate(SynthConfig(n_frames=plan.ant_frames), np.random.default_rng(seed)).tracks
     work = out / "unified"
+    (work / "ants").mkdir(parents=True, exist_ok=True)
+    ants = generate(SynthConfig(n_frames=plan.ant_frames), np.random.default_rng(seed)).tracks
+    write_tracks(ants, work / "ants" / "tracks.nc")
     gas_m, _, _ = _run("box", work / "gas", {"mode": "inertial", "n": 300,
                                             "packing_fraction": 0.1,
                                             "duration": plan.gas_duration,
                                             "engine": {"dt": 0.05},
                                             "record": {"interval": 0.05}}, seed, bars)  # fmt: skip
-    gas = xr.open_dataset(work / "gas" / "tracks.nc").load()
     # The scenario's defaults (hot 22, cold 18 mm/s mean, speeds cut at 33 mm/s) move the
     # object fastest, but their two speed laws are close and the cut truncates both, so
     # the energy histogram would hardly show two phases.  This panel is about the law
@@ -119,12 +121,13 @@ def _simulate(
     _run("transport-free", work / "robots",
          {"n": plan.unified_robots, "duration": plan.unified_duration, **robot_kT,
           "v_max": None, "record": {"interval": 0.1}}, seed, bars)  # fmt: skip
-    robots = xr.open_dataset(work / "robots" / "tracks.nc").load()
-    systems = [
-        ("ants", "ants, synthetic (the paper's two-phase model): the control", ants),
-        ("gas", "elastic gas (physical particles)", gas),
-        ("robots", "robots, Algorithm 5 (temperature switched by light)", robots),
-    ]
+    labels = {
+        "ants": "ants, synthetic (the paper's two-phase model): the control",
+        "gas": "elastic gas (physical particles)",
+        "robots": "robots, Algorithm 5 (temperature switched by light)",
+    }
+    # each system is analysed as read from its file, exactly as `analyze FILE` reads it
+    systems = [(k, label, read_tracks(work / k / "tracks.nc")) for k, label in labels.items()]
     return systems, gas_m, robot_kT
 
 
@@ -150,6 +153,22 @@ def _panel(ax: Any, study: Any, label: str, n_bootstrap: int) -> dict[str, Any]:
         "two_phase": {k: _num(en["two_phase"][k]) for k in ("phi", "kT1", "kT2")},
         "ks_p_value_preferred": _num(en[en["preferred"]]["p_value"], 4),
         "n_bootstrap": n_bootstrap,
+        "steering": _steering(study.fits["steering"]),
+    }
+
+
+def _steering(st: dict[str, Any]) -> dict[str, Any]:
+    """The steering-rate law per bin and the temperature's trend, for the paper's rows."""
+    tr = st.get("trend") or {}
+    bins = [b for b in st.get("bins", []) if b.get("p_value") is not None]
+    return {
+        "by": st.get("by"),
+        "bins": len(bins),
+        "bins_exponential": sum(1 for b in bins if b["p_value"] > 0.05),
+        "slope": _num(tr.get("slope")),
+        "p_value": _num(tr.get("p_value"), 4),
+        "spearman_rho": _num(tr.get("spearman_rho"), 3),
+        "direction": tr.get("direction"),
     }
 
 
@@ -170,6 +189,10 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
         study = real[0] if key == "ants_real" else run_study(
             ds, seed=seed, n_bootstrap=plan.n_bootstrap)  # fmt: skip
         res[key] = _panel(ax, study, label, plan.n_bootstrap)
+        if key != "ants_real":
+            res[key]["command"] = SYSTEM_COMMAND.format(
+                path=out / "unified" / key / "tracks.nc", seed=seed, n_bootstrap=plan.n_bootstrap
+            )
     if real is not None:
         res["ants_real"].update(source=ANTRAX_SOURCE, **real[1])
     else:
