@@ -14,8 +14,9 @@ its instantaneous speed (inertial particles), at every frame.  This module
 
 - reads those facts (:func:`recording_facts`);
 - with ``steps.speed_source = "auto"`` (the default) or ``"recorded"``, takes the
-  energies of the fits from the recorded speeds and keeps the speeds measured from
-  positions beside them as ``realized_speed`` (:func:`apply_speed_source`);
+  energies of the fits from the recorded speeds (and the turns from the recorded
+  headings, where the recording has them) and keeps the ones measured from positions
+  beside them as ``realized_speed`` and ``realized_heading`` (:func:`apply_speed_source`);
 - reports, in ``fits.json["recording"]``, the sampling interval against the control
   period, the share of steps that mix two commanded velocities, the realised speeds
   against the commanded ones, and a warning when the sampling does not resolve the
@@ -122,7 +123,27 @@ def apply_speed_source(
     e = 0.5 * v * v if mass is None else 0.5 * mass * (v * 1e-3) ** 2
     kin["energy"].values = np.where(used, e, np.nan)
     kin.attrs["speed_source"] = "recorded"
+    if "heading" in ds.data_vars and set(ds["heading"].dims) == {"time", "individuals"}:
+        _recorded_turns(kin, ds, end, cols, rows >= 0)
     return "recorded"
+
+
+def _recorded_turns(
+    kin: xr.Dataset, ds: xr.Dataset, end: np.ndarray, cols: np.ndarray, ok: np.ndarray
+) -> None:
+    """Headings and steering rates from the recorded headings (the commanded ones), on
+    the steps and turns that positions made valid; a turn is the change of heading
+    between consecutive steps over their mean duration (rad/s)."""
+    rec = ds["heading"].transpose("time", "individuals").values.astype(np.float64)
+    h = np.where(ok, rec[end, cols], np.nan)
+    kin["realized_heading"] = (("time", "individuals"), kin["heading"].values, {"units": "rad"})
+    kin["heading"].values = np.where(np.isfinite(kin["heading"].values), h, np.nan)
+    dt = kin["dt"].values
+    dh = (h[1:] - h[:-1] + np.pi) % (2 * np.pi) - np.pi
+    valid = kin["steering_valid"].values[1:]
+    with np.errstate(invalid="ignore"):
+        rate = np.where(valid, dh / (0.5 * (dt[:-1] + dt[1:])), np.nan)
+    kin["steering_rate"].values = np.concatenate([kin["steering_rate"].values[:1], rate])
 
 
 def recording_block(

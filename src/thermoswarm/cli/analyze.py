@@ -65,6 +65,14 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
     return "-" if v is None else format(v, spec)
 
 
+def _ci(one: dict[str, Any]) -> str:
+    """`` (95 % interval A-B over individuals)`` where the study gave one."""
+    ci = one.get("kT_ci")
+    if not ci:
+        return ""
+    return f" ({one['kT_ci_level']:.0%} interval {ci[0]:.4g}-{ci[1]:.4g} over individuals)"
+
+
 def _p(p: float | None, n_boot: int | None) -> str:
     """``= 0.03``, ``< 0.005`` (the bootstrap's floor) or ``n/a``."""
     from thermoswarm.analysis.explain import format_p_value
@@ -363,7 +371,8 @@ def summary_lines(fits: dict[str, Any]) -> list[str]:
         lines.append(
             f"energy: {e['preferred']} preferred ({e['preferred_by']}; LR p "
             f"{_p(e['lr_p_value'], e.get('n_bootstrap'))}, n = {e['lr_n']}); one phase kT = "
-            f"{_fmt(e['one_phase']['kT'])}; two phases phi = {_fmt(two['phi'], '.3f')}, "
+            f"{_fmt(e['one_phase']['kT'])}{_ci(e['one_phase'])}; two phases phi = "
+            f"{_fmt(two['phi'], '.3f')}, "
             f"kT1 = {_fmt(two['kT1'])}, kT2 = {_fmt(two['kT2'])}"
         )
         why = explain_phases(e)
@@ -394,7 +403,7 @@ def recording_lines(rec: dict[str, Any] | None) -> list[str]:
     if tau is not None:
         text += f", control period {tau:g} s ({rec['mixed_step_fraction']:.0%} of steps mix two)"
     if rec["speed_source"] == "recorded":
-        text += f"; energies from the recorded {rec['speed_kind']} speeds"
+        text += f"; energies and turns from the recorded {rec['speed_kind']} speeds and headings"
         ratio, slowed = rec.get("realized_to_recorded_energy"), rec.get("slowed_fraction")
         if ratio is not None:
             text += (f" (from positions: {ratio:.3g} of their mean energy, "
