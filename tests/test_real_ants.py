@@ -94,6 +94,11 @@ def test_the_real_row_states_its_rule_and_source():
             "source": "anTraX-data JS16", "samples": {"total": 10, "single": 4,
             "cluster_shared": 5, "missing": 1}, "steps": {"resting": 3},
             "n_bootstrap": 9}  # fmt: skip
+    # 9 replicates: the smallest p-value is 0.1, so the LR test cannot prefer two phases
+    weak = compare("unified_law", {"ants_real": real})[0]
+    assert weak["verdict"] == "not resolved at this scale" and "smallest p-value is 0.1" in (
+        weak["why"])  # fmt: skip
+    real = dict(real, n_bootstrap=200)
     rows = compare("unified_law", {"ants_real": real})
     assert rows[0]["claim"].startswith("ants (real)") and rows[0]["verdict"] == "differs"
     assert "rule: two phases preferred" in rows[0]["why"] and "anTraX-data JS16" in rows[0]["why"]

@@ -11,6 +11,7 @@ from typing import Any
 from thermoswarm.report.paper_common import (
     DIFFERS,
     NOT_MEASURED,
+    NOT_RESOLVED,
     PARTLY,
     REPRODUCED,
     _get,
@@ -20,6 +21,16 @@ from thermoswarm.report.paper_common import (
 )
 
 __all__ = ["compare_unified_law"]
+
+
+def _powerless(nb: Any) -> str | None:
+    """Why a bootstrap of ``nb`` replicates cannot reject at the 5 % level, or ``None``:
+    its smallest p-value, ``1 / (nb + 1)``, is not below 0.05."""
+    if nb and 1 / (nb + 1) >= 0.05:
+        return (f"not resolved at this scale: with {nb} bootstrap replicates the smallest "
+                f"p-value is {fmt(1 / (nb + 1), 2)}, so no test here can reject at the 5 % "
+                "level (the quick and full plans run 200)")  # fmt: skip
+    return None
 
 
 def _command(system: Mapping[str, Any]) -> str:
@@ -77,8 +88,13 @@ def _ant_row(ants: Mapping[str, Any], nb: Any, real: bool) -> dict[str, str]:
         f"one phase kT = {fmt(ants.get('one_phase_kT'))}; phi = {fmt(tp.get('phi'))}, "
         f"kT1 = {fmt(tp.get('kT1'))}, kT2 = {fmt(tp.get('kT2'))} mm^2/s^2; KS "
         f"{_p(ants.get('ks_p_value_preferred'), nb)}",
-        (REPRODUCED if ok else DIFFERS) if pref else NOT_MEASURED,
-        why + what + _command(ants),
+        (REPRODUCED if ok else NOT_RESOLVED if _powerless(nb) else DIFFERS)
+        if pref
+        else NOT_MEASURED,
+        (f"{_powerless(nb)}; " if pref and not ok and _powerless(nb) else "")
+        + why
+        + what
+        + _command(ants),
     )
 
 
@@ -174,10 +190,20 @@ def compare_unified_law(res: Mapping[str, Any]) -> list[dict[str, str]]:
             f"{fmt(tp.get('kT1'))}, kT2 = {fmt(tp.get('kT2'))} mm^2/s^2; set "
             f"{fmt(rob.get('kT_cold'))} and {fmt(rob.get('kT_hot'))} mm^2/s^2; KS "
             f"{_p(ks, nb)}",
-            (REPRODUCED if ok else PARTLY if pref == "two_phase" else DIFFERS)
+            (
+                REPRODUCED
+                if ok
+                else PARTLY
+                if pref == "two_phase"
+                else NOT_RESOLVED
+                if _powerless(nb)
+                else DIFFERS
+            )
             if pref
             else NOT_MEASURED,
-            why_robots + _command(rob),
+            (f"{_powerless(nb)}; " if pref and not ok and _powerless(nb) else "")
+            + why_robots
+            + _command(rob),
         )
     )
     return rows
