@@ -159,6 +159,8 @@ def test_regime_cells_toward_the_light():
     assert "fastest detectable 1.8 +- 0.1" in compare("regime", noisy)[0]["ours"]
     still = {**res, "rows": [cell(0.1, 15.0, 2.5, "no detectable motion")]}
     assert "no cell with detectable motion" in compare("regime", still)[0]["ours"]
+    # every cell's interval holds 0: no power to decide, not "differs"
+    assert compare("regime", still)[0]["verdict"] == "not resolved at this scale"
     assert "the default cell 1.5 +- 0.1 mm/s" in row["ours"]
     every = {**res, "rows": [dict(r, verdict="toward target") for r in rows]}
     assert _verdicts("regime", every) == ["reproduced"]

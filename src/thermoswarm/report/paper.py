@@ -443,6 +443,10 @@ def compare_regime(res: Mapping[str, Any]) -> list[dict[str, str]]:
     elif toward:
         verdict = PARTLY
         why = "the transport depends on the numbers the paper leaves open"
+    elif not away:  # every interval holds 0: the test had no power with these seeds
+        verdict = NOT_RESOLVED
+        why = (f"no cell's 95 % interval excludes 0 with {fmt(res.get('seeds'))} seeds: not "
+               "resolved at this scale (reproduce --full runs more seeds, longer)")  # fmt: skip
     else:
         verdict, why = DIFFERS, "no cell moves the object toward the light"
     return [_row(claim, paper, ours, verdict, why + "; rule: a cell moves toward the light "
