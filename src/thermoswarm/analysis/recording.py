@@ -195,8 +195,8 @@ def _warning(
     fix = f"record at most every {tau / 10:g} s (simulate --set record.interval={tau / 10:g})"
     if source == "recorded":
         return (
-            f"{head}; the energies are the recorded {kind} speeds (exact draws), but "
-            f"the steering rates from positions do not resolve the motion; {fix}"
+            f"{head}; the fits use the recorded {kind} speeds and headings (exact draws), "
+            f"but the speeds from positions (realized_speed) mix segments; {fix}"
         )
     hint = " or fit the recorded speeds (--speed-source recorded)" if kind else ""
     return f"{head}; speeds from positions do not follow the robots' law; {fix}{hint}"

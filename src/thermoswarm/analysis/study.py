@@ -298,6 +298,23 @@ def fit_groups(
         result.groups[spec.text] = {"codes": codes, "labels": labels, "fits": kept}
 
 
+def note_recording(
+    result: StudyResult,
+    facts: dict[str, Any],
+    source: str,
+    opts: AnalysisOptions,
+    n_shared: int | None,
+) -> None:
+    """``fits.json["recording"]`` and the masked-sample count; the recording's warning
+    (sampling coarser than the control period) as a :class:`UserWarning`."""
+    rec = recording_block(result.kinematics, facts, source, opts.steps.speed_source)
+    result.fits["recording"] = rec
+    if n_shared is not None:
+        result.fits["data_quality"]["n_shared_positions_masked"] = n_shared
+    if rec["warning"]:
+        warnings.warn(rec["warning"], stacklevel=3)
+
+
 def run_study(
     ds: xr.Dataset,
     options: AnalysisOptions | None = None,
@@ -337,9 +354,7 @@ def run_study(
     seeds = np.random.SeedSequence(opts.test.seed).spawn(5)  # the first 4 as before
     s_energy, s_steer, s_regions, s_groups, s_ci = seeds
     facts = recording_facts(ds)
-    n_shared = None
-    if opts.clean.mask_shared_positions:
-        ds, n_shared = mask_shared_positions(ds)
+    ds, n_shared = mask_shared_positions(ds) if opts.clean.mask_shared_positions else (ds, None)
     say("kinematics")
     kin = compute_kinematics(ds, opts)
     source = apply_speed_source(kin, ds, opts.steps.speed_source, facts, opts.steps.mass)
@@ -358,12 +373,7 @@ def run_study(
         spec.text: group_codes(spec, ds, kin, region_codes, plan.regions) for spec in plan.specs
     }
     result = StudyResult(fits_header(ds, kin, valid, opts, plan), kin, regions=plan.regions)
-    rec = recording_block(kin, facts, source, opts.steps.speed_source)
-    result.fits["recording"] = rec
-    if n_shared is not None:
-        result.fits["data_quality"]["n_shared_positions_masked"] = n_shared
-    if rec["warning"]:
-        warnings.warn(rec["warning"], stacklevel=2)
+    note_recording(result, facts, source, opts, n_shared)
     say("energy: one vs two phases")
     dep_e = dependence(energy, valid)
     fit_energy(result, energy, valid, dep_e, opts, s_energy)

@@ -204,12 +204,9 @@ def _compression(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None =
             "rises with the force (the paper's panel w).",
         )
         own = _picture_run(m, pic)
-        _fig(
-            rep,
-            snapshot_strip(tracks, C.plot_frame, geo),
-            f"Snapshots of a separate, squarer run drawn for the eye, not the isotherm's "
-            f"{n} robots at packing {phi}: {own} (robots coloured by speed).",
-        )
+        _fig(rep, snapshot_strip(tracks, C.plot_frame, geo), "Snapshots of a separate, squarer "
+             f"run drawn for the eye, not the isotherm's {n} robots at packing {phi}: {own} "
+             "(robots coloured by speed).")  # fmt: skip
         path = animate(
             tracks, C.plot_frame, geo, out / "animations" / "compression", title="compression"
         )
