@@ -175,7 +175,7 @@ def compare_unified_law(res: Mapping[str, Any]) -> list[dict[str, str]]:
             f"({_p(ks, nb)}): collisions and walls reshape the hot phase's speeds"
         )
     hot, kt2 = rob.get("kT_hot"), tp.get("kT2")
-    if ok and hot and kt2 and kt2 < hot:
+    if ok and hot and kt2 and kt2 < 0.9 * hot:  # beyond the fit's noise
         reasons.append(
             "the fitted hot temperature sits below the set one: robots stalled by "
             "collisions and walls move slower than they command"
