@@ -226,7 +226,12 @@ def _loop(
         "dt": sim.params.dt,
         "tau": sim.params.tau,
         "radius": sim.params.radius,
+        # what the analysis reads (thermoswarm.analysis.recording): the period of the
+        # robots' re-draws and what the recorded ``speed`` variable holds
+        "speed_kind": "instantaneous" if sim.params.mode == "inertial" else "commanded",
     }
+    if sim.params.mode != "inertial":
+        attrs["control_period"] = sim.params.tau
     rec = ZarrRecorder(
         store,
         n=state.n,
