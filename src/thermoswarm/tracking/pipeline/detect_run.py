@@ -11,8 +11,16 @@ from typing import Any
 import numpy as np
 
 from thermoswarm.errors import InputError
-from thermoswarm.fsutil import atomic_write_json, prepare_output_dir
+from thermoswarm.fsutil import atomic_write_json, atomic_write_text, prepare_output_dir
+from thermoswarm.tracking.detect.register import (
+    RegisteredSource,
+    camera_summary,
+    register_source,
+    shift_detections,
+)
 from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector
+from thermoswarm.tracking.pipeline.flood import flood_reasons, refuse_flood
+from thermoswarm.tracking.pipeline.region_counts import count_regions, counts_csv, draw_counts
 from thermoswarm.tracking.track.tracker import TrackerConfig
 
 
@@ -51,6 +59,8 @@ def detect_inputs(
     max_frames: int | None = None,
     prepare_s: float = 3.0,
     width_bl: float | None = None,
+    camera: str = "auto",
+    regions: str | os.PathLike | None = None,
 ) -> dict[str, Any]:
     """Detect the animals of videos, folders of frames or images; write COCO and MOT.
 
@@ -81,6 +91,16 @@ def detect_inputs(
     width_bl
         Object width in body lengths, half of which pads the boxes of poses (default
         the tracker's ``width_bl``, so the boxes are those the tracker draws).
+    camera
+        As for :func:`track_video`, for video files; folders and images (photos, whose
+        light may change between them) are taken as from a still camera unless
+        ``"moving"`` is given.  Registered detections are in the first frame's px
+        (``NAME_camera.csv``: the path).
+    regions
+        A regions TOML (:mod:`~thermoswarm.analysis.regions`; px, or mm with a scale):
+        ``NAME_regions.csv`` holds the detections per frame in each region, and for
+        photos ``NAME_regions/`` a picture of each with its regions and detections
+        (:mod:`~thermoswarm.tracking.pipeline.region_counts`).
     """
     if not inputs:
         raise InputError("give at least one video, folder of frames or image")
@@ -89,6 +109,15 @@ def detect_inputs(
     if fps is not None and not (fps > 0 and np.isfinite(fps)):
         raise InputError(f"fps must be a positive number, got {fps!r}")
     wbl = TrackerConfig().width_bl if width_bl is None else float(width_bl)
+    regs = None
+    if regions is not None:
+        from thermoswarm.analysis.regions import load_regions
+        from thermoswarm.errors import ConfigError
+
+        try:
+            regs = load_regions(regions)
+        except ConfigError as exc:
+            raise InputError(str(exc)) from None
     sources = _detect_sources([Path(p) for p in inputs])
     out = prepare_output_dir(out_dir)
     results = [
@@ -105,6 +134,8 @@ def detect_inputs(
             max_frames=max_frames,
             prepare_s=prepare_s,
             width_bl=wbl,
+            camera=camera,
+            regions=regs,
         )
         for name, src, is_video in sources
     ]
@@ -128,6 +159,8 @@ def _detect_source(
     max_frames: int | None,
     prepare_s: float,
     width_bl: float,
+    camera: str = "auto",
+    regions: list | None = None,
 ) -> dict[str, Any]:
     """Detect one source of :func:`detect_inputs`; write its COCO (and MOT) file.
 
@@ -138,6 +171,10 @@ def _detect_source(
 
     t0 = time.perf_counter()
     rate = fps or src.fps or 30.0  # images: the background from up to 90 of them
+    if src.files is not None and camera == "auto":
+        camera = "still"
+    src, path = register_source(src, camera, max_frames=max_frames)
+    offset = src.camera.offset if isinstance(src, RegisteredSource) else (0.0, 0.0)
     det, scale = build_detector(
         src,
         _prep_frames(prepare_s, rate, max_frames),
@@ -146,8 +183,16 @@ def _detect_source(
         model=model,
         options=detector_options,
     )
-    dets = [det.detect(frame) for frame in src.frames(max_frames, prefetch=4)]
     files = src.files
+    pics = None
+    if regions is not None and files is not None:
+        pics = out / f"{name}_regions"
+        pics.mkdir(exist_ok=True)
+    dets = []
+    for k, frame in enumerate(src.frames(max_frames, prefetch=4)):
+        dets.append(shift_detections(det.detect(frame), offset))
+        if pics is not None:
+            _write_picture(pics / f"{files[k].stem}.jpg", frame, regions, dets[-1], px_per_mm)
     images = []
     for k in range(len(dets)):
         img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
@@ -166,7 +211,11 @@ def _detect_source(
     if is_video:
         write_mot_table(out / f"{name}_det.txt", mot_rows(dets, pad=pad))
         written.append(f"{name}_det.txt")
+    written += _camera_and_counts(name, out, src, path, dets, images, regions, px_per_mm)
     n_det = sum(len(d) for d in dets)
+    reasons = flood_reasons(np.array([len(d) for d in dets]), src.size, scale["length_px"])
+    if reasons:
+        refuse_flood(str(src.path), out, reasons)
     return {
         "input": str(src.path),
         "n_frames": len(dets),
@@ -178,4 +227,44 @@ def _detect_source(
         "scale_source": scale["scale_source"],
         "seconds": time.perf_counter() - t0,
         "outputs": written,
+        "camera": camera_summary(path, isinstance(src, RegisteredSource)),
     }
+
+
+def _write_picture(
+    path: Path, frame: np.ndarray, regions: list, d: Any, px_per_mm: float | None
+) -> None:
+    import cv2
+
+    from thermoswarm.fsutil import atomic_write_bytes
+
+    counts = count_regions(regions, [d], px_per_mm)[0]
+    img = draw_counts(frame, regions, d, counts, px_per_mm)
+    ok, buf = cv2.imencode(".jpg", cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+    atomic_write_bytes(path, buf.tobytes())
+
+
+def _camera_and_counts(
+    name: str,
+    out: Path,
+    src: Any,
+    path: Any,
+    dets: list,
+    images: list[dict],
+    regions: list | None,
+    px_per_mm: float | None,
+) -> list[str]:
+    """Write ``NAME_camera.csv`` (a registered source) and ``NAME_regions.csv``
+    (regions given); return the names written."""
+    written = []
+    if isinstance(src, RegisteredSource):
+        atomic_write_text(out / f"{name}_camera.csv", path.table())
+        written.append(f"{name}_camera.csv")
+    if regions is not None:
+        counts = count_regions(regions, dets, px_per_mm)
+        names = [img["file_name"] for img in images]
+        atomic_write_text(out / f"{name}_regions.csv", counts_csv(names, regions, counts))
+        written.append(f"{name}_regions.csv")
+        if src.files is not None:
+            written.append(f"{name}_regions/")
+    return written
