@@ -85,3 +85,34 @@ def test_bad_regions_file_is_a_one_line_error(photos, tmp_path):
     assert res.exit_code == 2, res.output
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
     assert len(lines) == 1 and "bad.toml" in lines[0]
+
+
+def test_photo_series_recognised_by_their_clocks(photos, tmp_path):
+    import datetime as dt
+    import json
+
+    from PIL import Image
+
+    from thermoswarm.tracking.pipeline.series import is_photo_series
+
+    root, folder, truth = photos
+    series = tmp_path / "series"
+    series.mkdir()
+    t0 = dt.datetime(2024, 5, 1, 8, 0, 0)
+    for k, f in enumerate(sorted(folder.glob("*.png"))):
+        exif = Image.Exif()
+        exif[306] = (t0 + dt.timedelta(minutes=30 * k)).strftime("%Y:%m:%d %H:%M:%S")
+        Image.open(f).save(series / f"{f.stem}.jpg", quality=95, exif=exif.tobytes())
+    assert is_photo_series(sorted(series.glob("*.jpg")))
+    assert not is_photo_series(sorted(folder.glob("*.png")))  # no clock: frames
+    out = tmp_path / "d"
+    args = ["detect", str(series), "--out", str(out), "--regions", str(root / "regions.toml")]
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    rec = json.loads((out / "summary.json").read_text())["inputs"][0]
+    assert rec["photo_series"]["series_window"] == 12
+    with open(out / "series_regions.csv") as f:
+        rows = list(csv.DictReader(f))
+    got = np.array([[int(r["sucrose"]), int(r["peptone"]), int(r["outside"])] for r in rows])
+    # Two windows of 12 photos, each with its own background: every ant counted.
+    assert np.abs(got - truth).sum() <= 1, np.column_stack([got, truth])

@@ -63,6 +63,14 @@ from thermoswarm.errors import InputError
     help="Regions TOML (as `analyze --regions`; px, or mm with --px-per-mm): writes "
     "NAME_regions.csv (detections per frame and region) and, for photos, a picture each.",
 )
+@click.option(
+    "--series",
+    type=click.Choice(["auto", "yes", "no"]),
+    default="auto",
+    show_default=True,
+    help="Photo series (EXIF clocks a minute or more apart, or 'yes'): detect in windows "
+    "of 12 photos, each with its own background, with the options tuned on such photos.",
+)
 def detect(
     inputs: tuple[Path, ...],
     out_dir: Path,
@@ -75,6 +83,7 @@ def detect(
     max_frames: int | None,
     camera: str,
     regions: Path | None,
+    series: str,
 ) -> None:
     """Detect the animals in INPUTS (videos, folders of frames, images) into OUT.
 
@@ -114,6 +123,7 @@ def detect(
         width_bl=width_bl,
         camera=camera,
         regions=regions,
+        series=series,
     )
     for r in summary["inputs"]:
         click.echo(

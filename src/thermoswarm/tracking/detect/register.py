@@ -174,10 +174,8 @@ def camera_path(
 
     Parameters
     ----------
-    frames
-        The video's frames (RGB or grey uint8), in order.
-    source
-        The video's name, for messages.
+    frames, source
+        The video's frames (RGB or grey uint8), in order; its name, for messages.
     max_side
         Largest side (px) of the grey copy registered.
     min_cc, rekey_cc
@@ -185,12 +183,7 @@ def camera_path(
         moves on to the current frame.
     max_break_share
         Largest share of frames that may fail to register (scene cuts) before the
-        camera is declared impossible to follow.
-
-    Raises
-    ------
-    InputError
-        When more than ``max_break_share`` of the frames cannot be registered.
+        camera cannot be followed (:class:`InputError`, naming its motion).
     """
     mats: list[np.ndarray] = []
     ccs: list[float] = []
@@ -203,12 +196,7 @@ def camera_path(
         if k == 0:
             h, w = frame.shape[:2]
             s = min(1.0, max_side / max(h, w))
-            roi = _picture_roi(frame if frame.ndim == 2 else frame.max(2))
-            mask = np.zeros((int(h * s + 0.5), int(w * s + 0.5)), np.uint8)
-            ys = slice(int(roi[1] * s) + 2, int(roi[3] * s) - 2)
-            mask[ys, int(roi[0] * s) + 2 : int(roi[2] * s) - 2] = 1
-            g = _small_gray(frame, s)
-            mask = mask[: g.shape[0], : g.shape[1]]
+            roi, mask, g = _first(frame, s)
             ref = prev = g
             mats.append(np.eye(3))
             ccs.append(1.0)
@@ -247,17 +235,34 @@ def camera_path(
         prev = g
     if not mats:
         raise InputError(f"{source}: no frame could be decoded")
-    n = len(mats)
     path = CameraPath(np.stack([m[:2] for m in mats]), np.array(ccs), tuple(breaks), (w, h), roi)
-    bad = sum(1 for b in breaks if b - 1 in breaks or b + 1 in breaks)
-    if len(breaks) > max(1, max_break_share * n) or bad:
+    _check_breaks(path, source, max_break_share)
+    return path
+
+
+def _first(frame: np.ndarray, s: float) -> tuple[tuple[int, int, int, int], np.ndarray, Any]:
+    """The first frame's picture ``roi`` (full px), the fit's mask and grey copy (small)."""
+    h, w = frame.shape[:2]
+    roi = _picture_roi(frame if frame.ndim == 2 else frame.max(2))
+    g = _small_gray(frame, s)
+    mask = np.zeros(g.shape, np.uint8)
+    ys = slice(int(roi[1] * s) + 2, int(roi[3] * s) - 2)
+    mask[ys, int(roi[0] * s) + 2 : int(roi[2] * s) - 2] = 1
+    return roi, mask, g
+
+
+def _check_breaks(path: CameraPath, source: str, max_break_share: float) -> None:
+    """:class:`InputError` naming the camera's motion when the breaks are not isolated
+    scene cuts (adjacent, or more than ``max_break_share`` of the frames)."""
+    breaks, n = path.cuts, len(path.matrices)
+    adjacent = any(b - 1 in breaks or b + 1 in breaks for b in breaks)
+    if len(breaks) > max(1, max_break_share * n) or adjacent:
         raise InputError(
             f"{source}: the camera cannot be followed: {len(breaks)} of {n} frames do not "
             f"register to their neighbours (first at frame {breaks[0] + 1}; until then the "
             f"camera {_until(path, breaks[0])}); try a steadier or slower camera, a tripod, "
             "or cut the clip where the camera jumps"
         )
-    return path
 
 
 def _same_place(g: np.ndarray, prev: np.ndarray, mask: np.ndarray) -> bool:
@@ -382,7 +387,7 @@ def camera_summary(path: CameraPath | None, registered: bool) -> dict[str, Any]:
     """The camera's record for ``summary.json``: whether the frames were registered,
     the motion, the scene cuts (1-based frames) and the frame the outputs are in."""
     if path is None:
-        return {"registered": False, "measured": False}
+        return {"registered": False, "measured": False, "outputs": []}
     return {
         "registered": registered,
         "measured": True,

@@ -21,6 +21,7 @@ from thermoswarm.tracking.detect.register import (
 from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector
 from thermoswarm.tracking.pipeline.flood import flood_reasons, refuse_flood
 from thermoswarm.tracking.pipeline.region_counts import count_regions, counts_csv, draw_counts
+from thermoswarm.tracking.pipeline.series import detect_series, is_photo_series
 from thermoswarm.tracking.track.tracker import TrackerConfig
 
 
@@ -61,6 +62,7 @@ def detect_inputs(
     width_bl: float | None = None,
     camera: str = "auto",
     regions: str | os.PathLike | None = None,
+    series: str = "auto",
 ) -> dict[str, Any]:
     """Detect the animals of videos, folders of frames or images; write COCO and MOT.
 
@@ -92,57 +94,53 @@ def detect_inputs(
         Object width in body lengths, half of which pads the boxes of poses (default
         the tracker's ``width_bl``, so the boxes are those the tracker draws).
     camera
-        As for :func:`track_video`, for video files; folders and images (photos, whose
-        light may change between them) are taken as from a still camera unless
-        ``"moving"`` is given.  Registered detections are in the first frame's px
-        (``NAME_camera.csv``: the path).
+        As for :func:`track_video`, for video files; folders and images are taken as
+        from a still camera unless ``"moving"``.  ``NAME_camera.csv``: the path.
     regions
-        A regions TOML (:mod:`~thermoswarm.analysis.regions`; px, or mm with a scale):
-        ``NAME_regions.csv`` holds the detections per frame in each region, and for
-        photos ``NAME_regions/`` a picture of each with its regions and detections
-        (:mod:`~thermoswarm.tracking.pipeline.region_counts`).
+        A regions TOML (:mod:`~thermoswarm.tracking.pipeline.region_counts`):
+        ``NAME_regions.csv``, and for photos a picture each in ``NAME_regions/``.
+    series
+        ``"auto"``: photos whose EXIF clocks are a minute or more apart are a series
+        (:mod:`~thermoswarm.tracking.pipeline.series`); ``"yes"``/``"no"`` force it.
     """
+    _check_args(inputs, max_frames, fps, series)
+    wbl = TrackerConfig().width_bl if width_bl is None else float(width_bl)
+    regs = _load_regions(regions)
+    sources = _detect_sources([Path(p) for p in inputs])
+    out = prepare_output_dir(out_dir)
+    opts = dict(
+        px_per_mm=px_per_mm, detector=detector, model=model, detector_options=detector_options,
+        fps=fps, max_frames=max_frames, prepare_s=prepare_s, width_bl=wbl, camera=camera,
+        regions=regs, series=series,
+    )  # fmt: skip
+    results = [_detect_source(name, src, is_video, out, **opts) for name, src, is_video in sources]
+    summary = {"inputs": results, "outputs": [f for r in results for f in r["outputs"]]}
+    summary["outputs"].append("summary.json")
+    atomic_write_json(out / "summary.json", summary)
+    return summary
+
+
+def _check_args(inputs: list, max_frames: int | None, fps: float | None, series: str) -> None:
     if not inputs:
         raise InputError("give at least one video, folder of frames or image")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
     if fps is not None and not (fps > 0 and np.isfinite(fps)):
         raise InputError(f"fps must be a positive number, got {fps!r}")
-    wbl = TrackerConfig().width_bl if width_bl is None else float(width_bl)
-    regs = None
-    if regions is not None:
-        from thermoswarm.analysis.regions import load_regions
-        from thermoswarm.errors import ConfigError
+    if series not in ("auto", "yes", "no"):
+        raise InputError(f"series must be auto, yes or no; got {series!r}")
 
-        try:
-            regs = load_regions(regions)
-        except ConfigError as exc:
-            raise InputError(str(exc)) from None
-    sources = _detect_sources([Path(p) for p in inputs])
-    out = prepare_output_dir(out_dir)
-    results = [
-        _detect_source(
-            name,
-            src,
-            is_video,
-            out,
-            px_per_mm=px_per_mm,
-            detector=detector,
-            model=model,
-            detector_options=detector_options,
-            fps=fps,
-            max_frames=max_frames,
-            prepare_s=prepare_s,
-            width_bl=wbl,
-            camera=camera,
-            regions=regs,
-        )
-        for name, src, is_video in sources
-    ]
-    summary = {"inputs": results, "outputs": [f for r in results for f in r["outputs"]]}
-    summary["outputs"].append("summary.json")
-    atomic_write_json(out / "summary.json", summary)
-    return summary
+
+def _load_regions(regions: str | os.PathLike | None) -> list | None:
+    if regions is None:
+        return None
+    from thermoswarm.analysis.regions import load_regions
+    from thermoswarm.errors import ConfigError
+
+    try:
+        return load_regions(regions)
+    except ConfigError as exc:
+        raise InputError(str(exc)) from None
 
 
 def _detect_source(
@@ -161,6 +159,7 @@ def _detect_source(
     width_bl: float,
     camera: str = "auto",
     regions: list | None = None,
+    series: str = "auto",
 ) -> dict[str, Any]:
     """Detect one source of :func:`detect_inputs`; write its COCO (and MOT) file.
 
@@ -175,24 +174,16 @@ def _detect_source(
         camera = "still"
     src, path = register_source(src, camera, max_frames=max_frames)
     offset = src.camera.offset if isinstance(src, RegisteredSource) else (0.0, 0.0)
-    det, scale = build_detector(
-        src,
-        _prep_frames(prepare_s, rate, max_frames),
-        px_per_mm=px_per_mm,
-        detector=detector,
-        model=model,
-        options=detector_options,
-    )
     files = src.files
-    pics = None
-    if regions is not None and files is not None:
-        pics = out / f"{name}_regions"
-        pics.mkdir(exist_ok=True)
-    dets = []
-    for k, frame in enumerate(src.frames(max_frames, prefetch=4)):
-        dets.append(shift_detections(det.detect(frame), offset))
-        if pics is not None:
-            _write_picture(pics / f"{files[k].stem}.jpg", frame, regions, dets[-1], px_per_mm)
+    as_series = series == "yes" or (series == "auto" and is_photo_series(files))
+    build = dict(px_per_mm=px_per_mm, detector=detector, model=model)
+    if as_series and files is not None:
+        dets, scale, det = detect_series(files[:max_frames], options=detector_options, **build)
+    else:
+        n_prep = _prep_frames(prepare_s, rate, max_frames)
+        det, scale = build_detector(src, n_prep, options=detector_options, **build)
+        frames = src.frames(max_frames, prefetch=4)
+        dets = [shift_detections(det.detect(f), offset) for f in frames]
     images = []
     for k in range(len(dets)):
         img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
@@ -228,6 +219,8 @@ def _detect_source(
         "seconds": time.perf_counter() - t0,
         "outputs": written,
         "camera": camera_summary(path, isinstance(src, RegisteredSource)),
+        "photo_series": {k: scale[k] for k in ("series_window", "series_options") if k in scale}
+        or None,
     }
 
 
@@ -254,8 +247,8 @@ def _camera_and_counts(
     regions: list | None,
     px_per_mm: float | None,
 ) -> list[str]:
-    """Write ``NAME_camera.csv`` (a registered source) and ``NAME_regions.csv``
-    (regions given); return the names written."""
+    """Write ``NAME_camera.csv`` (a registered source), ``NAME_regions.csv`` and, for
+    photos, ``NAME_regions/`` (regions given); return the names written."""
     written = []
     if isinstance(src, RegisteredSource):
         atomic_write_text(out / f"{name}_camera.csv", path.table())
@@ -265,6 +258,11 @@ def _camera_and_counts(
         names = [img["file_name"] for img in images]
         atomic_write_text(out / f"{name}_regions.csv", counts_csv(names, regions, counts))
         written.append(f"{name}_regions.csv")
-        if src.files is not None:
+        files = src.files
+        if files is not None:
+            pics = out / f"{name}_regions"
+            pics.mkdir(exist_ok=True)
+            for k, frame in enumerate(src.frames(len(dets), prefetch=4)):
+                _write_picture(pics / f"{files[k].stem}.jpg", frame, regions, dets[k], px_per_mm)
             written.append(f"{name}_regions/")
     return written

@@ -175,6 +175,32 @@ def _detect_and_associate(
     return n_det, dets
 
 
+def _register(
+    src: Any, camera: str, max_frames: int | None, prepare_s: float, rate: float
+) -> tuple[Any, Any, int, tuple[set[int], int]]:
+    """The source (registered when the camera moves), its path, the frames the detector
+    is prepared on (the first scene's only) and the scene cuts with that count."""
+    src, path = register_source(src, camera, max_frames=max_frames)
+    n_prep = _prep_frames(prepare_s, rate, max_frames)
+    cuts = set(path.cuts) if path is not None else set()
+    if cuts:
+        n_prep = min(n_prep, min(cuts))
+    return src, path, n_prep, (cuts, n_prep)
+
+
+def _to_first_frame(src: Any, result: TrackResult, dets: np.ndarray, out: Path) -> TrackResult:
+    """For a registered source: tracks and detection rows (in place) moved from the
+    canvas's px to the first frame's, and ``camera_path.csv`` written."""
+    if not isinstance(src, RegisteredSource):
+        return result
+    off = np.asarray(src.camera.offset)
+    pts = result.points - off
+    boxes = result.boxes - np.array([*off, 0.0, 0.0])
+    dets[:, 2:4] -= off
+    atomic_write_text(out / "camera_path.csv", src.camera.table())
+    return dataclasses.replace(result, points=pts, boxes=boxes)
+
+
 def track_video(
     video: str | os.PathLike,
     out_dir: str | os.PathLike,
@@ -193,11 +219,9 @@ def track_video(
     hints: bool = True,
     camera: str = "auto",
 ) -> dict[str, Any]:
-    """Track the ants of a video; write the outputs; return the summary.
-
-    The stages: read frames (:func:`_frame_stream`), detect and associate
-    (:func:`_detect_and_associate`), smooth and gap-fill (the tracker's ``finish``),
-    write (:func:`_write_video_outputs`).
+    """Track the ants of a video; write the outputs; return the summary.  The stages:
+    read frames (:func:`_frame_stream`), detect and associate (:func:`_detect_and_associate`),
+    smooth and gap-fill (the tracker's ``finish``), write (:func:`_write_video_outputs`).
 
     Parameters
     ----------
@@ -213,38 +237,30 @@ def track_video(
         Frame rate (frames/s); default the video's own (required for folders of frames).
     detector, model, detector_options
         See :func:`thermoswarm.tracking.detect.classical.make_detector` (default: classical).
-    tracker_config
-        :class:`~thermoswarm.tracking.track.tracker.TrackerConfig`.
-    overlay, overlay_scale
-        Write ``overlay.mp4`` at this fraction of the video's size (1: full size).
+    tracker_config, overlay, overlay_scale
+        :class:`~thermoswarm.tracking.track.tracker.TrackerConfig`; write
+        ``overlay.mp4`` at this fraction of the video's size (1: full size).
     max_frames, prepare_s
         Stop after this many frames; seconds of video shown to the detector's ``prepare``.
-    progress
-        Show a progress bar (tqdm; silent when not on a terminal).
-    hints
-        Give the tracker's predicted poses to detectors that take them (splitting of
-        touching ants); ``False`` tracks exactly what ``thermoswarm detect`` writes.
+    progress, hints
+        Show a progress bar (tqdm); give the tracker's predicted poses to detectors
+        that take them (``False``: track exactly what ``thermoswarm detect`` writes).
     camera
-        ``"auto"`` (measure the camera's path; register the frames to the first one
-        when it moves, :mod:`~thermoswarm.tracking.detect.register`), ``"moving"``
-        (always register) or ``"still"`` (trust the camera; no scene cuts either).
-        Registered tracks are in the first frame's px; ``camera_path.csv`` holds the
-        path.  Scene cuts end every track.
+        ``"auto"``, ``"moving"`` or ``"still"`` (:mod:`~.detect.register`): registered
+        tracks are in the first frame's px (``camera_path.csv``); cuts end every track.
 
     Raises
     ------
     InputError
-        Bad input, or a video in which nothing is detected (nothing is written then).
+        Bad input, nothing detected (nothing written), a camera that cannot be
+        followed, or detections that are not animals (:mod:`~.flood`).
     """
     from thermoswarm.tracking.video import OverlayWriter, open_video
 
     src = open_video(video)
     rate = _check_video_args(video, src, fps, max_frames, overlay, overlay_scale)
     t0 = time.perf_counter()
-    src, path = register_source(src, camera, max_frames=max_frames)
-    n_prep = _prep_frames(prepare_s, rate, max_frames)
-    if path is not None and path.cuts:  # the background of the first scene only
-        n_prep = min(n_prep, path.cuts[0])
+    src, path, n_prep, cuts = _register(src, camera, max_frames, prepare_s, rate)
     det, scale = build_detector(
         src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model, options=detector_options
     )
@@ -255,16 +271,8 @@ def track_video(
     takes_hints = hints and bool(getattr(det, "accepts_hints", False))
     writer = OverlayWriter(out / "overlay.mp4", rate, scale=overlay_scale) if overlay else None
     frames = _frame_stream(src, max_frames, progress)
-    cuts = (set(path.cuts) if path is not None else set(), n_prep)
     n_det, dets = _detect_and_associate(video, frames, det, tracker, writer, takes_hints, cuts)
-    result = tracker.finish()
-    if isinstance(src, RegisteredSource):  # canvas px -> the first frame's px
-        off = np.asarray(src.camera.offset)
-        pts = result.points - off
-        boxes = result.boxes - np.array([*off, 0.0, 0.0])
-        result = dataclasses.replace(result, points=pts, boxes=boxes)
-        dets[:, 2:4] -= off
-        atomic_write_text(out / "camera_path.csv", src.camera.table())
+    result = _to_first_frame(src, tracker.finish(), dets, out)
     elapsed = time.perf_counter() - t0
     run = dict(video=video, src=src, det=det, scale=scale, dets=dets, n_det=n_det, rate=rate)
     run["camera"] = camera_summary(path, isinstance(src, RegisteredSource))
