@@ -182,6 +182,33 @@ def _table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _summary(rows: list[dict], ours: str) -> str:
+    """Per part, detector set and frame rate: ``ours`` against the best peer (tuned
+    or not) on each of MOTA, IDF1, HOTA and the fewest identity switches."""
+    out = [
+        "| part | boxes | fps | ours MOTA / IDF1 / HOTA / IDSW | best peer on each |",
+        "|---|---|---|---|---|",
+    ]
+    for key in dict.fromkeys((r["part"], r["dets"], r["fps"]) for r in rows):
+        group = [r for r in rows if (r["part"], r["dets"], r["fps"]) == key]
+        me = [r for r in group if r["tracker"] == ours]
+        peers = [r for r in group if not r["tracker"].startswith("ours")]
+        if not me or not peers:
+            continue
+        m = me[0]
+        best = []
+        for k in ("mota", "idf1", "hota"):
+            p = max(peers, key=lambda r: r[k])  # noqa: B023
+            best.append(f"{p[k]:.3f} ({p['tracker']})")
+        p = min(peers, key=lambda r: r["idsw"])
+        best.append(f"{p['idsw']} ({p['tracker']})")
+        out.append(
+            f"| {key[0]} | {key[1]} | {key[2]:g} | {m['mota']:.3f} / {m['idf1']:.3f} / "
+            f"{m['hota']:.3f} / {m['idsw']} | {' / '.join(best)} |"
+        )
+    return "\n".join(out)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data/real_ant_boxes"))
@@ -199,7 +226,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--speed", action="store_true", help="only the speed ratio")
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--merge", nargs="+", type=Path, metavar="JSON",
+                    help="only print the tables of earlier --json outputs (rows of later "
+                    "files replace those of earlier ones for the same tracker)")  # fmt: skip
     args = ap.parse_args(argv)
+    if args.merge:
+        merged: dict = {}
+        for path in args.merge:
+            for r in json.loads(path.read_text())["rows"]:
+                merged[r["part"], r["dets"], r["fps"], r["tracker"]] = r
+        rows = list(merged.values())
+        print(_table(rows) + "\n\n" + _summary(rows, f"ours ({args.preset})"))
+        return 0
     if not (args.data / GT).exists():
         print(f"{args.data}: no {GT} (see docs/tracking.md)", file=sys.stderr)
         return 2
@@ -251,7 +289,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         print(json.dumps({"peer_options": peer_opts, "rows": rows}, indent=1))
     else:
-        print("\n" + _table(rows))
+        print("\n" + _table(rows) + "\n\n" + _summary(rows, f"ours ({args.preset})"))
     return 0
 
 

@@ -65,7 +65,7 @@ class TrackerConfig:
     boxes.
     """
 
-    confirm_s: float = 0.3
+    confirm_s: float = 0.2
     tentative_gap_s: float = 0.0
     max_gap_s: float = 0.5
     max_speed_bl_s: float = 14.0
