@@ -209,6 +209,18 @@ def _summary(rows: list[dict], ours: str) -> str:
     return "\n".join(out)
 
 
+def _merge(paths: list[Path], ours: str) -> int:
+    """Print the tables of earlier ``--json`` outputs (later rows replace earlier ones
+    of the same part, detector set, frame rate and tracker)."""
+    merged: dict = {}
+    for path in paths:
+        for r in json.loads(path.read_text())["rows"]:
+            merged[r["part"], r["dets"], r["fps"], r["tracker"]] = r
+    rows = list(merged.values())
+    print(_table(rows) + "\n\n" + _summary(rows, ours))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, default=Path("../shared/data/real_ant_boxes"))
@@ -231,13 +243,7 @@ def main(argv: list[str] | None = None) -> int:
                     "files replace those of earlier ones for the same tracker)")  # fmt: skip
     args = ap.parse_args(argv)
     if args.merge:
-        merged: dict = {}
-        for path in args.merge:
-            for r in json.loads(path.read_text())["rows"]:
-                merged[r["part"], r["dets"], r["fps"], r["tracker"]] = r
-        rows = list(merged.values())
-        print(_table(rows) + "\n\n" + _summary(rows, f"ours ({args.preset})"))
-        return 0
+        return _merge(args.merge, f"ours ({args.preset})")
     if not (args.data / GT).exists():
         print(f"{args.data}: no {GT} (see docs/tracking.md)", file=sys.stderr)
         return 2
