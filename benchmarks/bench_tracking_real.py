@@ -200,9 +200,11 @@ def run_ours(
 
 #: Our tracker's defaults before the real-box work (issue 26, item 6): the fields
 #: that changed, at their old values (``--previous`` runs them beside the defaults).
+#: Then in frames (3 detections, one miss), here in seconds at 25 fps.
 PREVIOUS_DEFAULTS: dict[str, Any] = dict(
-    n_init=3, tentative_max_misses=1, max_gap_s=1.0, accel_bl_s2=28.0, adapt_range=5.0,
+    confirm_s=0.08, tentative_gap_s=0.04, max_gap_s=1.0, accel_bl_s2=28.0, adapt_range=5.0,
     min_iou=0.0, relink_gate=False, duplicate_radius=0.5, duplicate_overlap=1.0,
+    distance_weight=1.0, mahalanobis_weight=0.0, max_cost=2.0, min_score=0.0,
 )  # fmt: skip
 
 #: The peers' options searched on the tuning sequences (their own search spaces,

@@ -168,6 +168,11 @@ STEPS = [
     Step("tracking_boxes", "bench_tracking_real", BOXES, BOXES, needs="trackers",
          title="ours, ByteTrack, OC-SORT, SORT on real detector boxes (MOT15; DATA: "
          "--boxes-data, see docs/tracking.md)"),
+    Step("tracking_ants", "bench_ant_boxes",
+         ["--tune-peers", "bench-out/ant_peer_options.json", "--also", "pedestrians"],
+         ["--dets", "post09", "--steps", "3"], needs="trackers",
+         title="ours, ByteTrack, OC-SORT, SORT on real ant boxes at 15, 7.5, 5 fps "
+         "(held-out half; DATA: --ant-boxes-data, see docs/tracking.md)"),
     Step("viewer", "bench_viewer", [], ["--sizes", "10000,100000", "--seconds", "3"]),
 ]  # fmt: skip
 #: Steps that ``--quick`` leaves out (no quick size says anything).
@@ -183,6 +188,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--boxes-data", type=Path, default=None,
                     help="MOT15 folder (<sequence>/det/det.txt, gt/gt.txt) for the "
                     "real-detector-boxes step")  # fmt: skip
+    ap.add_argument("--ant-boxes-data", type=Path,
+                    default=Path(__file__).resolve().parents[2] / "shared/data/real_ant_boxes",
+                    help="real_ant_boxes folder (AntTracking's output_4: ground truth and "
+                    "YOLO boxes) for the real-ant-boxes step")  # fmt: skip
     a = ap.parse_args(argv)
     t_all = time.perf_counter()
     with tempfile.TemporaryDirectory() as empty:
@@ -204,6 +213,9 @@ def main(argv: list[str] | None = None) -> int:
                 data = a.boxes_data or Path(empty)
                 args = [str(data) if x == "DATA" else x for x in args]
                 shown += f"   (DATA = {data if a.boxes_data else 'EMPTY_DIR: pass --boxes-data'})"
+            if step.name == "tracking_ants":
+                args = ["--data", str(a.ant_boxes_data), *args]
+                shown += f" --data {a.ant_boxes_data}"
             print(f"command: {shown}\n", flush=True)
             d = _run(step, args)
             if d is not None:

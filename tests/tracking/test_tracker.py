@@ -10,6 +10,7 @@ from thermoswarm.errors import ConfigError
 from thermoswarm.tracking.detect.classical import FrameDetections
 from thermoswarm.tracking.evaluate import evaluate_tables
 from thermoswarm.tracking.track import kalman
+from thermoswarm.tracking.track.result import fix_jumps
 from thermoswarm.tracking.track.tracker import Tracker, TrackerConfig, track_detections
 
 
@@ -74,8 +75,8 @@ def test_process_noise_adapts_to_manoeuvres():
 
 
 def test_config_is_checked():
-    with pytest.raises(ConfigError, match="n_init"):
-        TrackerConfig(n_init=0)
+    with pytest.raises(ConfigError, match="confirm_s"):
+        TrackerConfig(confirm_s=-0.1)
     with pytest.raises(ConfigError, match="max_speed_bl_s"):
         TrackerConfig(max_speed_bl_s=-1)
     # at 0 every birth would be a "duplicate" of any matched box: no track born
@@ -89,10 +90,11 @@ def video():
     return small_video(seed=13, n_ants=10, n_frames=150)
 
 
-def _unconfirmable_rows(video, n_init: int = TrackerConfig().n_init) -> int:
+def _unconfirmable_rows(video, n_init: int | None = None) -> int:
     """Ground-truth rows that no tracker with confirmation after ``n_init`` hits can
     output from exact detections: those of ants seen in fewer than ``n_init`` frames
     (tentative rows are written once a track is confirmed, so every other row is)."""
+    n_init = TrackerConfig().n_init(30.0) if n_init is None else n_init  # SMALL's fps
     _, counts = np.unique(video.mot_gt[:, 1], return_counts=True)
     return int(counts[counts < n_init].sum())
 
@@ -151,7 +153,7 @@ def test_long_gaps_start_a_new_identity(video):
 
     before, after = track_at(39), track_at(110)
     assert before is not None and after is not None and before != after
-    assert not np.any(res.interpolated)
+    assert not np.any(res.interpolated[np.isin(res.ids, [before, after])])
 
 
 def test_spurious_detections_do_not_make_tracks(video):
@@ -234,7 +236,7 @@ def test_impossible_speeds_are_removed():
     boxes = np.column_stack([body - 5, np.full((n, 2), 10.0)])
     scores = np.ones(n)
     interp = np.zeros(n, bool)
-    drop = tr._fix_jumps(frames, ids, pts, boxes, scores, interp)
+    drop = fix_jumps(frames, ids, pts, boxes, scores, interp, tr.step_px)
     np.testing.assert_allclose(pts[5, 1], [5.0, 0.0])
     assert interp[5] and scores[5] == 0 and interp.sum() == 1
     assert np.flatnonzero(drop).tolist() == [12]
@@ -286,11 +288,11 @@ def _sized_boxes(objects_per_frame):
 def test_a_lost_identity_continues_only_where_its_motion_leads(where):
     # One 20 x 40 px object walks right at 2 px/frame (30 fps) for 20 frames, is missed
     # for 4 frames (0.13 s < max_gap_s), then a box appears either where it has walked
-    # to, or 40 px above that path (within the old max-speed reach of 14 body lengths a
-    # second, far outside the coasted Kalman gate): the first continues the identity,
+    # to, or 80 px above that path (within the max-speed reach of 14 body lengths a
+    # second, outside the coasted Kalman gate): the first continues the identity,
     # the second is another object.
     frames = [[(100 + 2 * k, 100, 20, 40)] for k in range(20)] + [[] for _ in range(4)]
-    dy = 0 if where == "on its path" else 40
+    dy = 0 if where == "on its path" else 80
     frames += [[(100 + 2 * k, 100 + dy, 20, 40)] for k in range(24, 34)]
     res = track_detections(_sized_boxes(frames), fps=30)
     ids = np.unique(res.ids)

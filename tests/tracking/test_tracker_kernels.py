@@ -58,6 +58,9 @@ def _reference_costs(c, b, frame, r2, pad, step_px, pts, boxes, L, hint_other):
         side = np.maximum(pboxes[:, 2], pboxes[:, 3])
         size = np.where(side > np.finfo(np.float64).eps, side, L)
     total = c.iou_weight * (1 - iou) + c.distance_weight * dist / size[:, None]
+    if c.mahalanobis_weight > 0:
+        w = c.mahalanobis_weight / c.gate_sigmas
+        total = total + np.where(maha > 0, w * np.sqrt(np.maximum(maha, 0)), 0.0)
     ta = poses[:, 0] - poses[:, 2]
     da = pts[:, 0] - pts[:, 2]
     if c.angle_weight > 0 and np.isfinite(ta).any() and np.isfinite(da).any():
@@ -91,6 +94,7 @@ def test_pair_costs_equal_the_array_expressions(seed):
     c = TrackerConfig(
         iou_weight=[1.0, 0.7][seed % 2],
         distance_weight=[1.0, 1.3][seed % 2],
+        mahalanobis_weight=[0.0, 1.0, 0.5][seed % 3],
         angle_weight=[0.3, 0.0, 0.45][seed % 3],
         gate_sigmas=[5.0, 2.0][seed % 2],
         min_iou=[0.0, 0.3, 0.05][seed % 3],
@@ -154,6 +158,26 @@ def test_kalman_update_equals_the_textbook_form():
         )
         for g, w in zip(got, want, strict=True):
             np.testing.assert_array_equal(g, w)
+
+
+def test_compiled_update_and_adapt_equal_the_array_form():
+    # The tracker's one-pass kernel against kalman.update then kalman.adapt (the
+    # products are written out in another order: equal to rounding, 1e-12 relative).
+    rng = np.random.default_rng(5)
+    p = kalman.KalmanParams(r=1.0, q0=0.3, q_min=0.01, q_max=10.0)
+    for n in (1, 4, 30):
+        A = rng.normal(size=(n, 4, 4))
+        P = A @ A.transpose(0, 2, 1) + 0.1 * np.eye(4)
+        x = rng.normal(0, 50, (n, 4))
+        z = x[:, :2] + rng.normal(0, 2, (n, 2))
+        r = rng.uniform(0.5, 3, n)
+        q = rng.uniform(0.005, 20, n)  # some outside the bounds
+        m = rng.uniform(0.5, 6, n)
+        x1, P1, nis = kalman.update(x, P, z, r)
+        q1, m1 = kalman.adapt(q, m, nis, p)
+        got = kalman.update_adapt(x, P, z, r, q, m, p)
+        for g, w in zip(got, (x1, P1, q1, m1), strict=True):
+            np.testing.assert_allclose(g, w, rtol=1e-12, atol=1e-12 * np.abs(w).max())
 
 
 def test_bookkeeping_kernels_equal_a_per_track_reference():
@@ -298,9 +322,9 @@ def test_exact_tracks_on_a_hand_checkable_case():
         pts = np.full((len(rows), 3, 2), np.nan)
         pts[:, 1] = bx[:, :2] + bx[:, 2:] / 2
         dets.append(FrameDetections(pts, np.array(sc), boxes=bx))
-    # The confirmation and coasting this case was written for (n_init 3, one miss
-    # allowed while tentative, one second of coasting).
-    cfg = TrackerConfig(n_init=3, tentative_max_misses=1, max_gap_s=1.0)
+    # The confirmation and coasting this case was written for (3 detections at 10 fps,
+    # one miss allowed while tentative, one second of coasting).
+    cfg = TrackerConfig(confirm_s=0.2, tentative_gap_s=0.1, max_gap_s=1.0)
     res = track_detections(dets, fps=10, config=cfg)
     want.sort(key=lambda w: (w[0], w[1]))
     assert res.frames.tolist() == [w[0] for w in want]

@@ -88,6 +88,13 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     help="TOML file with [tracker] and [detector] tables.",
 )
 @click.option(
+    "--preset",
+    default="ants",
+    show_default=True,
+    help="Tracker settings to start from: ants (tuned on real ant boxes at 5-15 fps) or "
+    "pedestrians (tuned on MOT15); --config and --set override single options.",
+)
+@click.option(
     "--set",
     "overrides",
     multiple=True,
@@ -123,29 +130,7 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     is_flag=True,
     help="Many videos: track again those whose input error is recorded (failed.json).",
 )
-def track(
-    videos: tuple[Path, ...],
-    out_dir: Path,
-    detections: Path | None,
-    det_format: str | None,
-    image_size: str | None,
-    first_frame: int | None,
-    object_size_px: float | None,
-    model: Path | None,
-    detector: str | None,
-    px_per_mm: str | None,
-    fps: float | None,
-    config: str | None,
-    overrides: tuple[str, ...],
-    overlay: bool,
-    overlay_scale: float,
-    max_frames: int | None,
-    quiet: bool,
-    workers: int | None,
-    scheduler: str | None,
-    cluster: str | None,
-    retry_failed: bool,
-) -> None:
+def track(**opts: Any) -> None:
     """Track the ants of VIDEO (a file or a folder of frames) into OUT.
 
     Many videos (several paths, a folder of video files or a list file .txt with one
@@ -159,53 +144,50 @@ def track(
     OUT/summary.json.  With --detections, tracks another detector's boxes without a
     video (MOTChallenge, YOLO or COCO, e.g. what `thermoswarm detect` writes): the
     boxes written are the detections' own, frames keep their numbering, and tracks.nc
-    is in px unless --px-per-mm is given.
+    is in px unless --px-per-mm is given.  The tracker's settings start from --preset
+    (ants: tuned on real ant boxes; pedestrians: tuned on MOT15), then --config and
+    --set tracker.KEY=VALUE.
     """
-    many = _check_inputs(
-        videos, detections, batch_only=(workers, scheduler, cluster, retry_failed)
-    )
+    o = opts
+    videos, out_dir, detections = o["videos"], o["out_dir"], o["detections"]
+    batch_only = (o["workers"], o["scheduler"], o["cluster"], o["retry_failed"])
+    many = _check_inputs(videos, detections, batch_only=batch_only)
     if videos:
-        _check_video_options(det_format, image_size, first_frame, object_size_px)
-    scale, settings, tcfg = _options(px_per_mm, config, overrides)
+        _check_video_options(
+            o["det_format"], o["image_size"], o["first_frame"], o["object_size_px"]
+        )
+    scale, settings, tcfg = _options(o["px_per_mm"], o["config"], o["overrides"], o["preset"])
+    video_opts = dict(
+        px_per_mm=scale, fps=o["fps"], detector=o["detector"],
+        detector_options=settings.get("detector"), overlay=o["overlay"],
+        overlay_scale=o["overlay_scale"], max_frames=o["max_frames"],
+    )  # fmt: skip
+    model = o["model"]
     if many:
-        options = dict(
-            px_per_mm=scale, fps=fps, detector=detector, model=str(model) if model else None,
-            detector_options=settings.get("detector"), tracker=tcfg,
-            overlay=overlay, overlay_scale=overlay_scale, max_frames=max_frames,
-        )  # fmt: skip
-        _run_batch(videos, out_dir, options, workers, scheduler, cluster, retry_failed)
+        options = dict(video_opts, model=str(model) if model else None, tracker=tcfg)
+        _run_batch(videos, out_dir, options, *batch_only)
         return
     if detections is not None:
         summary = _track_detections(
             detections,
             out_dir,
             px_per_mm=scale,
-            fps=fps,
+            fps=o["fps"],
             tracker_config=tcfg,
             settings=settings,
-            uses_detector=model is not None or detector is not None,
-            fmt=det_format,
-            image_size=image_size,
-            first_frame=first_frame,
-            object_size_px=object_size_px,
+            uses_detector=model is not None or o["detector"] is not None,
+            fmt=o["det_format"],
+            image_size=o["image_size"],
+            first_frame=o["first_frame"],
+            object_size_px=o["object_size_px"],
         )
     else:
         from thermoswarm.tracking.pipeline import track_video
 
         summary = track_video(
-            videos[0],
-            out_dir,
-            px_per_mm=scale,
-            fps=fps,
-            detector=detector,
-            model=model,
-            detector_options=settings.get("detector"),
-            tracker_config=tcfg,
-            overlay=overlay,
-            overlay_scale=overlay_scale,
-            max_frames=max_frames,
-            progress=not quiet,
-        )
+            videos[0], out_dir, model=model, tracker_config=tcfg, progress=not o["quiet"],
+            **video_opts,
+        )  # fmt: skip
     _echo_summary(summary, out_dir)
 
 
@@ -254,17 +236,25 @@ def _check_video_options(
 
 
 def _options(
-    px_per_mm: str | None, config: str | None, overrides: tuple[str, ...]
+    px_per_mm: str | None, config: str | None, overrides: tuple[str, ...], preset: str = "ants"
 ) -> tuple[float | None, dict[str, Any], Any]:
-    """The scale (px/mm or ``None``), the settings tables and the tracker's config."""
+    """The scale (px/mm or ``None``), the settings tables and the tracker's config
+    (preset ``preset``, then the ``[tracker]`` table and ``--set tracker.*``)."""
     from thermoswarm.config import from_mapping
     from thermoswarm.io import resolve_px_per_mm
+    from thermoswarm.tracking.track.presets import PRESETS
     from thermoswarm.tracking.track.tracker import TrackerConfig
 
+    if preset not in PRESETS:
+        raise ConfigError(
+            f"--preset: unknown preset {preset!r}; expected one of: {', '.join(PRESETS)}"
+        )
     scale = resolve_px_per_mm(px_per_mm) if px_per_mm is not None else None
     settings = _load_settings(config, overrides)
     tcfg = from_mapping(
-        TrackerConfig, settings.get("tracker", {}), source=config or "--set tracker"
+        TrackerConfig,
+        {**PRESETS[preset], **settings.get("tracker", {})},
+        source=config or "--set tracker",
     )
     return scale, settings, tcfg
 

@@ -1,6 +1,7 @@
 """Following the animals from frame to frame (the room ``tracking.track``).
 
-Owns the tracker (:mod:`.tracker`: its options and the per-frame predict/update loop), the
+Owns the tracker (:mod:`.tracker`: the per-frame predict/update loop; its options in
+:mod:`.config`, named sets of them, with where each was tuned, in :mod:`.presets`), the
 adaptive Kalman filter (:mod:`.kalman`), the costs and the Hungarian assignment
 (:mod:`.association`), the live tracks (:mod:`.bank`) and the tracker's output with its
 clean-up (:mod:`.result`). May import the floor (``tracking.anatomy``,
@@ -8,6 +9,7 @@ clean-up (:mod:`.result`). May import the floor (``tracking.anatomy``,
 ``train`` or the pipeline.
 """
 
+from thermoswarm.tracking.track.presets import PRESETS, preset
 from thermoswarm.tracking.track.tracker import (
     Tracker,
     TrackerConfig,
@@ -15,4 +17,4 @@ from thermoswarm.tracking.track.tracker import (
     track_detections,
 )
 
-__all__ = ["TrackerConfig", "Tracker", "TrackResult", "track_detections"]
+__all__ = ["TrackerConfig", "Tracker", "TrackResult", "track_detections", "PRESETS", "preset"]

@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["BIG", "pair_costs", "assign", "orient_matched", "orient_new"]
+__all__ = ["BIG", "pair_costs", "assign", "orient_matched", "orient_new", "overlap_of_smaller"]
 
 #: Cost of a pair outside the gate (never matched; larger than any sum of real costs).
 BIG = 1e6
@@ -44,8 +44,9 @@ def pair_costs(
 ) -> np.ndarray:
     """Costs ``(n, m)`` of tracks and detections, :data:`BIG` outside the gate.
 
-    Cost ``iou_weight (1 - IoU) + distance_weight d / L + angle_weight |sin(da)|
-    [+ hint_weight]`` (``d`` the distance of the body points, ``da`` the angle between
+    Cost ``iou_weight (1 - IoU) + distance_weight d / L + mahalanobis_weight m /
+    gate_sigmas + angle_weight |sin(da)| [+ hint_weight]`` (``d`` the distance of the
+    body points, ``m`` the Mahalanobis distance of the innovation, ``da`` the angle between
     the body axes when both are known, the hint term where the detection was split off
     another track's prediction: ``hint_other`` ``(n, m)``).  Gate: Mahalanobis distance
     of the innovation within ``gate_sigmas``, ``d`` within ``reach`` and, for a
@@ -82,6 +83,7 @@ def pair_costs(
         float(c.gate_sigmas**2),
         float(c.iou_weight),
         float(c.distance_weight),
+        float(getattr(c, "mahalanobis_weight", 0.0)) / float(c.gate_sigmas),
         float(c.angle_weight),
         float(c.hint_weight),
         float(c.min_iou) if given_boxes else 0.0,
@@ -114,7 +116,7 @@ def _maximum(a: float, b: float) -> float:  # np.maximum: NaN wins
 @njit(cache=True, error_model="numpy")
 def _gated_costs(
     pred, Sinv, reach, pboxes, body, dboxes, ta, da, hint_other,
-    gate2, w_iou, w_dist, w_angle, w_hint, min_iou, own_size, length_px, out,
+    gate2, w_iou, w_dist, w_maha, w_angle, w_hint, min_iou, own_size, length_px, out,
 ):  # fmt: skip
     """The loop of :func:`pair_costs` (one pass over the pairs instead of some forty
     array operations, each of which costs more than its arithmetic at tens of
@@ -163,6 +165,8 @@ def _gated_costs(
                 if not size > _EPS:
                     size = length_px
             total = w_iou * (1 - iou) + w_dist * dist / size
+            if w_maha > 0 and maha > 0:
+                total = total + w_maha * np.sqrt(maha)
             if use_angle:
                 cross = ta[i, 0] * da[j, 1] - ta[i, 1] * da[j, 0]
                 norm = np.hypot(ta[i, 0], ta[i, 1]) * np.hypot(da[j, 0], da[j, 1])
@@ -232,3 +236,16 @@ def orient_new(c: Any, p: np.ndarray, hc: np.ndarray) -> np.ndarray:
         flip = posed & ~(na < 1e-9) & (c.shape_weight * (2 * hc - 1) < 0)
     p[flip] = p[flip][:, [2, 1, 0]]
     return p
+
+
+def overlap_of_smaller(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(len(a), len(b))``: intersection of MOT boxes over the smaller one's area
+    (0 where either has no area)."""
+    x0 = np.maximum(a[:, None, 0], b[None, :, 0])
+    y0 = np.maximum(a[:, None, 1], b[None, :, 1])
+    x1 = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2])
+    y1 = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3])
+    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    small = np.minimum((a[:, 2] * a[:, 3])[:, None], (b[:, 2] * b[:, 3])[None, :])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(small > 0, inter / small, 0.0)

@@ -8,19 +8,24 @@ Each frame:
    :func:`~thermoswarm.tracking.anatomy.pose_boxes`).  The predicted poses are also
    given to detectors that accept them (``hints``), to split touching ants.
 2. **Cost** of track ``i`` and detection ``j``:
-   ``iou_weight (1 - IoU) + distance_weight d / L + angle_weight |sin(da)|`` with ``d``
-   the distance of the body points, ``L`` the body length and ``da`` the angle between
-   the body axes (head-tail ambiguity ignored).  A pair is allowed only inside the
-   gate: Mahalanobis distance of the innovation below ``gate_sigmas`` and ``d`` below
-   what ``max_speed_bl_s`` allows since the track's last detection.
+   ``iou_weight (1 - IoU) + distance_weight d / L + mahalanobis_weight m / gate_sigmas
+   + angle_weight |sin(da)|`` with ``d`` the distance of the body points, ``L`` the
+   body length, ``m`` the Mahalanobis distance of the innovation (``d`` in units of
+   the track's predicted uncertainty: a new track, whose velocity is unknown, reaches
+   as far as an ant walks) and ``da`` the angle between the body axes (head-tail
+   ambiguity ignored).  A pair is allowed only inside the gate: ``m`` below
+   ``gate_sigmas`` and ``d`` below what ``max_speed_bl_s`` allows since the track's
+   last detection (and, where ``min_iou`` > 0, a detector's own boxes overlapping).
 3. **Assign** with :func:`scipy.optimize.linear_sum_assignment`, confirmed tracks
    first (including tracks that lost their ant within the last ``max_gap_s``), then
    tentative tracks with the detections left; pairs costing more than ``max_cost`` are
    not matched.
-4. **Birth and death with hysteresis**: an unmatched detection starts a tentative
-   track, confirmed after ``n_init`` hits (and dropped if it misses more than
-   ``tentative_max_misses`` frames before that); a confirmed track survives
-   ``max_gap_s`` without detections (coasting on its prediction).
+4. **Birth and death with hysteresis**: an unmatched detection (not within
+   ``duplicate_radius`` body lengths of a matched or better-scored one) starts a
+   tentative track, confirmed once detected over ``confirm_s`` (and dropped if it
+   misses more than ``tentative_gap_s`` before that); a confirmed track survives
+   ``max_gap_s`` without detections (coasting on its prediction).  Every time is in
+   seconds, converted with the frame rate (:func:`~thermoswarm.tracking.track.config.frames`).
    A track whose ant walks out of the frame (its prediction leaves the image)
    ends at once rather than coasting.
 5. **Re-linking across short gaps**: a coasting track that gets a detection again, or
@@ -48,7 +53,9 @@ head-tail order.
 Code: the live tracks are rows of packed arrays
 (:mod:`~thermoswarm.tracking.track.bank`), the costs and the assignment are in
 :mod:`~thermoswarm.tracking.track.association`, the output and the end-of-video corrections in
-:mod:`~thermoswarm.tracking.track.result`; this module holds the options and the loop.
+:mod:`~thermoswarm.tracking.track.result`, the options in
+:mod:`~thermoswarm.tracking.track.config` (named sets:
+:mod:`~thermoswarm.tracking.track.presets`); this module holds the loop.
 
 Scale: positions are px (full frame), and every length in the config is in body
 lengths ``L`` (px per body length: given, derived from ``px_per_mm`` and the paper's
@@ -60,120 +67,21 @@ converts the exported trajectories (:meth:`TrackResult.dataset`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from thermoswarm.config import check
 from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detection import FrameDetections
 from thermoswarm.tracking.track import association, kalman
 from thermoswarm.tracking.track import bank as track_bank
 from thermoswarm.tracking.track.bank import TrackBank
+from thermoswarm.tracking.track.config import TrackerConfig
 from thermoswarm.tracking.track.result import TrackResult, fix_jumps, orient_tracks
 
 __all__ = ["TrackerConfig", "Tracker", "TrackResult", "track_detections", "estimate_length_px"]
 
 PendingRows = list[tuple[int, list[tuple[int, np.ndarray, np.ndarray]]]]
-
-
-@dataclass(frozen=True)
-class TrackerConfig:
-    """Tracker options, in units of the objects' own size and of time.
-
-    Lengths are in body lengths ``L`` (the tracked objects' length in px, given to the
-    :class:`Tracker` or estimated from the detections), times in seconds (converted
-    with ``fps``); nothing depends on the mm scale of the image.  See the module
-    docstring for the role of each weight and limit.  ``accel_bl_s2``: initial sd of
-    the objects' acceleration (sets the Kalman process noise, which then adapts within
-    ``[q/adapt_range, q*adapt_range]``); ``meas_noise_bl``: sd of detected body points,
-    divided by ``score ** score_noise_power`` for a detection of score below 1;
-    ``width_bl``: object width, half of which pads body-centred pose boxes.  The
-    defaults are the paper's ant (7.14 x 2.5 mm, 100 mm/s at most) in these units.
-    """
-
-    n_init: int = 4
-    tentative_max_misses: int = 0
-    max_gap_s: float = 0.5
-    max_speed_bl_s: float = 14.0
-    accel_bl_s2: float = 8.0
-    adapt: bool = True
-    adapt_range: float = 25.0
-    meas_noise_bl: float = 0.04605  # 1 px at the paper's 3.04 px/mm
-    score_noise_power: float = 4.0
-    gate_sigmas: float = 5.0
-    iou_weight: float = 1.0
-    distance_weight: float = 1.0
-    angle_weight: float = 0.3
-    hint_weight: float = 1.0
-    max_cost: float = 2.0
-    min_iou: float = 0.3
-    relink_gate: bool = True
-    own_size: bool = False
-    coast_last: bool = False
-    min_score: float = 0.0
-    duplicate_radius: float = 0.0
-    duplicate_overlap: float = 0.3
-    interpolate: bool = True
-    fix_jumps: bool = True
-    head_motion_speed_bl_s: float = 0.42
-    continuity_weight: float = 1.0
-    motion_weight: float = 1.5
-    shape_weight: float = 1.0
-    width_bl: float = anatomy.ANT_WIDTH_MM / anatomy.ANT_LENGTH_MM
-
-    def __post_init__(self) -> None:
-        check(self.n_init >= 1, "n_init", "a positive integer", self.n_init)
-        check(
-            self.tentative_max_misses >= 0,
-            "tentative_max_misses",
-            "a non-negative integer",
-            self.tentative_max_misses,
-        )
-        for name in ("max_gap_s", "duplicate_radius"):
-            v = getattr(self, name)
-            check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
-        for name in (
-            "max_speed_bl_s",
-            "accel_bl_s2",
-            "meas_noise_bl",
-            "gate_sigmas",
-            "max_cost",
-            "head_motion_speed_bl_s",
-            "width_bl",
-        ):
-            v = getattr(self, name)
-            check(math.isfinite(v) and v > 0, name, "a positive number", v)
-        check(self.adapt_range >= 1, "adapt_range", "at least 1", self.adapt_range)
-        for name in (
-            "iou_weight",
-            "distance_weight",
-            "angle_weight",
-            "hint_weight",
-            "continuity_weight",
-            "motion_weight",
-            "shape_weight",
-        ):
-            v = getattr(self, name)
-            check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
-        check(0 <= self.min_score <= 1, "min_score", "in [0, 1]", self.min_score)
-        check(0 <= self.min_iou < 1, "min_iou", "in [0, 1)", self.min_iou)
-        v = self.duplicate_overlap
-        check(v > 0 and not math.isnan(v), "duplicate_overlap", "a positive number (>= 1: off)", v)
-
-
-def _overlap_of_smaller(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(len(a), len(b))``: intersection of MOT boxes over the smaller one's area
-    (0 where either has no area)."""
-    x0 = np.maximum(a[:, None, 0], b[None, :, 0])
-    y0 = np.maximum(a[:, None, 1], b[None, :, 1])
-    x1 = np.minimum(a[:, None, 0] + a[:, None, 2], b[None, :, 0] + b[None, :, 2])
-    y1 = np.minimum(a[:, None, 1] + a[:, None, 3], b[None, :, 1] + b[None, :, 3])
-    inter = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    small = np.minimum((a[:, 2] * a[:, 3])[:, None], (b[:, 2] * b[:, 3])[None, :])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(small > 0, inter / small, 0.0)
 
 
 def estimate_length_px(dets: FrameDetections) -> float | None:
@@ -237,11 +145,13 @@ class Tracker:
         self.config = c = config or TrackerConfig()
         self.frame_size = frame_size
         self.fps = float(fps)
-        self.max_gap = int(round(c.max_gap_s * fps))
+        self.max_gap = c.max_gap(fps)
+        self.n_init = c.n_init(fps)
+        self.tentative_max_misses = c.tentative_max_misses(fps)
         #: Frames after which a frame's output can no longer change.
-        self.lag = max(self.max_gap, c.n_init + c.tentative_max_misses) + 1
+        self.lag = max(self.max_gap, self.n_init + self.tentative_max_misses) + 1
         self.frame = -1
-        self._bank = TrackBank(c.n_init)
+        self._bank = TrackBank(self.n_init)
         self._next_id = 1
         self._next_key = 1
         self._predicted = False
@@ -271,7 +181,7 @@ class Tracker:
             q0=q,
             q_min=q / rng_,
             q_max=q * rng_,
-            v0=self.step_px / 3,
+            v0=c.birth_speed_bl_s * L / fps,
             gain=0.5 if c.adapt else 0.0,
         )
         # Measurement variance r^2, as kalman.innovation forms it.
@@ -296,7 +206,6 @@ class Tracker:
     # --------------------------------------------------------------------- update
     def update(self, dets: FrameDetections) -> None:
         """Associate the detections of the next frame and update the tracks."""
-        c = self.config
         if not self._predicted:
             self.predict()
         self._predicted = False
@@ -322,7 +231,7 @@ class Tracker:
         if b.n:
             w, h = self.frame_size if self.frame_size is not None else (0, 0)
             keep = track_bank.misses_and_deaths(
-                b.F, b.I, b.n, matched, k, c.tentative_max_misses, self.max_gap,
+                b.F, b.I, b.n, matched, k, self.tentative_max_misses, self.max_gap,
                 self.frame_size is not None, w, h,
             )  # fmt: skip
             b.keep(keep)
@@ -330,7 +239,7 @@ class Tracker:
         if n and avail.any():
             self._births(dets, pts, boxes, hc, avail)
         # Confirmation, with re-linking to a lost track.
-        ready = np.flatnonzero((b.out_id == 0) & (b.hits >= c.n_init))
+        ready = np.flatnonzero((b.out_id == 0) & (b.hits >= self.n_init))
         if ready.size:
             removed = np.zeros(b.n, bool)
             for t in ready.tolist():
@@ -412,8 +321,8 @@ class Tracker:
         # Less certain detections (split blobs) move the filter less.
         scores = dets.scores[js]
         sc = np.clip(scores, 0.1, 1.0)
-        x, P, nis = kalman.update(x0, P0, pts[js, 1], self.kp.r / sc**c.score_noise_power)
-        q, nm = kalman.adapt(q, nm, nis, self.kp)
+        r = self.kp.r / sc**c.score_noise_power
+        x, P, q, nm = kalman.update_adapt(x0, P0, pts[js, 1], r, q, nm, self.kp)
         p_all = pts[js]
         if np.isfinite(p_all[:, [0, 2]]).any():
             vsd = np.sqrt(0.5 * (P0[:, 2, 2] + P0[:, 3, 3]))
@@ -479,7 +388,7 @@ class Tracker:
         dd = np.linalg.norm(pts[b, 1][None, :, :] - pts[a, 1][:, None, :], axis=-1)
         dup = dd < c.duplicate_radius * self.length_px
         if c.duplicate_overlap < 1:
-            dup |= _overlap_of_smaller(boxes[a], boxes[b]) >= c.duplicate_overlap
+            dup |= association.overlap_of_smaller(boxes[a], boxes[b]) >= c.duplicate_overlap
         return dup
 
     def _distinct(
@@ -518,7 +427,7 @@ class Tracker:
             s = np.where(np.isnan(s), np.inf, s)
             if self.config.relink_gate:
                 # Beyond a one-frame gap, only where the lost track's motion leads.
-                near = (first_frame - last[lost] <= 2) | self._in_coasting_gate(t, lost)
+                near = (first_frame - last[lost] <= 2) | self._in_coasting_gate(t, lost, hist[0])
                 s = np.where(near, s, np.inf)
             i = int(np.argmin(s))
             if s[i] < 1.0:
@@ -541,15 +450,23 @@ class Tracker:
         b.misses[best] = b.misses[t]
         removed[t] = True
 
-    def _in_coasting_gate(self, t: int, lost: np.ndarray) -> np.ndarray:
-        """Whether the current position of new track ``t`` lies within ``gate_sigmas``
-        (Mahalanobis) of where each lost track in ``lost`` has coasted to (its Kalman
-        prediction for this frame, with the covariance grown over the gap)."""
-        b = self._bank
+    def _in_coasting_gate(self, t: int, lost: np.ndarray, first: tuple) -> np.ndarray:
+        """Whether new track ``t`` lies within ``gate_sigmas`` (Mahalanobis) of where
+        each lost track in ``lost`` has coasted to: now (its Kalman prediction for this
+        frame, covariance grown over the gap), and at the new track's first detection
+        ``first`` (frame, points; the prediction moved back along its velocity, the
+        position covariance scaled by the square of the shorter time coasted)."""
+        b, g2 = self._bank, self.config.gate_sigmas**2
+        eye = self._r2 * np.eye(2)
         d = b.x[t, :2][None, :] - b.x[lost, :2]
-        S = b.P[lost][:, :2, :2] + self._r2 * np.eye(2)
-        m2 = np.einsum("ni,nij,nj->n", d, np.linalg.inv(S), d)
-        return m2 <= self.config.gate_sigmas**2
+        S = b.P[lost][:, :2, :2] + eye
+        ok = np.einsum("ni,nij,nj->n", d, np.linalg.inv(S), d) <= g2
+        coasted = np.maximum(self.frame - b.last[lost], 1).astype(float)
+        back = (self.frame - first[0]) * b.x[lost, 2:4]
+        d = first[1][1][None, :] - (b.x[lost, :2] - back)
+        scale = ((first[0] - b.last[lost]) / coasted) ** 2
+        S = b.P[lost][:, :2, :2] * scale[:, None, None] + eye
+        return ok & (np.einsum("ni,nij,nj->n", d, np.linalg.inv(S), d) <= g2)
 
     # --------------------------------------------------------------------- output
     def _emit(
@@ -647,7 +564,7 @@ class Tracker:
         frames, ids, pts, boxes = frames[order], ids[order], pts[order], boxes[order]
         scores, interp, hc = scores[order], interp[order], hc[order]
         if self.config.fix_jumps:
-            keep = ~self._fix_jumps(frames, ids, pts, boxes, scores, interp)
+            keep = ~fix_jumps(frames, ids, pts, boxes, scores, interp, self.step_px)
             frames, ids, pts, boxes = frames[keep], ids[keep], pts[keep], boxes[keep]
             scores, interp, hc = scores[keep], interp[keep], hc[keep]
         pts = orient_tracks(self.config, frames, ids, pts, hc, self.motion_px)
@@ -661,19 +578,6 @@ class Tracker:
             interp[order],
             n_frames,
         )
-
-    def _fix_jumps(
-        self,
-        frames: np.ndarray,
-        ids: np.ndarray,
-        pts: np.ndarray,
-        boxes: np.ndarray,
-        scores: np.ndarray,
-        interp: np.ndarray,
-    ) -> np.ndarray:
-        """:func:`~thermoswarm.tracking.track.result.fix_jumps` at this tracker's speed
-        limit (``max_speed_bl_s``)."""
-        return fix_jumps(frames, ids, pts, boxes, scores, interp, self.step_px)
 
 
 def track_detections(
