@@ -1,0 +1,344 @@
+"""The paper beside our results for the transport experiments: with and without
+connection, the mechanism, the swarm size and the drift-speed maps.
+
+Part of :mod:`thermoswarm.report.paper` (which registers these in ``COMPARISONS``);
+the same rules: each ``compare_<experiment>(res)`` returns rows ``{"claim", "paper",
+"ours", "verdict", "why"}``, missing keys give ``not measured``.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from thermoswarm.report._paper_rows import (
+    DIFFERS,
+    NOT_MEASURED,
+    PARTLY,
+    REPRODUCED,
+    _get,
+    _p,
+    _row,
+    fmt,
+)
+
+
+# ----------------------------------------------------------------------- transport
+def compare_transport_connected(res: Mapping[str, Any]) -> list[dict[str, str]]:
+    seeds, reached = _get(res, "seeds"), _get(res, "reached")
+    t, sd = _get(res, "time_to_target_mean"), _get(res, "time_to_target_sd")
+    if seeds is None:
+        return [
+            _row(
+                "robots attached to the object carry it to the target",
+                "Results text: the connected robots 'successfully moved the object "
+                "toward the goal'",
+                "n/a",
+                NOT_MEASURED,
+                "",
+            )
+        ]
+    ok = reached == seeds
+    return [
+        _row(
+            "robots attached to the object carry it to the target",
+            "Results text (Algorithm 4): the connected robots 'successfully moved the object "
+            "toward the goal' (no time given)",
+            f"reached in {reached} of {seeds} runs; time to target {fmt(t, unit='s')} "
+            f"(sd {fmt(sd, unit='s')})",
+            REPRODUCED if ok else (PARTLY if reached else DIFFERS),
+            "rule: every run reaches the target room",
+        )
+    ]
+
+
+def compare_transport_free(res: Mapping[str, Any]) -> list[dict[str, str]]:
+    rows = []
+    d = _get(res, "default") or {}
+    times = d.get("time_to_target") or []
+    seeds = d.get("seeds")
+    got = [t for t in times if t is not None]
+    k = d.get("reached", len(got))
+    med = d.get("time_to_target_median")
+    if med is None and got:
+        med = statistics.median(got)
+    z = d.get("mean_over_se")
+    if seeds is None:
+        verdict, why = NOT_MEASURED, ""
+    elif seeds and k == seeds:
+        verdict, why = REPRODUCED, "rule: every run reaches the target line"
+    elif k:
+        verdict = PARTLY
+        why = f"{k} of {seeds} runs reached the target within the run"
+    elif z is not None and z > 2:
+        verdict = PARTLY
+        why = (
+            f"the object moves toward the light ({fmt(z, 2)} standard errors) but "
+            f"0 of {seeds} runs reached the target in {fmt(d.get('duration_s'), unit='s')}"
+        )
+    else:
+        verdict, why = DIFFERS, "no run arrived and no displacement toward the light beyond 2 se"
+    dist = d.get("target_distance_mm")
+    ours = (
+        f"reached the target line{' ' + fmt(dist, unit='mm') + ' up' if dist else ''} in "
+        f"{fmt(k)} of {fmt(seeds)} runs of {fmt(d.get('n'))} robots "
+        f"({fmt(d.get('duration_s'), unit='s')} each)"
+    )
+    if got:
+        ours += (
+            f"; time to target median {fmt(med, unit='s')} (range "
+            f"{fmt(d.get('time_to_target_min', min(got)), unit='s')} to "
+            f"{fmt(d.get('time_to_target_max', max(got)), unit='s')})"
+        )
+    else:
+        ours += (
+            f"; displacement toward the target {fmt(d.get('displacement_toward_target_mean'))}"
+            f" +- {fmt(d.get('displacement_toward_target_se'))} mm (mean +- se)"
+        )
+    rows.append(
+        _row(
+            "robots without connection push the object to the lit target (free space)",
+            "Fig. 6 (a-h): 1,200 robots move the object 'without obstacle to the top'; "
+            "Fig. 5 (real robots, 0-300 s): they 'move the green object toward the light'",
+            ours,
+            verdict,
+            why,
+        )
+    )
+    for v, panel in (
+        ("obstacle", "Fig. 6 (i-p): past an obstacle"),
+        ("zigzag", "Fig. 6 (q-t): along a zig-zag curve"),
+    ):
+        rows.append(_variant_row(v, panel, _get(res, v) or {}))
+    return rows
+
+
+def _variant_row(v: str, panel: str, r: Mapping[str, Any]) -> dict[str, str]:
+    """The row of ``transport-free``'s variant ``v`` (one run, ``r``: reached or not)."""
+    if not r:
+        return _row(f"variant {v}", panel + " to the top", "n/a", NOT_MEASURED, "")
+    disp = r.get("max_displacement_toward_target", r.get("displacement_toward_target"))
+    t = r.get("time_to_target")
+    verdict = REPRODUCED if t is not None else (PARTLY if (disp or 0) > 0 else DIFFERS)
+    return _row(
+        f"variant {v}",
+        panel + " to the top",
+        (
+            f"reached the target line {fmt(r.get('target_distance_mm'), unit='mm')} up "
+            f"at {fmt(t, unit='s')}"
+            if t is not None
+            else f"target not reached in {fmt(r.get('duration_s'), unit='s')}; "
+            f"at most {fmt(disp, unit='mm')} toward it"
+        ),
+        verdict,
+        "one run: reached or not"
+        if t is not None
+        else "one run; moving toward the light is not arriving",
+    )
+
+
+_MECHANISMS = [
+    ("lit_cold", "uniform", "Algorithm 5 as written: lit robots cold (its equation), a fresh "
+     "uniform heading every period"),
+    ("lit_hot", "uniform", "Algorithm 5 as captioned: lit robots hot, gas-like (Figs. 5-6), "
+     "fresh uniform headings"),
+    ("lit_cold", "persistent", "the equation's mapping with persistent headings (our default)"),
+    ("lit_hot", "persistent", "the captions' mapping with persistent headings"),
+]  # fmt: skip
+
+
+def compare_mechanism(res: Mapping[str, Any]) -> list[dict[str, str]]:
+    """One row per reading of Algorithm 5 (mapping x heading law), over the sensing modes:
+    the paper's result is that the object moves toward the light."""
+    rows_in = _get(res, "rows") or []
+    if not rows_in:
+        return [_row("which robots are hot", "", "n/a", NOT_MEASURED, "")]
+    out = []
+    for mapping, law, label in _MECHANISMS:
+        rs = [r for r in rows_in if r.get("mapping") == mapping and r.get("heading_law") == law]
+        if not rs:
+            continue
+        toward = [r for r in rs if r.get("verdict") == "toward target"]
+        away = [r for r in rs if r.get("verdict") == "away from target"]
+        ours = "; ".join(
+            f"{r.get('sensor.mode', '?')} sensing: {fmt(r.get('disp_mean'), 3)} +- "
+            f"{fmt(r.get('disp_se'), 2)} mm ({r.get('verdict')})"
+            for r in rs
+        )
+        if len(toward) == len(rs):
+            verdict, why = REPRODUCED, "toward the light with every sensing model"
+        elif toward:
+            verdict = PARTLY
+            why = f"toward the light with {len(toward)} of {len(rs)} sensing models"
+        else:
+            verdict = DIFFERS
+            why = ("the object moves away from the light" if away else
+                   "no motion toward the light beyond the 95 % interval")  # fmt: skip
+        out.append(_row(label, "the swarm moves the object to the light (Figs. 5-6)", ours,
+                        verdict, why))  # fmt: skip
+    return out
+
+
+_SERIES = {"fixed": "robots added to a fixed arena", "density": "the arena grows with N"}
+
+
+def _by_series(rows: Sequence[Mapping[str, Any]]) -> dict[str, list[Mapping[str, Any]]]:
+    out: dict[str, list[Mapping[str, Any]]] = {}
+    for r in rows:
+        out.setdefault(r.get("series") or "fixed", []).append(r)
+    return {k: sorted(v, key=lambda r: r.get("n") or 0) for k, v in out.items()}
+
+
+def _capacity_row(rows: Sequence[Mapping[str, Any]], trend: Mapping[str, Any], label: str
+                  ) -> dict[str, str]:  # fmt: skip
+    """Panel (u) for one series: the rank trend of the runs' maximum displacement with N,
+    and where the median stops growing (reaches the 95 % interval of the largest)."""
+    meds = [(r.get("n"), r.get("maxdisp_median", r.get("maxdisp_mean"))) for r in rows]
+    meds = [(n, m) for n, m in meds if n is not None and m is not None]
+    rho, p = trend.get("spearman_rho"), trend.get("spearman_p")
+    claim = "(u) the maximum distance moved grows with the number of robots" + label
+    paper = (
+        "Fig. 6 (u): 'capacity ... quantified by maximum object moving distance, increase "
+        "with number of robots'; real robots: high variance, near 0 for few"
+    )
+    if not meds:
+        return _row(claim, paper, "n/a", NOT_MEASURED, "")
+    top = max(range(len(meds)), key=lambda i: meds[i][1])
+    n_top, m_top = meds[top]
+    low = rows[[r.get("n") for r in rows].index(n_top)].get("maxdisp_ci_low")
+    n_sat = next((n for n, m in meds if low is not None and m >= low), n_top)
+    ours = "median max displacement " + ", ".join(
+        f"{fmt(m, 3)} mm (N = {fmt(n)})" for n, m in meds
+    )
+    if rho is not None:
+        ours += f"; Spearman rho = {fmt(rho, 2)}, {_p(p)}"
+    peak = f"largest median at N = {fmt(n_top)}"
+    if n_sat != n_top:
+        peak += f", within its 95 % interval from N = {fmt(n_sat)} on"
+    if rho is None:
+        return _row(claim, paper, ours, NOT_MEASURED, "too few runs for a rank correlation")
+    if rho > 0 and p is not None and p < 0.05:
+        if n_top == meds[-1][0]:
+            verdict, why = REPRODUCED, f"grows with N ({peak})"
+        else:
+            verdict = PARTLY
+            why = f"grows, then saturates or falls: {peak}; smaller at N = {fmt(meds[-1][0])}"
+    else:
+        verdict, why = DIFFERS, f"no significant increase with N ({peak})"
+    rule = "rule: Spearman correlation of the runs' maximum displacement with N, positive at "
+    return _row(claim, paper, ours, verdict, f"{why}; {rule}the 5 % level, the largest median "
+                "at the largest N")  # fmt: skip
+
+
+def _time_row(rows: Sequence[Mapping[str, Any]], label: str) -> dict[str, str]:
+    """Panel (v) for one series: median times to target (a size where fewer than half the
+    runs arrived is slower than any that has a median) and where they stop falling (reach
+    the 95 % interval of the fastest median)."""
+    claim = "(v) the time to the target falls with the number of robots" + label
+    paper = (
+        "Fig. 6 (v): 'the minimum time to move object to desired position, decreases with "
+        "number of robots'"
+    )
+    meds = [(r.get("n"), r.get("time_median"), r) for r in rows]
+    finite = [(n, t, r) for n, t, r in meds if t is not None]
+    arrived = sum(1 for r in rows if (r.get("reached") or 0) > 0)
+    if len(finite) < 2:
+        return _row(
+            claim,
+            paper,
+            f"{arrived} of {len(rows)} swarm sizes reached the target in any run; "
+            f"{len(finite)} had a median time (at least half the runs arrived)",
+            NOT_MEASURED,
+            "no times to compare: the object did not reach the target line at enough sizes",
+        )
+    n_best, t_best, r_best = min(finite, key=lambda e: e[1])
+    hi = r_best.get("time_ci_high")
+    n_sat = next((n for n, t, _ in finite if hi is not None and t <= hi), n_best)
+    first = meds[0][1]  # None: fewer than half arrived, slower than any median
+    # a fall: the smallest swarm's median outside the fastest median's 95 % interval
+    falls = first is None or first > (hi if hi is not None else t_best)
+    ours = "median time " + ", ".join(
+        f"{fmt(t, unit='s') if t is not None else 'none (under half arrived)'} (N = {fmt(n)})"
+        for n, t, _ in meds
+    )
+    fastest = [(r.get("n"), r.get("time_min")) for r in rows if r.get("time_min") is not None]
+    if fastest:
+        ours += "; fastest run " + ", ".join(f"{fmt(t, unit='s')} (N = {fmt(n)})"
+                                             for n, t in fastest)  # fmt: skip
+    where = f"fastest median at N = {fmt(n_best)}"
+    if n_sat != n_best:
+        where += f", within its 95 % interval from N = {fmt(n_sat)} on"
+    if falls and n_best == meds[-1][0]:
+        verdict, why = REPRODUCED, f"falls with N ({where})"
+    elif falls:
+        verdict, why = PARTLY, f"falls, then saturates or rises: {where}"
+    else:
+        verdict = DIFFERS
+        why = f"no faster than at the smallest N, to the 95 % interval ({where})"
+    return _row(claim, paper, ours, verdict, f"{why}; rule: the fastest median at the largest "
+                "N, and the smallest N's median above its 95 % interval")  # fmt: skip
+
+
+def compare_scaling(res: Mapping[str, Any]) -> list[dict[str, str]]:
+    """Panels (u) and (v), one row each per series (robots added to a fixed arena; an
+    arena grown with N at a fixed density)."""
+    rows_in = _get(res, "rows") or []
+    trend = _get(res, "trend") or {}
+    if "spearman_rho" in trend or "test" in trend:  # one series, as older results hold it
+        trend = {"fixed": trend}
+    if not rows_in:
+        return [_row("capacity grows with the swarm", "Fig. 6 (u)", "n/a", NOT_MEASURED, "")]
+    groups = _by_series(rows_in)
+    out = []
+    for series, rows in groups.items():
+        label = f" ({_SERIES.get(series, series)})" if len(groups) > 1 else ""
+        out.append(_capacity_row(rows, trend.get(series) or {}, label))
+        out.append(_time_row(rows, label))
+    return out
+
+
+def compare_regime(res: Mapping[str, Any]) -> list[dict[str, str]]:
+    """The drift-speed maps: does the object move toward the light over the parameters
+    the paper leaves open, and where fastest."""
+    rows = _get(res, "rows") or []
+    claim = "the object moves toward the light over the parameters the paper leaves open"
+    paper = (
+        "Algorithm 5 gives the law, not its numbers (temperatures, steering, control period, "
+        "light); Figs. 5-6 show the object moved toward the light at the authors' settings"
+    )
+    if not rows:
+        return [_row(claim, paper, "n/a", NOT_MEASURED, "")]
+    toward = [r for r in rows if r.get("verdict") == "toward target"]
+    away = [r for r in rows if r.get("verdict") == "away from target"]
+    best = max(rows, key=lambda r: r.get("drift_mean") or -math.inf)
+
+    def cell(r: Mapping[str, Any]) -> str:
+        return (
+            f"{fmt(r.get('drift_mean'))} +- {fmt(r.get('drift_se'), 2)} mm/s at "
+            f"{r.get('map_title', r.get('map'))}: {r.get('x_name', 'x')} {fmt(r.get('x'))}, "
+            f"{r.get('y_name', 'y')} {fmt(r.get('y'))}"
+        )
+
+    ours = (
+        f"toward the light in {len(toward)} of {len(rows)} cells, away in {len(away)} "
+        f"({fmt(res.get('seeds'))} seeds, {fmt(res.get('n'))} robots, "
+        f"{fmt(res.get('duration_s'), unit='s')}); fastest {cell(best)}"
+    )
+    default = next((r for r in rows if r.get("default")), None)
+    if default is not None:
+        ours += (
+            f"; the default cell {fmt(default.get('drift_mean'))} +- "
+            + fmt(default.get("drift_se"), 2)
+            + " mm/s"
+        )
+    if len(toward) == len(rows):
+        verdict, why = REPRODUCED, "toward the light in every cell"
+    elif toward:
+        verdict = PARTLY
+        why = "the transport depends on the numbers the paper leaves open"
+    else:
+        verdict, why = DIFFERS, "no cell moves the object toward the light"
+    return [_row(claim, paper, ours, verdict, why + "; rule: a cell moves toward the light "
+                 "when the 95 % interval of its drift is above 0")]  # fmt: skip
