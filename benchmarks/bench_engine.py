@@ -39,6 +39,10 @@ estimate from the tool's largest size so far passes ``--max-cell-s`` is not run 
 says so, with the estimate ("est. 7 h a run of 20 steps"); VMAS as one world is timed
 at 120 agents and estimated as N^2 above.
 
+Each tool is one module of ``benchmarks/peers/`` (``peers/timing.py``: the timed loop
+and the measures they share); this script runs the cells, estimates the ones it skips,
+and prints the tables.
+
 Usage::
 
     python benchmarks/bench_engine.py                      # 1,200 .. 1,000,000; phi 0.18, 0.5
@@ -50,7 +54,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import functools
 import importlib.util
 import json
 import math
@@ -59,406 +62,14 @@ import sys
 import time
 
 import numpy as np
-from scipy.spatial import cKDTree
 
-from thermoswarm.maxent import SpeedLaw, kT_for_mean_speed
+from peers import timing as T
+from peers.jaxmd_bench import JAXMD_SUBSTEPS, XLA_FLAGS, jaxmd_bench
+from peers.numpy_bench import numpy_bench
+from peers.ours import ours
+from peers.pymunk_bench import pymunk_bench
+from peers.vmas_bench import vmas_bench
 from thermoswarm.sim import set_threads
-from thermoswarm.sim.bench import DIAMETER, MEAN_SPEED, workload
-from thermoswarm.sim.engine import place_lattice, threads_for
-
-R = DIAMETER / 2
-DT = 0.1
-#: Wall seconds of timed stepping per tool and configuration, in BLOCKS blocks of at
-#: least MIN_STEPS steps each; the fastest block is reported (the machine is shared: a
-#: block that another process slowed down says nothing about the tool).
-BUDGET = 2.0
-BLOCKS = 3
-MIN_STEPS = 2
-#: Steps every tool runs after its warm-up and before its timed blocks (``--settle``):
-#: from the lattice start the contacts take ~150 steps to build up, and a step costs
-#: ~1.4x more once they have (1 thread, 100,000 robots at packing 0.5).
-SETTLE_STEPS = 0
-#: The clock of the timed blocks: wall time, except with ``--ours-only`` (one thread),
-#: which times the thread's CPU time (``time.thread_time``), far less disturbed than
-#: wall time on a busy shared machine, runs every settle step (no budget cap: the
-#: budget is the timed blocks'), and times at least SETTLED_MIN_STEPS steps a block.
-CLOCK = time.perf_counter
-FULL_SETTLE = False
-#: Steps a timed block makes at least with ``--ours-only``: the lists are rebuilt every
-#: 4-6 steps (a rebuild costs ~3 steps' sweeps at a million robots), so a block of 2
-#: steps, the fastest of three, could miss the rebuilds and understate the cost.
-SETTLED_MIN_STEPS = 30
-
-
-def kd_overlap(pos: np.ndarray, side: float) -> float:
-    """Exact largest overlap (mm) between discs and with the box walls."""
-    pairs = cKDTree(pos).query_pairs(DIAMETER, output_type="ndarray")
-    worst = 0.0
-    if len(pairs):
-        d = np.linalg.norm(pos[pairs[:, 0]] - pos[pairs[:, 1]], axis=1)
-        worst = float((DIAMETER - d).max())
-    walls = max(float((R - pos).max()), float((pos - (side - R)).max()))
-    return max(worst, walls, 0.0)
-
-
-def _side(n: int, phi: float) -> float:
-    return math.sqrt(n * math.pi * R * R / phi)
-
-
-#: Resident set (bytes) before the tool being timed was built (set by :func:`run_cell`).
-_RSS0: int | None = None
-
-
-def _rss_now() -> int:
-    """Resident set of this process now, bytes (``/proc/self/statm``)."""
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-
-
-def _rss_peak_reset() -> None:
-    """Reset this process's peak resident set (``VmHWM``) to its current one (Linux)."""
-    try:
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-    except OSError:
-        pass
-
-
-def _rss_peak() -> int:
-    """Peak resident set since the last :func:`_rss_peak_reset`, bytes (``VmHWM``)."""
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) * 1024
-    return 0
-
-
-def _timed(step, n: int, positions, side: float, overlap=None, rss0: int | None = None) -> dict:
-    """Time a tool within :data:`BUDGET` wall seconds (the first step apart).
-
-    The first step (compilation, warm-up) is timed apart, outside the budget; then up
-    to SETTLE_STEPS untimed steps, stopped once they have taken half the budget (the
-    number done is reported); then BLOCKS blocks of at least MIN_STEPS steps filling the
-    rest of the budget, or one block of MIN_STEPS steps where a step is too long for
-    more (with ``--ours-only``: every settle step, then three blocks of at least
-    SETTLED_MIN_STEPS steps, the budget counted from the end of settling); the fastest
-    block is reported.  The exact overlap (KD-tree, not timed) is measured on the final
-    state (``overlap(positions())``, default :func:`kd_overlap`).  Memory: peak
-    resident set growth over ``rss0`` (bytes, before the final overlap check) per robot.
-    """
-    if overlap is None:
-        overlap = functools.partial(kd_overlap, side=side)
-    if rss0 is None:
-        rss0 = _RSS0
-    t0 = time.perf_counter()
-    step()  # compiles / warms up: outside the budget
-    first = time.perf_counter() - t0
-    t_all = time.perf_counter()
-    settled = 0
-    t0 = time.perf_counter()
-    while settled < SETTLE_STEPS and (FULL_SETTLE or time.perf_counter() - t0 < BUDGET / 2):
-        step()
-        settled += 1
-    if FULL_SETTLE:  # the budget is the timed blocks'
-        t_all = time.perf_counter()
-    t0 = CLOCK()
-    step()
-    one = CLOCK() - t0
-    left = max(0.0, BUDGET - (time.perf_counter() - t_all))
-    least = SETTLED_MIN_STEPS if FULL_SETTLE else MIN_STEPS
-    blocks = BLOCKS if left >= BLOCKS * MIN_STEPS * one or FULL_SETTLE else 1
-    per_block = max(least, int(left / blocks / max(one, 1e-6)))
-    walls, cpu = [], 0.0
-    for _ in range(blocks):
-        c0, t0 = time.process_time(), CLOCK()
-        for _ in range(per_block):
-            step()
-        walls.append(CLOCK() - t0)
-        cpu += time.process_time() - c0
-    peak = _rss_peak()
-    worst = overlap(positions())
-    best = min(walls)
-    out = {
-        "steps": per_block * blocks,
-        "settle_steps": settled,
-        "block_wall_seconds": walls,
-        "first_step_seconds": first,
-        "compile_seconds": max(0.0, first - one),
-        "cpu_per_wall": cpu / sum(walls),
-        "robot_steps_per_second": n * per_block / best,
-        "median_robot_steps_per_second": n * per_block / float(np.median(walls)),
-        "simulated_robot_seconds_per_second": n * per_block * DT / best,
-        "max_overlap_fraction": worst / DIAMETER,
-        "cell_wall_seconds": time.perf_counter() - t_all + first,
-    }
-    if rss0 is not None:
-        out["rss_bytes_per_robot"] = (peak - rss0) / n
-    return out
-
-
-@functools.lru_cache(maxsize=2)
-def _start(n: int, phi: float, seed: int = 0) -> np.ndarray:
-    """The initial positions every peer starts from (the engine's own placement)."""
-    side = _side(n, phi)
-    return place_lattice((0.0, 0.0, side, side), n, R, np.random.default_rng(seed))
-
-
-# ----------------------------------------------------------------------------- ours
-def ours(n: int, phi: float, threads: int) -> dict:
-    set_threads(threads)
-    try:
-        world, sim, state = workload(n, phi, seed=0, dt=DT)
-        side = world.bounds[2]
-        out = _timed(lambda: sim.step(state), n, lambda: state.pos, side)
-        out["engine_max_overlap_fraction"] = state.counters[1] / 1e6 / DIAMETER
-        out["threads"] = threads_for(n)
-        out["mean_sweeps_per_step"] = state.counters[0] / max(state.step, 1)
-        return out
-    finally:
-        set_threads(None)
-
-
-# --------------------------------------------------------------------------- pymunk
-def pymunk_bench(n: int, phi: float, threads: int, seed: int = 0) -> dict:
-    import pymunk
-    import pymunk.batch as batch
-
-    side = _side(n, phi)
-    rng = np.random.default_rng(seed + 1)
-    pos = _start(n, phi)
-    space = pymunk.Space(threaded=threads > 1)
-    if threads > 1:
-        space.threads = threads
-    space.gravity = (0.0, 0.0)
-    space.use_spatial_hash(2 * R * 1.25, 2 * n)
-    corners = [(0, 0), (side, 0), (side, side), (0, side)]
-    for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
-        seg = pymunk.Segment(space.static_body, a, b, 0.0)
-        seg.elasticity, seg.friction = 0.0, 0.0
-        space.add(seg)
-    for x, y in pos:
-        body = pymunk.Body(1.0, math.inf)
-        body.position = (float(x), float(y))
-        shape = pymunk.Circle(body, R)
-        shape.elasticity, shape.friction = 0.0, 0.0
-        space.add(body, shape)
-    law = SpeedLaw(kT_for_mean_speed(MEAN_SPEED))
-    # pymunk's batch calls visit every body of the space, the static body (which holds
-    # the walls) last: one spare row for it, and its rows filtered out of the positions
-    vel = np.zeros((n + 1, 2))
-    vbuf = batch.Buffer()
-    vbuf.set_float_buf(vel.reshape(-1))  # pymunk reads the commands from this array
-    pbuf = batch.Buffer()
-    static_id = space.static_body.id
-    fields = batch.BodyFields.POSITION | batch.BodyFields.BODY_ID
-
-    def step() -> None:
-        v = law.sample(rng, n)
-        th = rng.uniform(-np.pi, np.pi, n)
-        np.multiply(v, np.cos(th), out=vel[:n, 0])
-        np.multiply(v, np.sin(th), out=vel[:n, 1])
-        batch.set_space_bodies(space, batch.BodyFields.VELOCITY, vbuf)
-        space.step(DT)
-
-    def positions() -> np.ndarray:
-        pbuf.clear()
-        batch.get_space_bodies(space, fields, pbuf)
-        ids = np.frombuffer(pbuf.int_buf(), dtype=np.uintp)
-        xy = np.frombuffer(pbuf.float_buf(), dtype=np.float64).reshape(-1, 2)
-        return xy[ids != static_id].copy()
-
-    out = _timed(step, n, positions, side)
-    out["threads"] = threads
-    return out
-
-
-# ------------------------------------------------------------------- NumPy + cKDTree
-def numpy_bench(n: int, phi: float, seed: int = 0) -> dict:
-    """The baseline a researcher writes in an afternoon: move, then Jacobi projection
-    sweeps over the pairs ``cKDTree.query_pairs`` finds (half the overlap each, walls by
-    clipping) until the largest overlap is below our tolerance (0.5 % of D), at most
-    500 sweeps; one thread."""
-    side = _side(n, phi)
-    rng = np.random.default_rng(seed + 1)
-    law = SpeedLaw(kT_for_mean_speed(MEAN_SPEED))
-    pos = _start(n, phi).copy()
-    tol = 0.005 * DIAMETER
-    sweeps = [0]
-
-    def step() -> None:
-        v = law.sample(rng, n)
-        th = rng.uniform(-np.pi, np.pi, n)
-        pos[:, 0] += v * np.cos(th) * DT
-        pos[:, 1] += v * np.sin(th) * DT
-        for _ in range(500):
-            np.clip(pos, R, side - R, out=pos)
-            sweeps[0] += 1
-            pairs = cKDTree(pos).query_pairs(DIAMETER, output_type="ndarray")
-            if not len(pairs):
-                break
-            d = pos[pairs[:, 0]] - pos[pairs[:, 1]]
-            dist = np.hypot(d[:, 0], d[:, 1])
-            ov = DIAMETER - dist
-            if ov.max() < tol:
-                break
-            corr = d * (0.5 * ov / np.maximum(dist, 1e-12))[:, None]
-            for c in range(2):
-                pos[:, c] += np.bincount(pairs[:, 0], corr[:, c], n)
-                pos[:, c] -= np.bincount(pairs[:, 1], corr[:, c], n)
-
-    out = _timed(step, n, lambda: pos, side)
-    out.update(threads=1, mean_sweeps_per_step=sweeps[0] / max(out["steps"], 1))
-    return out
-
-
-# ---------------------------------------------------------------------------- JAX-MD
-#: JAX-MD's soft discs: ``U = eps / 2 (1 - r / D)^2`` (``energy.soft_sphere``, alpha 2),
-#: overdamped Euler with the commanded velocity, ``SUBSTEPS`` sub-steps per 0.1 s step
-#: and ``eps = STIFFNESS D^2 / dt_sub`` (each sub-step removes ``2 STIFFNESS`` of a lone
-#: pair's overlap: the most explicit Euler takes stably in a crowd of six neighbours).
-JAXMD_STIFFNESS = 0.25
-JAXMD_SUBSTEPS = 50
-#: XLA_FLAGS for JAX-MD on 1 thread and on 2 (XLA's default CPU thread pool, the
-#: process limited to 2 cores where the machine has more).
-XLA_FLAGS = {1: "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1", 2: ""}
-
-
-def jaxmd_bench(n: int, phi: float, substeps: int, threads: int = 1, seed: int = 0) -> dict:
-    # XLA reads its flags when jax is first imported: :func:`run_cell` sets them for
-    # ``threads`` (one thread: no Eigen thread pool, one intra-op thread)
-    os.environ.setdefault("XLA_FLAGS", XLA_FLAGS[threads])
-    import jax
-    import jax.numpy as jnp
-    from jax_md import energy, partition, space
-
-    side = _side(n, phi)
-    pad = DIAMETER  # the cell list needs every disc inside [0, box): walls are soft
-    box = side + 2 * pad
-    dts = DT / substeps
-    eps = JAXMD_STIFFNESS * DIAMETER**2 / dts
-    disp, _ = space.free()
-    neighbor_fn, energy_fn = energy.soft_sphere_neighbor_list(
-        disp, box, sigma=DIAMETER, epsilon=eps, alpha=2.0, dr_threshold=0.25 * DIAMETER,
-        format=partition.Sparse,
-    )  # fmt: skip
-    force_fn = jax.grad(lambda x, nb: -energy_fn(x, nb))
-    k_wall = eps / DIAMETER**2  # the same stiffness against the walls
-    lo, hi = pad + R, pad + side - R
-
-    def walls(x):
-        return k_wall * (jnp.maximum(lo - x, 0.0) - jnp.maximum(x - hi, 0.0))
-
-    @jax.jit
-    def step(x, nbrs, v):
-        def sub(_, carry):
-            x, nbrs = carry
-            nbrs = nbrs.update(x)
-            x = x + dts * (v + force_fn(x, nbrs) + walls(x))
-            return x, nbrs
-
-        return jax.lax.fori_loop(0, substeps, sub, (x, nbrs))
-
-    rng = np.random.default_rng(seed + 1)
-    law = SpeedLaw(kT_for_mean_speed(MEAN_SPEED))
-    x = jnp.asarray(_start(n, phi) + pad, dtype=jnp.float32)
-    holder = {"x": x, "nbrs": neighbor_fn.allocate(x)}
-
-    def one_step() -> None:
-        sp = law.sample(rng, n)
-        th = rng.uniform(-np.pi, np.pi, n)
-        v = jnp.asarray(np.column_stack([sp * np.cos(th), sp * np.sin(th)]), jnp.float32)
-        x1, nb1 = step(holder["x"], holder["nbrs"], v)
-        if nb1.did_buffer_overflow:  # JAX-MD's fixed capacity: reallocate and redo
-            holder["nbrs"] = neighbor_fn.allocate(holder["x"])
-            x1, nb1 = step(holder["x"], holder["nbrs"], v)
-        x1.block_until_ready()
-        holder["x"], holder["nbrs"] = x1, nb1
-
-    def positions() -> np.ndarray:
-        return np.asarray(holder["x"], dtype=np.float64) - pad
-
-    out = _timed(one_step, n, positions, side)
-    out.update(substeps=substeps, epsilon=eps, threads=threads)
-    return out
-
-
-# ----------------------------------------------------------------------------- VMAS
-#: VMAS sub-steps per 0.1 s step and its contact stiffness (``collision_force``).
-VMAS_SUBSTEPS = 10
-VMAS_COLLISION_FORCE = 2000.0
-
-
-def vmas_bench(n: int, phi: float, envs: int = 1, threads: int = 1, seed: int = 0) -> dict:
-    """VMAS as a user writes a scenario: ``envs`` batched worlds of ``n // envs`` sphere
-    agents (radius 16.5 mm, in metres), each in its own walled square of the same
-    packing (``x_semidim``/``y_semidim`` keep the centres ``R`` off the walls), its own
-    penalty collisions; force actions with full drag, sized so that an agent alone moves
-    ``v dt`` in a step; ``threads`` torch threads (``torch.set_num_threads``)."""
-    import torch
-    from vmas.simulator.core import Agent, Sphere, World
-    from vmas.simulator.scenario import BaseScenario
-
-    torch.set_num_threads(threads)
-    m = n // envs
-    n = m * envs  # whole worlds (N rounded down to a multiple of the world size)
-    side = _side(m, phi) / 1000.0
-    r = R / 1000.0
-    k = VMAS_SUBSTEPS
-
-    class Swarm(BaseScenario):
-        def make_world(self, batch_dim, device, **kwargs):
-            world = World(batch_dim, device, dt=DT, substeps=k, drag=1.0,
-                          x_semidim=side / 2 - r, y_semidim=side / 2 - r,
-                          collision_force=VMAS_COLLISION_FORCE, contact_margin=1e-4)  # fmt: skip
-            for a in range(m):
-                world.add_agent(Agent(f"a{a}", shape=Sphere(r), rotatable=False, u_range=1e9))
-            return world
-
-        def reset_world_at(self, env_index=None):
-            start = torch.tensor(_start(m, phi) / 1000.0 - side / 2, dtype=torch.float32)
-            for a, agent in enumerate(self.world.agents):
-                agent.set_pos(start[a].expand(self.world.batch_dim, 2), batch_index=env_index)
-
-        def observation(self, agent):
-            return agent.state.pos
-
-        def reward(self, agent):
-            return torch.zeros(self.world.batch_dim)
-
-    scen = Swarm()
-    world = scen.env_make_world(envs, "cpu")
-    scen.reset_world_at()
-    rng = np.random.default_rng(seed + 1)
-    law = SpeedLaw(kT_for_mean_speed(MEAN_SPEED))
-    # velocity accumulates over the sub-steps (drag acts at the first): this force moves
-    # a free agent by v dt in a step
-    gain = 2.0 * k / (DT * (k + 1))
-
-    def step() -> None:
-        sp = law.sample(rng, n) / 1000.0
-        th = rng.uniform(-np.pi, np.pi, n)
-        f = torch.tensor(np.stack([sp * np.cos(th), sp * np.sin(th)], -1) * gain,
-                         dtype=torch.float32).reshape(envs, m, 2)  # fmt: skip
-        for a, agent in enumerate(world.agents):
-            agent.action.u = f[:, a]
-            agent.state.force = f[:, a]
-        world.step()
-
-    def positions() -> np.ndarray:
-        p = torch.stack([a.state.pos for a in world.agents], 1).numpy().astype(np.float64)
-        return p.reshape(envs, m, 2) * 1000.0 + side * 500.0
-
-    def step_and_check() -> None:
-        step()
-
-    def overlap_of(p: np.ndarray) -> float:
-        return max(kd_overlap(p[e], side * 1000.0) for e in range(envs))
-
-    out = _timed(step_and_check, n, positions, side * 1000.0, overlap=overlap_of)
-    out.update(threads=threads, envs=envs, agents_per_env=m, substeps=k,
-               collision_force=VMAS_COLLISION_FORCE)  # fmt: skip
-    return out
-
 
 # ---------------------------------------------------------------------------- cells
 #: Agents per world in VMAS's batched column (E worlds of this many, E x n = N).
@@ -518,22 +129,21 @@ def run_cell(key: str, n: int, phi: float, substeps: int) -> dict:
     """One tool at one size, in this process: a warm-up at 240 robots (loads compiled
     code, so that the memory measured is the swarm's), then the timed run; memory is
     the peak resident set's growth from just before the swarm is built."""
-    global _RSS0
-    budget = BUDGET
+    budget = T.BUDGET
     try:
-        globals()["BUDGET"] = 0.0
+        T.BUDGET = 0.0
         _call(key, 24 if COLUMNS[key][0] == "vmas" else 240, phi, substeps)
     finally:
-        globals()["BUDGET"] = budget
+        T.BUDGET = budget
     if COLUMNS[key][0] != "ours":
-        _start(n, phi)  # the shared initial positions, outside the tool's memory
-    _rss_peak_reset()
-    _RSS0 = _rss_now()
+        T.start_positions(n, phi)  # the shared initial positions, outside the tool's memory
+    T.rss_peak_reset()
+    T.RSS0 = T.rss_now()
     out = _call(key, n, phi, substeps)
     if COLUMNS[key][0] == "ours":
         from thermoswarm.sim.bench import run_bench
 
-        mem = run_bench(n, phi, seconds=DT, checks=0, memory_steps=2)
+        mem = run_bench(n, phi, seconds=T.DT, checks=0, memory_steps=2)
         out["bytes_per_robot"] = mem["bytes_per_robot"]
     return out
 
@@ -548,7 +158,7 @@ def _child(key: str, n: int, phi: float, a: argparse.Namespace, timeout: float) 
     if tool == "jaxmd":
         env["XLA_FLAGS"] = XLA_FLAGS[threads]
     cmd = [sys.executable, __file__, "--cell", key, "--n", str(n), "--phi", str(phi),
-           "--budget-s", str(BUDGET), "--settle", str(SETTLE_STEPS * DT),
+           "--budget-s", str(T.BUDGET), "--settle", str(T.SETTLE_STEPS * T.DT),
            "--jaxmd-substeps", str(a.jaxmd_substeps)]  # fmt: skip
     try:
         res = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
@@ -581,7 +191,7 @@ def _estimate(key: str, n: int, ran: dict) -> tuple[float, str] | None:
     step_s = m / r["robot_steps_per_second"] * scale
     run_s = EST_STEPS * step_s
     setup = max(0.0, r["cell_wall_seconds"] - sum(r["block_wall_seconds"])) * n / m
-    cell_s = setup + (MIN_STEPS + 2) * step_s
+    cell_s = setup + (T.MIN_STEPS + 2) * step_s
     note = f"est. {_duration(run_s)} a run of {EST_STEPS} steps (from N={m:,}"
     note += ", N^2)" if p == 2 else ")"
     if p == 2 and "rss_bytes_per_robot" in r:
@@ -745,7 +355,7 @@ def cost_spread(rows: list[dict]) -> list[str]:
         lo = min(cost, key=cost.__getitem__)
         sizes = ", ".join(f"{n:,}: {c:.1f}" for n, c in sorted(cost.items()))
         out.append(
-            f"ours, 1 thread, phi {phi}: ns per robot-step ({CLOCK.__name__}) {sizes}; "
+            f"ours, 1 thread, phi {phi}: ns per robot-step ({T.CLOCK.__name__}) {sizes}; "
             "largest over smallest "
             f"{cost[hi] / cost[lo]:.2f}x (N={hi:,} over N={lo:,})"
         )
@@ -840,7 +450,7 @@ def _args(argv: list[str] | None) -> argparse.Namespace:
         help="JAX-MD sub-steps per 0.1 s step (its stiffness follows: see JAXMD_STIFFNESS)",
     )  # fmt: skip
     ap.add_argument(
-        "--budget-s", type=float, default=BUDGET,
+        "--budget-s", type=float, default=T.BUDGET,
         help="wall seconds of stepping per cell (settle steps stop at half of it; at "
         "least 2 timed steps are run whatever it is)",
     )  # fmt: skip
@@ -875,9 +485,8 @@ def _args(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     a = _args(argv)
-    global SETTLE_STEPS, BUDGET, CLOCK, FULL_SETTLE
-    SETTLE_STEPS = max(0, round(a.settle / DT))
-    BUDGET = a.budget_s
+    T.SETTLE_STEPS = max(0, round(a.settle / T.DT))
+    T.BUDGET = a.budget_s
     ns = a.n or [1_200, 10_000, 100_000, 1_000_000]
     phis = a.phi or [0.18, 0.5]
     if a.cell:  # one cell, in a process of its own (see _child)
@@ -889,7 +498,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     keys = ["ours_1_thread"] if a.ours_only else _tools(a.tools)
     if a.ours_only:
-        CLOCK, FULL_SETTLE = time.thread_time, True
+        T.CLOCK, T.FULL_SETTLE = time.thread_time, True
     rows, history = [], {}
     for phi in phis:
         for n in ns:

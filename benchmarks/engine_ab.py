@@ -42,6 +42,9 @@ FILES = (
     "kernels_sweep",
     "kernels_held",
     "world",
+    "state",
+    "threads",
+    "placement",
 )  # fmt: skip (a revision without one of them is exported without it)
 
 CHILD = r"""

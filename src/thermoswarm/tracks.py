@@ -117,36 +117,10 @@ def make_tracks(
     if not np.issubdtype(position.dtype, np.floating):
         position = position.astype(np.float64)
     n_t, _, n_k, n_i = position.shape
-    if individuals is None:
-        individuals = [f"id_{i}" for i in range(n_i)]
-    if keypoints is None:
-        keypoints = ["centroid"] if n_k == 1 else [f"keypoint_{k}" for k in range(n_k)]
-    individuals = [str(x) for x in individuals]
-    keypoints = [str(x) for x in keypoints]
-    if len(individuals) != n_i or len(set(individuals)) != n_i:
-        raise InputError(f"need {n_i} unique individual names, got {len(set(individuals))}")
-    if len(keypoints) != n_k or len(set(keypoints)) != n_k:
-        raise InputError(f"need {n_k} unique keypoint names, got {len(set(keypoints))}")
+    individuals, keypoints = _names(individuals, keypoints, n_k, n_i)
     if fps is not None and not (np.isfinite(fps) and fps > 0):
         raise InputError(f"fps must be a positive number, got {fps!r}")
-    clock = None
-    if time is not None and np.ndim(time) == 2:
-        clock = np.asarray(time, dtype=np.float64)
-        if clock.shape != (n_t, n_i):
-            raise InputError(f"time must have shape {(n_t, n_i)}, got {clock.shape}")
-        t = np.arange(n_t, dtype=np.float64)
-        time_unit = "per_individual"
-    elif time is not None:
-        t = np.asarray(time, dtype=np.float64)
-        time_unit = "seconds"
-    elif fps is not None:
-        t = np.arange(n_t, dtype=np.float64) / float(fps)
-        time_unit = "seconds"
-    else:
-        t = np.arange(n_t, dtype=np.float64)
-        time_unit = "frames"
-    if t.shape != (n_t,):
-        raise InputError(f"time must have {n_t} entries, got shape {t.shape}")
+    t, clock, time_unit = _time_coordinate(time, fps, n_t, n_i)
     data_vars: dict[str, Any] = {"position": (DIMS, position)}
     if clock is not None:
         data_vars["individual_time"] = (
@@ -155,14 +129,7 @@ def make_tracks(
             {"units": "s", "description": "each individual's own sample times; NaN: none"},
         )
     if confidence is not None:
-        confidence = np.asarray(confidence, dtype=np.float32)
-        if confidence.ndim == 2:
-            confidence = confidence[:, None, :]
-        if confidence.shape != (n_t, n_k, n_i):
-            raise InputError(
-                f"confidence must have shape {(n_t, n_k, n_i)}, got {confidence.shape}"
-            )
-        data_vars["confidence"] = (CONF_DIMS, confidence)
+        data_vars["confidence"] = (CONF_DIMS, _confidence(confidence, (n_t, n_k, n_i)))
     all_attrs: dict[str, Any] = {
         "ds_type": "poses",
         "source_software": source_software,
@@ -185,6 +152,61 @@ def make_tracks(
         },
         attrs=all_attrs,
     )
+
+
+def _names(
+    individuals: Sequence[str] | None, keypoints: Sequence[str] | None, n_k: int, n_i: int
+) -> tuple[list[str], list[str]]:
+    """Individual and keypoint names as str (defaults ``id_i``; ``centroid`` or
+    ``keypoint_k``), checked: as many as the array has, unique."""
+    if individuals is None:
+        individuals = [f"id_{i}" for i in range(n_i)]
+    if keypoints is None:
+        keypoints = ["centroid"] if n_k == 1 else [f"keypoint_{k}" for k in range(n_k)]
+    individuals = [str(x) for x in individuals]
+    keypoints = [str(x) for x in keypoints]
+    if len(individuals) != n_i or len(set(individuals)) != n_i:
+        raise InputError(f"need {n_i} unique individual names, got {len(set(individuals))}")
+    if len(keypoints) != n_k or len(set(keypoints)) != n_k:
+        raise InputError(f"need {n_k} unique keypoint names, got {len(set(keypoints))}")
+    return individuals, keypoints
+
+
+def _time_coordinate(
+    time: np.ndarray | None, fps: float | None, n_t: int, n_i: int
+) -> tuple[np.ndarray, np.ndarray | None, str]:
+    """``(time coordinate (n_t,), per-individual clock (n_t, n_i) or None, time_unit)``
+    of :func:`make_tracks`: seconds given, from ``fps``, per individual, or frames."""
+    clock = None
+    if time is not None and np.ndim(time) == 2:
+        clock = np.asarray(time, dtype=np.float64)
+        if clock.shape != (n_t, n_i):
+            raise InputError(f"time must have shape {(n_t, n_i)}, got {clock.shape}")
+        t = np.arange(n_t, dtype=np.float64)
+        time_unit = "per_individual"
+    elif time is not None:
+        t = np.asarray(time, dtype=np.float64)
+        time_unit = "seconds"
+    elif fps is not None:
+        t = np.arange(n_t, dtype=np.float64) / float(fps)
+        time_unit = "seconds"
+    else:
+        t = np.arange(n_t, dtype=np.float64)
+        time_unit = "frames"
+    if t.shape != (n_t,):
+        raise InputError(f"time must have {n_t} entries, got shape {t.shape}")
+    return t, clock, time_unit
+
+
+def _confidence(confidence: np.ndarray, shape: tuple[int, int, int]) -> np.ndarray:
+    """``confidence`` as float32 ``(time, keypoints, individuals)`` (a 2-D one gets its
+    keypoint axis), checked against ``shape``."""
+    confidence = np.asarray(confidence, dtype=np.float32)
+    if confidence.ndim == 2:
+        confidence = confidence[:, None, :]
+    if confidence.shape != shape:
+        raise InputError(f"confidence must have shape {shape}, got {confidence.shape}")
+    return confidence
 
 
 def validate_tracks(ds: Any, *, source: str | None = None) -> xr.Dataset:

@@ -99,6 +99,83 @@ def weighted_trend(xc: np.ndarray, y: np.ndarray, se: np.ndarray) -> dict[str, A
     return out
 
 
+def _bin_edges(bins: int | tuple[float, ...], x: np.ndarray) -> np.ndarray:
+    """Bin edges: ``bins`` quantile bins of the valid ``x`` (merged where quantiles
+    coincide; one bin when all are equal), or the edges given."""
+    if isinstance(bins, int):
+        edges = np.quantile(x, np.linspace(0, 1, bins + 1))
+        edges = np.unique(edges)
+        if edges.size < 2:
+            edges = np.array([x.min(), x.max() + 1e-12])
+    else:
+        edges = np.asarray(bins, dtype=float)
+    return edges
+
+
+def _bin_fit(
+    b: int,
+    edges: np.ndarray,
+    m: np.ndarray,
+    energy: np.ndarray,
+    speed: np.ndarray,
+    rate: np.ndarray,
+    mag: np.ndarray,
+    nonzero: np.ndarray,
+    dep: dict[str, Any],
+    rng: np.random.Generator,
+    *,
+    n_bootstrap: int,
+    test_size: int | None,
+    thin: str | int,
+) -> tuple[dict[str, Any], ExponentialFit | None]:
+    """Bin ``b`` (samples ``m``) of :func:`steering_block`: its centre, the exponential
+    fit of the nonzero |rates| (rad/s), the bootstrap goodness of fit and the sign test
+    on one thinned draw of signed rates; ``(entry, fit)``, fit None when the bin has
+    fewer than :data:`MIN_SAMPLES` nonzero rates."""
+    entry: dict[str, Any] = {
+        "index": b,
+        "low": float(edges[b]),
+        "high": float(edges[b + 1]),
+        "energy_center": float(energy[m].mean()) if m.any() else None,
+        "speed_center": float(speed[m].mean()) if m.any() else None,
+        "n_fit": int(m.sum()),
+    }
+    vals = mag[m]
+    pos = vals[vals > 0]
+    entry["n_zero"] = int(vals.size - pos.size)
+    if pos.size < MIN_SAMPLES:
+        entry.update(
+            kT_theta=None, kT_theta_se=None, ks=None, p_value=None, n=int(pos.size),
+            skipped=f"fewer than {MIN_SAMPLES} nonzero rates",
+        )  # fmt: skip
+        return entry, None
+    fit = ExponentialFit().fit(pos)
+    # one thinned draw of signed rates: magnitudes for the KS test, signs for the sign test
+    ts, info = draw_test_sample(
+        rate, m & nonzero, max_n=test_size, thin=thin, step=dep["decorrelation_lag"], rng=rng
+    )
+    if ts.size < MIN_SAMPLES:
+        ts = rate[m & nonzero]
+        info = {**info, "n": int(ts.size), "thinning_step": 1, "note": "too few to thin"}
+    gof = goodness_of_fit("one_phase", np.abs(ts), n_bootstrap=n_bootstrap, random_state=rng)
+    nks = naive_ks(pos, fit.law_)
+    signs = rate[m][vals > 0]
+    n_left = int((ts > 0).sum())
+    sign_p = float(stats.binomtest(n_left, int(ts.size)).pvalue)
+    entry.update(
+        kT_theta=fit.kT_,
+        kT_theta_se=fit.kT_se_,
+        ks=gof.statistic,
+        p_value=gof.p_value,
+        n=gof.n,
+        naive=dict(zip(("ks", "p_value", "n"), nks, strict=True)),
+        fraction_positive=float((signs > 0).mean()),
+        sign_p_value=sign_p,
+        test_sample=test_sample_info(info, dep),
+    )
+    return entry, fit
+
+
 def steering_block(
     kin: xr.Dataset,
     *,
@@ -128,13 +205,7 @@ def steering_block(
         out["skipped"] = f"fewer than {MIN_SAMPLES} steering-rate samples ({int(ok.sum())})"
         out["trend"] = weighted_trend(np.array([]), np.array([]), np.array([]))
         return out, keep
-    if isinstance(bins, int):
-        edges = np.quantile(xvar[ok], np.linspace(0, 1, bins + 1))
-        edges = np.unique(edges)
-        if edges.size < 2:
-            edges = np.array([xvar[ok].min(), xvar[ok].max() + 1e-12])
-    else:
-        edges = np.asarray(bins, dtype=float)
+    edges = _bin_edges(bins, xvar[ok])
     keep["edges"] = edges
     dep = dependence(mag, ok)
     out.update(dep)
@@ -147,56 +218,8 @@ def steering_block(
     for b in range(edges.size - 1):
         m = codes == b
         rng = np.random.default_rng(children[b])
-        entry: dict[str, Any] = {
-            "index": b,
-            "low": float(edges[b]),
-            "high": float(edges[b + 1]),
-            "energy_center": float(energy[m].mean()) if m.any() else None,
-            "speed_center": float(speed[m].mean()) if m.any() else None,
-            "n_fit": int(m.sum()),
-        }
-        vals = mag[m]
-        pos = vals[vals > 0]
-        entry["n_zero"] = int(vals.size - pos.size)
-        if pos.size < MIN_SAMPLES:
-            entry.update(
-                kT_theta=None, kT_theta_se=None, ks=None, p_value=None, n=int(pos.size),
-                skipped=f"fewer than {MIN_SAMPLES} nonzero rates",
-            )  # fmt: skip
-            out["bins"].append(entry)
-            keep["fits"].append(None)
-            keep["masks"].append(m)
-            continue
-        fit = ExponentialFit().fit(pos)
-        # one thinned draw of signed rates: magnitudes for the KS test, signs for the
-        # sign test
-        ts, info = draw_test_sample(
-            rate,
-            m & nonzero,
-            max_n=test_size,
-            thin=thin,
-            step=dep["decorrelation_lag"],
-            rng=rng,
-        )
-        if ts.size < MIN_SAMPLES:
-            ts = rate[m & nonzero]
-            info = {**info, "n": int(ts.size), "thinning_step": 1, "note": "too few to thin"}
-        gof = goodness_of_fit("one_phase", np.abs(ts), n_bootstrap=n_bootstrap, random_state=rng)
-        nks = naive_ks(pos, fit.law_)
-        signs = rate[m][vals > 0]
-        n_left = int((ts > 0).sum())
-        sign_p = float(stats.binomtest(n_left, int(ts.size)).pvalue)
-        entry.update(
-            kT_theta=fit.kT_,
-            kT_theta_se=fit.kT_se_,
-            ks=gof.statistic,
-            p_value=gof.p_value,
-            n=gof.n,
-            naive=dict(zip(("ks", "p_value", "n"), nks, strict=True)),
-            fraction_positive=float((signs > 0).mean()),
-            sign_p_value=sign_p,
-            test_sample=test_sample_info(info, dep),
-        )
+        entry, fit = _bin_fit(b, edges, m, energy, speed, rate, mag, nonzero, dep, rng,
+                              n_bootstrap=n_bootstrap, test_size=test_size, thin=thin)  # fmt: skip
         out["bins"].append(entry)
         keep["fits"].append(fit)
         keep["masks"].append(m)

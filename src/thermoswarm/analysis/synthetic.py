@@ -82,6 +82,29 @@ def synthetic_tracks(
         hot = np.zeros(shape, dtype=bool)
         e = energy.sample(rng, shape)
     v = np.sqrt(2.0 * e) if mass is None else np.sqrt(2.0 * e / mass) * 1e3
+    heading, rate = _headings(rng, steering, v, dt, shape)
+    pos = np.zeros((n_frames, 2, n_individuals))
+    if start is not None:
+        pos[0] = np.asarray(start, dtype=float).T
+    pos[1:, 0] = pos[0, 0] + np.cumsum(v * np.cos(heading) * dt, axis=0)
+    pos[1:, 1] = pos[0, 1] + np.cumsum(v * np.sin(heading) * dt, axis=0)
+    ds = make_tracks(pos, time=t, fps=fps if time is None else None,
+                     source_software="thermoswarm.analysis.synthetic")  # fmt: skip
+    truth = {"energy": e, "speed": v, "steering_rate": rate, "hot": hot}
+    return ds, truth
+
+
+def _headings(
+    rng: np.random.Generator,
+    steering: SteeringLaw | None,
+    v: np.ndarray,
+    dt: np.ndarray,
+    shape: tuple[int, int],
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each step's heading (rad) and steering rate (rad/s; NaN at step 0 and without a
+    law) of :func:`synthetic_tracks`: uniform headings without ``steering``, else rates
+    drawn given the speeds ``v`` (mm/s) and integrated over the mid-step times from a
+    uniform initial heading."""
     if steering is None:
         heading = rng.uniform(-np.pi, np.pi, shape)
         rate = np.full(shape, np.nan)
@@ -92,14 +115,6 @@ def synthetic_tracks(
         mid = np.empty_like(dt)
         mid[0] = 0.0
         mid[1:] = 0.5 * (dt[1:] + dt[:-1])
-        h0 = rng.uniform(-np.pi, np.pi, n_individuals)
+        h0 = rng.uniform(-np.pi, np.pi, shape[1])
         heading = h0[None, :] + np.cumsum(np.where(np.isnan(rate), 0.0, rate) * mid, axis=0)
-    pos = np.zeros((n_frames, 2, n_individuals))
-    if start is not None:
-        pos[0] = np.asarray(start, dtype=float).T
-    pos[1:, 0] = pos[0, 0] + np.cumsum(v * np.cos(heading) * dt, axis=0)
-    pos[1:, 1] = pos[0, 1] + np.cumsum(v * np.sin(heading) * dt, axis=0)
-    ds = make_tracks(pos, time=t, fps=fps if time is None else None,
-                     source_software="thermoswarm.analysis.synthetic")  # fmt: skip
-    truth = {"energy": e, "speed": v, "steering_rate": rate, "hot": hot}
-    return ds, truth
+    return heading, rate

@@ -1,7 +1,11 @@
-"""Helpers shared by the readers: options, units, frame rates, long tables.
+"""Helpers shared by the readers: long tables, clocks, size guards, HDF5, names.
 
 Every reader converts to the one trajectory format (mm, seconds) and reports bad
 input as a one-line :class:`~thermoswarm.errors.InputError` that names the file.
+:func:`assemble_long` scatters a long table (one row per sample) onto that format;
+the size guards (:data:`MAX_CELLS`, :data:`MAX_FRAMES`) refuse a file before it is
+allocated.  The options, units and frame rates are in :mod:`thermoswarm.io._options`
+and are re-exported here, so a reader imports its helpers from this one module.
 """
 
 from __future__ import annotations
@@ -10,8 +14,7 @@ import contextlib
 import json
 import math
 import re
-import warnings
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -19,225 +22,29 @@ import numpy as np
 import pandas as pd
 
 from thermoswarm.errors import InputError
-from thermoswarm.tracks import resolve_duplicates
-
-#: Millimetres per unit, for files that state their own length unit.
-MM_PER_UNIT: dict[str, float] = {
-    "mm": 1.0,
-    "millimeter": 1.0,
-    "millimetre": 1.0,
-    "cm": 10.0,
-    "centimeter": 10.0,
-    "centimetre": 10.0,
-    "m": 1000.0,
-    "meter": 1000.0,
-    "metre": 1000.0,
-    "um": 1e-3,
-    "micrometer": 1e-3,
-    "micrometre": 1e-3,
-}
-#: Names that mean "pixels".
-PIXEL_UNITS = ("px", "pixel", "pixels")
-
-#: Seconds per unit of a time column.
-SECONDS_PER_UNIT: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0, "h": 3600.0}
-
-#: Help of the ``duplicates`` reader option (long tables).
-DUPLICATES_HELP = (
-    'two different rows of one individual at one time: "error" (default), "first" or '
-    '"mean"; exact duplicate rows are dropped and counted either way'
+from thermoswarm.io._options import (  # noqa: F401 (re-exported: the readers import them from here)
+    DUPLICATES_HELP,
+    FPS_HINT,
+    FPS_RANGE,
+    MM_PER_UNIT,
+    PIXEL_UNITS,
+    PX_HINT,
+    SECONDS_PER_UNIT,
+    as_float_column,
+    check_fps,
+    check_options,
+    length_scale,
+    option_bool,
+    option_duplicates,
+    option_int,
+    option_positive,
+    option_str,
+    option_str_list,
+    require_fps,
+    require_px_per_mm,
+    resolve_fps,
 )
-
-PX_HINT = "pass --px-per-mm (the paper's scale is --px-per-mm paper = 3.04 px/mm)"
-FPS_HINT = "pass --fps"
-
-
-def check_options(
-    path: Path, fmt: str, options: Mapping[str, Any], accepted: Mapping[str, str]
-) -> None:
-    """Reject options that the reader of ``fmt`` does not know, listing those it does."""
-    unknown = sorted(set(options) - set(accepted))
-    if unknown:
-        known = ", ".join(sorted(accepted)) or "none"
-        raise InputError(
-            f"{path}: unknown option(s) {', '.join(unknown)} for format {fmt!r}; "
-            f"it accepts: {known}"
-        )
-
-
-def option_str(path: Path, name: str, value: Any, choices: Sequence[str] | None = None) -> str:
-    """A string option, optionally one of ``choices``."""
-    if not isinstance(value, str):
-        raise InputError(f"{path}: option {name} must be a string, got {value!r}")
-    if choices is not None and value not in choices:
-        raise InputError(
-            f"{path}: option {name} must be one of {', '.join(choices)}, got {value!r}"
-        )
-    return value
-
-
-def option_bool(path: Path, name: str, value: Any) -> bool:
-    """A boolean option (``true``/``false`` on the command line)."""
-    if isinstance(value, bool | np.bool_):
-        return bool(value)
-    raise InputError(f"{path}: option {name} must be true or false, got {value!r}")
-
-
-def option_int(path: Path, name: str, value: Any, *, minimum: int | None = None) -> int:
-    """An integer option."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise InputError(f"{path}: option {name} must be an integer, got {value!r}")
-    if minimum is not None and value < minimum:
-        raise InputError(f"{path}: option {name} must be >= {minimum}, got {value!r}")
-    return int(value)
-
-
-def option_positive(path: Path, name: str, value: Any) -> float:
-    """A positive finite number option."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.number):
-        raise InputError(f"{path}: option {name} must be a positive number, got {value!r}")
-    value = float(value)
-    if not (math.isfinite(value) and value > 0):
-        raise InputError(f"{path}: option {name} must be a positive number, got {value!r}")
-    return value
-
-
-def option_str_list(path: Path, name: str, value: Any) -> list[str]:
-    """A list of strings (a single string is a list of one)."""
-    if isinstance(value, str):
-        return [value]
-    if isinstance(value, list | tuple) and value and all(isinstance(v, str) for v in value):
-        return list(value)
-    raise InputError(f"{path}: option {name} must be a string or a list of strings, got {value!r}")
-
-
-#: Frame rates (frames/s) a recording can have: one frame in 11.6 days to ten million
-#: per second.  A rate outside makes times that are not a recording's (1e-300 frames/s
-#: puts frame 1 at 1e300 s and overflows every step's speed).
-FPS_RANGE = (1e-6, 1e7)
-
-
-def check_fps(path: Path, fps: Any, what: str = "fps") -> float | None:
-    """``None`` or a frame rate (1/s) within :data:`FPS_RANGE`.
-
-    ``what`` names where the value came from in the error (``--fps``, a file's field).
-    """
-    if fps is None:
-        return None
-    try:
-        value = float(fps)
-    except (TypeError, ValueError):
-        raise InputError(f"{path}: {what} must be a positive number, got {fps!r}") from None
-    lo, hi = FPS_RANGE
-    if not (math.isfinite(value) and lo <= value <= hi):
-        raise InputError(
-            f"{path}: {what} = {fps!r} is not a recording's frame rate; expected "
-            f"{lo:g} to {hi:g} frames/s"
-        )
-    return value
-
-
-def require_fps(path: Path, fps: float | None, what: str) -> float:
-    """The frame rate, or an error saying that ``what`` has frame numbers only."""
-    if fps is None:
-        raise InputError(f"{path}: {what} has frame numbers but no times; {FPS_HINT}")
-    return check_fps(path, fps, "--fps")  # type: ignore[return-value]
-
-
-def require_px_per_mm(path: Path, px_per_mm: float | None, what: str) -> float:
-    """The scale, or an error saying that ``what`` is in pixels."""
-    if px_per_mm is None:
-        raise InputError(f"{path}: {what} positions are in pixels; {PX_HINT}")
-    return px_per_mm
-
-
-def resolve_fps(path: Path, given: float | None, in_file: float | None, what: str) -> float | None:
-    """The frame rate: ``--fps`` overrides the file's own (warning when they differ).
-
-    A rate in the file outside :data:`FPS_RANGE` (0, negative, 1e-300, inf) is an
-    error unless ``--fps`` replaces it; NaN counts as not recorded.
-    """
-    given = check_fps(path, given, "--fps")
-    if in_file is not None and math.isnan(in_file):
-        in_file = None
-    if in_file is not None and given is None:
-        in_file = check_fps(path, in_file, f"the frame rate stored by {what}")
-    if given is not None:
-        if in_file is not None and not math.isclose(given, in_file, rel_tol=1e-6):
-            warnings.warn(
-                f"{path}: --fps {given:g} overrides the frame rate {in_file:g} stored by {what}",
-                stacklevel=3,
-            )
-        return given
-    return in_file
-
-
-def length_scale(
-    path: Path,
-    units: str | None,
-    px_per_mm: float | None,
-    what: str,
-    *,
-    from_file: bool = False,
-) -> tuple[float, dict[str, Any]]:
-    """Factor that turns the file's lengths into mm, and attrs recording the conversion.
-
-    ``units`` is the length unit (``"px"``, ``"mm"``, ``"cm"``, ...) given by the user
-    or, with ``from_file``, recorded in the file; ``None`` means unknown: then
-    ``px_per_mm`` (pixels) is required.  A physical unit together with ``px_per_mm`` is
-    a contradiction: an error when the user chose the unit, a warning (the scale is
-    ignored) when the file records it.
-    """
-    if units is None:
-        if px_per_mm is None:
-            raise InputError(
-                f"{path}: the length unit of {what} is not recorded; {PX_HINT} for pixels, "
-                'or --read-option units="mm" (or "cm", "m") for physical units'
-            )
-        units = "px"
-    key = units.strip().lower()
-    if key in PIXEL_UNITS:
-        scale = require_px_per_mm(path, px_per_mm, what)
-        return 1.0 / scale, {"px_per_mm": scale, "source_space_unit": "px"}
-    if key not in MM_PER_UNIT:
-        known = ", ".join(["px", "mm", "cm", "m", "um"])
-        raise InputError(f"{path}: unknown length unit {units!r}; expected one of {known}")
-    if px_per_mm is not None:
-        if from_file:
-            warnings.warn(
-                f"{path}: {what} records positions in {units}; --px-per-mm is ignored",
-                stacklevel=3,
-            )
-        else:
-            raise InputError(
-                f"{path}: {what} positions are in {units}, not pixels; drop --px-per-mm "
-                '(or pass --read-option units="px" if they really are pixels)'
-            )
-    factor = MM_PER_UNIT[key]
-    return factor, {"source_space_unit": key} if factor != 1.0 else {}
-
-
-def as_float_column(path: Path, values: Any, name: str) -> np.ndarray:
-    """A numeric column as float64; a non-numeric entry is an error naming the column."""
-    arr = np.asarray(values)
-    if arr.dtype.kind in "fiu":
-        return arr.astype(np.float64, copy=False)
-    if arr.dtype.kind == "b":
-        return arr.astype(np.float64)
-    out = np.empty(arr.shape, dtype=np.float64)
-    flat = arr.ravel()
-    res = out.ravel()
-    for i, v in enumerate(flat):
-        if v is None or (isinstance(v, str) and v.strip() == ""):
-            res[i] = np.nan
-            continue
-        try:
-            res[i] = float(v)
-        except (TypeError, ValueError):
-            raise InputError(
-                f"{path}: non-numeric value {str(v)[:40]!r} in column {name!r} (data row {i + 1})"
-            ) from None
-    return out
+from thermoswarm.tracks import resolve_duplicates
 
 
 def attr_value(value: Any) -> Any:
@@ -321,92 +128,19 @@ def assemble_long(
     else:
         kp_names, kp_idx = _codes(path, keypoint, keypoint_order)
     n_k, n_i = len(kp_names), len(ind_names)
-    if frame_rate is not None:
-        frames = np.rint(time)
-        if np.any(frames != time):
-            bad = int(np.flatnonzero(frames != time)[0])
-            raise InputError(f"{path}: frame number {time[bad]!r} is not an integer")
-        f0, f1 = float(frames.min()), float(frames.max())
-        check_frame_span(path, [f0, f1])
-        check_dense_size(path, int(f1 - f0) + 1, n_k, n_i)
-        key = time
-    else:
-        key = time_key(time)
+    key = _sort_key(path, time, frame_rate, n_k, n_i)
     values = np.column_stack(
         [np.asarray(x, np.float64), np.asarray(y, np.float64)]
         + ([] if confidence is None else [np.asarray(confidence, np.float64)])
     )
-
-    def describe(group: int, when: float) -> str:
-        ii, ki = divmod(group, n_k)
-        what = f"individual {ind_names[ii]!r}"
-        if keypoint is not None:
-            what += f", keypoint {kp_names[ki]!r}"
-        at = f"frame {when:.10g}" if frame_rate is not None else f"time {when:.10g} s"
-        where = path if individual_sources is None else individual_sources[ii]
-        return f"{where}: {what} at {at}"
-
-    group = ind_idx * n_k + kp_idx
-    if n == 1 or bool(np.all(key[1:] >= key[:-1])):
-        n_back = 0  # time-major tables (every frame's rows together) are sorted already
-    else:
-        by_group = np.argsort(group, kind="stable")  # each group's rows in input order
-        same_group = group[by_group][1:] == group[by_group][:-1]
-        n_back = int((same_group & (np.diff(key[by_group]) < 0)).sum())
-    if frame_rate is not None and _one_row_per_cell(key, group, n_k * n_i):
-        # the usual frame table: no two rows in one cell, nothing to sort or resolve
-        rows, vals, n_exact, n_conflict = np.arange(n), values, 0, 0
-    else:
-        rows, vals, n_exact, n_conflict = resolve_duplicates(
-            key, values, duplicates, group=group, describe=describe
-        )
+    describe = _describer(path, ind_names, None if keypoint is None else kp_names,
+                          frame_rate, individual_sources)  # fmt: skip
+    rows, vals, attrs = _resolve_rows(key, values, ind_idx * n_k + kp_idx, n_k * n_i,
+                                      frame_rate, duplicates, describe)  # fmt: skip
     key, ind_idx, kp_idx = key[rows], ind_idx[rows], kp_idx[rows]
-    attrs = {
-        "n_duplicate_rows": n_exact,
-        "n_conflicting_duplicates": n_conflict,
-        "n_decreasing_timestamps": n_back,
-    }
-    if n_exact or n_conflict:
-        attrs["duplicates_rule"] = duplicates
-    if frame_rate is not None:
-        f0 = int(key.min())
-        t_idx = key.astype(np.int64) - f0
-        times: np.ndarray = np.arange(f0, int(key.max()) + 1, dtype=np.float64) / frame_rate
-        n_t = times.size
-    else:
-        # unique (individual, time) pairs: each individual's own sample times
-        pair = np.lexsort((key, ind_idx))
-        ks, iis = key[pair], ind_idx[pair]
-        first = np.ones(ks.size, dtype=bool)
-        first[1:] = (ks[1:] != ks[:-1]) | (iis[1:] != iis[:-1])
-        u_t, u_i = ks[first], iis[first]
-        shared_t = np.unique(u_t)
-        per_ind = np.bincount(u_i, minlength=n_i)
-        same = bool(np.all(per_ind == shared_t.size))
-        if clock == "shared" or same or one_regular_clock(shared_t, u_t, u_i, n_i):
-            times = shared_t
-            n_t = times.size
-            t_idx = np.searchsorted(times, key)
-        else:
-            start = np.concatenate([[0], np.cumsum(per_ind)[:-1]])
-            rank = np.arange(u_t.size) - start[u_i]
-            n_t = int(per_ind.max())
-            check_dense_size(path, n_t, n_k, n_i)
-            times = np.full((n_t, n_i), np.nan)
-            times[rank, u_i] = u_t
-            # each row's rank: its pair's rank (rows of other keypoints share the pair)
-            pair_id = np.cumsum(first) - 1
-            row_rank = np.empty(key.size, dtype=np.int64)
-            row_rank[pair] = rank[pair_id]
-            t_idx = row_rank
+    times, n_t, t_idx = _time_axis(path, key, ind_idx, n_k, n_i, frame_rate, clock)
     check_dense_size(path, n_t, n_k, n_i)
-    pos = np.full((n_t, 2, n_k, n_i), np.nan)
-    pos[t_idx, 0, kp_idx, ind_idx] = vals[:, 0]
-    pos[t_idx, 1, kp_idx, ind_idx] = vals[:, 1]
-    conf = None
-    if confidence is not None:
-        conf = np.full((n_t, n_k, n_i), np.nan, dtype=np.float32)
-        conf[t_idx, kp_idx, ind_idx] = vals[:, 2]
+    pos, conf = _scatter(vals, (t_idx, kp_idx, ind_idx), (n_t, n_k, n_i), confidence is not None)
     return {
         "position": pos,
         "confidence": conf,
@@ -415,6 +149,143 @@ def assemble_long(
         "keypoints": kp_names,
         "attrs": attrs,
     }
+
+
+def _scatter(
+    vals: np.ndarray,
+    at: tuple[np.ndarray, np.ndarray, np.ndarray],
+    shape: tuple[int, int, int],
+    with_confidence: bool,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Rows ``vals`` (x, y[, confidence]) at ``(time, keypoint, individual)`` indices
+    ``at`` scattered onto NaN-filled ``position (time, 2, keypoints, individuals)`` and
+    ``confidence (time, keypoints, individuals)`` float32 arrays (None without one)."""
+    t_idx, kp_idx, ind_idx = at
+    n_t, n_k, n_i = shape
+    pos = np.full((n_t, 2, n_k, n_i), np.nan)
+    pos[t_idx, 0, kp_idx, ind_idx] = vals[:, 0]
+    pos[t_idx, 1, kp_idx, ind_idx] = vals[:, 1]
+    conf = None
+    if with_confidence:
+        conf = np.full((n_t, n_k, n_i), np.nan, dtype=np.float32)
+        conf[t_idx, kp_idx, ind_idx] = vals[:, 2]
+    return pos, conf
+
+
+def _sort_key(
+    path: Path, time: np.ndarray, frame_rate: float | None, n_k: int, n_i: int
+) -> np.ndarray:
+    """The rows' time key: frame numbers (checked whole, their span and dense size
+    refused when too large) when ``frame_rate`` is given, else :func:`time_key`."""
+    if frame_rate is None:
+        return time_key(time)
+    frames = np.rint(time)
+    if np.any(frames != time):
+        bad = int(np.flatnonzero(frames != time)[0])
+        raise InputError(f"{path}: frame number {time[bad]!r} is not an integer")
+    f0, f1 = float(frames.min()), float(frames.max())
+    check_frame_span(path, [f0, f1])
+    check_dense_size(path, int(f1 - f0) + 1, n_k, n_i)
+    return time
+
+
+def _describer(
+    path: Path,
+    ind_names: Sequence[str],
+    kp_names: Sequence[str] | None,
+    frame_rate: float | None,
+    individual_sources: Sequence[Any] | None,
+) -> Callable[[int, float], str]:
+    """``describe(group, when)``: where a duplicate is, for the error message (the
+    file, the individual, the keypoint unless ``kp_names`` is None, the frame or time)."""
+    n_k = 1 if kp_names is None else len(kp_names)
+
+    def describe(group: int, when: float) -> str:
+        ii, ki = divmod(group, n_k)
+        what = f"individual {ind_names[ii]!r}"
+        if kp_names is not None:
+            what += f", keypoint {kp_names[ki]!r}"
+        at = f"frame {when:.10g}" if frame_rate is not None else f"time {when:.10g} s"
+        where = path if individual_sources is None else individual_sources[ii]
+        return f"{where}: {what} at {at}"
+
+    return describe
+
+
+def _resolve_rows(
+    key: np.ndarray,
+    values: np.ndarray,
+    group: np.ndarray,
+    n_groups: int,
+    frame_rate: float | None,
+    duplicates: str,
+    describe: Callable[[int, float], str],
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """The rows kept (sorted by time within each group: individual x keypoint), their
+    values, and the counts: duplicates (exact and conflicting, resolved by
+    ``duplicates``) and backward time steps in each group's input order."""
+    n = key.size
+    if n == 1 or bool(np.all(key[1:] >= key[:-1])):
+        n_back = 0  # time-major tables (every frame's rows together) are sorted already
+    else:
+        by_group = np.argsort(group, kind="stable")  # each group's rows in input order
+        same_group = group[by_group][1:] == group[by_group][:-1]
+        n_back = int((same_group & (np.diff(key[by_group]) < 0)).sum())
+    if frame_rate is not None and _one_row_per_cell(key, group, n_groups):
+        # the usual frame table: no two rows in one cell, nothing to sort or resolve
+        rows, vals, n_exact, n_conflict = np.arange(n), values, 0, 0
+    else:
+        rows, vals, n_exact, n_conflict = resolve_duplicates(
+            key, values, duplicates, group=group, describe=describe
+        )
+    attrs = {
+        "n_duplicate_rows": n_exact,
+        "n_conflicting_duplicates": n_conflict,
+        "n_decreasing_timestamps": n_back,
+    }
+    if n_exact or n_conflict:
+        attrs["duplicates_rule"] = duplicates
+    return rows, vals, attrs
+
+
+def _time_axis(
+    path: Path,
+    key: np.ndarray,
+    ind_idx: np.ndarray,
+    n_k: int,
+    n_i: int,
+    frame_rate: float | None,
+    clock: str,
+) -> tuple[np.ndarray, int, np.ndarray]:
+    """``(times, n_t, t_idx)``: the time axis (s; ``(n_t,)`` shared, ``(n_t, n_i)`` one
+    clock per individual) and each row's index on it (see :func:`assemble_long`)."""
+    if frame_rate is not None:
+        f0 = int(key.min())
+        t_idx = key.astype(np.int64) - f0
+        times: np.ndarray = np.arange(f0, int(key.max()) + 1, dtype=np.float64) / frame_rate
+        return times, times.size, t_idx
+    # unique (individual, time) pairs: each individual's own sample times
+    pair = np.lexsort((key, ind_idx))
+    ks, iis = key[pair], ind_idx[pair]
+    first = np.ones(ks.size, dtype=bool)
+    first[1:] = (ks[1:] != ks[:-1]) | (iis[1:] != iis[:-1])
+    u_t, u_i = ks[first], iis[first]
+    shared_t = np.unique(u_t)
+    per_ind = np.bincount(u_i, minlength=n_i)
+    same = bool(np.all(per_ind == shared_t.size))
+    if clock == "shared" or same or one_regular_clock(shared_t, u_t, u_i, n_i):
+        return shared_t, shared_t.size, np.searchsorted(shared_t, key)
+    start = np.concatenate([[0], np.cumsum(per_ind)[:-1]])
+    rank = np.arange(u_t.size) - start[u_i]
+    n_t = int(per_ind.max())
+    check_dense_size(path, n_t, n_k, n_i)
+    times = np.full((n_t, n_i), np.nan)
+    times[rank, u_i] = u_t
+    # each row's rank: its pair's rank (rows of other keypoints share the pair)
+    pair_id = np.cumsum(first) - 1
+    row_rank = np.empty(key.size, dtype=np.int64)
+    row_rank[pair] = rank[pair_id]
+    return times, n_t, row_rank
 
 
 def _one_row_per_cell(frames: np.ndarray, group: np.ndarray, n_groups: int) -> bool:
@@ -710,10 +581,3 @@ def unique_names(path: Path, names: Sequence[str], what: str) -> list[str]:
             raise InputError(f"{path}: {what} name {n!r} appears twice")
         seen.add(n)
     return names
-
-
-def option_duplicates(path: Path, options: Mapping[str, Any]) -> str:
-    """The ``duplicates`` option (default ``"error"``)."""
-    from thermoswarm.tracks import DUPLICATE_RULES
-
-    return option_str(path, "duplicates", options.get("duplicates", "error"), DUPLICATE_RULES)

@@ -227,19 +227,7 @@ def from_movement(
     scale, unit_attrs = length_scale(
         Path(where), unit, px_per_mm, "this movement dataset", from_file=from_file
     )
-    ds = _as_poses(ds)
-    # lengths other than position and shape (say, velocities) are in the file's unit
-    # and were derived by the user: dropped rather than mixed with mm
-    dropped = [str(v) for v in ds.data_vars if v not in _LENGTH_VARS and "space" in ds[v].dims]
-    ds = ds.drop_vars(dropped)
-    px_per = unit_attrs.get("px_per_mm")
-    for name in _LENGTH_VARS:
-        if name in ds:
-            var = ds[name].astype(np.float64)
-            # pixels are divided by the scale, as every pixel reader does (same floats)
-            var = var / px_per if px_per is not None else var * scale
-            var.attrs = _storable({**ds[name].attrs, "space_unit": "mm"})
-            ds[name] = var
+    ds, dropped = _lengths_in_mm(_as_poses(ds), scale, unit_attrs.get("px_per_mm"))
     if "confidence" in ds:
         conf = ds["confidence"].astype(np.float32)
         if np.isfinite(conf.values).any():
@@ -263,6 +251,26 @@ def from_movement(
         attrs["dropped_variables"] = ", ".join(dropped)
     ds.attrs = attrs
     return validate_tracks(ds, source=where)
+
+
+def _lengths_in_mm(
+    ds: xr.Dataset, scale: float, px_per: float | None
+) -> tuple[xr.Dataset, list[str]]:
+    """``ds`` with ``position`` and ``shape`` in mm (pixels divided by ``px_per``, other
+    units times ``scale``) and the other variables with a ``space`` axis dropped, and
+    the names dropped."""
+    # lengths other than position and shape (say, velocities) are in the file's unit
+    # and were derived by the user: dropped rather than mixed with mm
+    dropped = [str(v) for v in ds.data_vars if v not in _LENGTH_VARS and "space" in ds[v].dims]
+    ds = ds.drop_vars(dropped)
+    for name in _LENGTH_VARS:
+        if name in ds:
+            var = ds[name].astype(np.float64)
+            # pixels are divided by the scale, as every pixel reader does (same floats)
+            var = var / px_per if px_per is not None else var * scale
+            var.attrs = _storable({**ds[name].attrs, "space_unit": "mm"})
+            ds[name] = var
+    return ds, dropped
 
 
 def to_movement(tracks: xr.Dataset, *, ds_type: str | None = None) -> xr.Dataset:

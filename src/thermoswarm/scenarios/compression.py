@@ -25,9 +25,9 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm.config import check, check_positive
-from thermoswarm.errors import ConfigError
 from thermoswarm.maxent import kT_for_mean_speed, speed_law
 from thermoswarm.policy import BoltzmannUniform
+from thermoswarm.scenarios._compression_measure import batch_means, measure
 from thermoswarm.scenarios.base import Numerics, Recording, Scenario, Setup
 from thermoswarm.scenarios.registry import register
 from thermoswarm.sim import kernels as K
@@ -235,25 +235,6 @@ def place_uniform(
 # Pure metric helpers (tested on constructed cases)
 
 
-def batch_means(x: np.ndarray, w: np.ndarray, n_batches: int) -> np.ndarray:
-    """Weighted means of ``x`` over ``n_batches`` consecutive, nearly equal batches.
-
-    ``x`` are sub-batch means with weights ``w`` (e.g. the steps in each); a sub-batch
-    is never split.
-    """
-    x = np.asarray(x, dtype=float)
-    w = np.asarray(w, dtype=float)
-    if n_batches < 1 or x.size < n_batches:
-        raise ValueError(f"cannot make {n_batches} batches of {x.size} sub-batches")
-    parts = np.array_split(np.arange(x.size), n_batches)
-    return np.array([np.average(x[p], weights=w[p]) for p in parts])
-
-
-def _mean_se(b: np.ndarray) -> tuple[float, float]:
-    b = np.asarray(b, dtype=float)
-    return float(b.mean()), float(b.std(ddof=1) / math.sqrt(b.size)) if b.size > 1 else math.nan
-
-
 def linear_fit(x: Sequence[float], y: Sequence[float]) -> dict[str, float]:
     """Least-squares line ``y = slope x + intercept`` with ``r2``, the slope's standard
     error and the slope of the fit through the origin (``slope0``)."""
@@ -409,112 +390,6 @@ class Compression(Scenario):
             },
         }
         return out
-
-
-def measure(
-    acc: dict[str, np.ndarray],
-    *,
-    sub_steps: int,
-    dt: float,
-    n: int,
-    width: float,
-    diameter: float,
-    tau: float,
-    drag: float,
-    settle: float | None,
-    duration: float,
-    batch_relaxations: float,
-    min_batches: int,
-    expected_D: float,
-) -> dict[str, Any]:
-    """Pressure, area, ``kT_eff`` and ``Z`` with batch-means errors from the sub-batch sums
-    of :meth:`Compression.observe` (batching: ``docs/scenarios_road_compression.md``)."""
-    steps = acc["steps"].astype(float)
-    used = steps > 0
-    t_end = (np.arange(steps.size) + 1) * sub_steps * dt
-    sub_s = sub_steps * dt
-    w = np.where(used, steps, 0.0)
-    safe = np.maximum(steps, 1)
-    f_top = acc["f_top"] / safe
-    f_bot = acc["f_bottom"] / safe
-    h = acc["height"] / safe
-    v2 = acc["v2"] / safe
-    d = diameter
-    # the expected relaxation time sets the default settling time
-    h_guess = float(h[used][0]) - d if used.any() else 0.0
-    t_relax_guess = max(h_guess, 0.0) ** 2 / (math.pi**2 * expected_D)
-    settle_s = settle if settle is not None else min(duration / 5, 3 * t_relax_guess)
-    keep = used & (t_end - sub_s >= settle_s - 1e-9)
-    if keep.sum() < 2:
-        raise ConfigError(
-            f"duration {duration:g} s leaves fewer than 2 sub-batches after settle = "
-            f"{settle_s:g} s; run longer"
-        )
-    x = {
-        "f_top": f_top[keep],
-        "f_bot": f_bot[keep],
-        "h": h[keep],
-        "v2": v2[keep],
-    }
-    wk = w[keep]
-    window = float(wk.sum()) * dt
-    v2m = float(np.average(x["v2"], weights=wk))
-    D = v2m * tau / 4
-    kT_eff = drag * D
-    hm = float(np.average(x["h"], weights=wk))
-    t_relax = max(hm - d, 0.0) ** 2 / (math.pi**2 * D)
-    n_sub = int(keep.sum())
-    want = max(1, int(window // max(batch_relaxations * t_relax, 1e-12)))
-    nb = min(max(want, min_batches), n_sub)
-    reliable = want >= min_batches and n_sub >= min_batches
-    bt = batch_means(x["f_top"], wk, nb)
-    bb = batch_means(x["f_bot"], wk, nb)
-    bh = batch_means(x["h"], wk, nb)
-    bv = batch_means(x["v2"], wk, nb)
-    Lf = width - d
-    P_b = 0.5 * (bt + bb) / Lf
-    Af_b = Lf * (bh - d)
-    kT_b = drag * bv * tau / 4
-    Z_b = P_b * Af_b / (n * kT_b)
-    P, P_se = _mean_se(P_b)
-    H, H_se = _mean_se(bh)
-    Z, Z_se = _mean_se(Z_b)
-    area = width * H
-    # a short series for plots: at most ~500 points
-    k = max(1, math.ceil(int(used.sum()) / 500))
-    idx = np.flatnonzero(used)
-    groups = [idx[i : i + k] for i in range(0, idx.size, k)]
-    series = {
-        "t": [float(t_end[g].mean() - sub_s / 2) for g in groups],
-        "pressure": [float(np.average(0.5 * (f_top + f_bot)[g], weights=w[g]) / Lf)
-                     for g in groups],
-        "height": [float(np.average(h[g], weights=w[g])) for g in groups],
-    }  # fmt: skip
-    return {
-        "pressure": P,
-        "pressure_se": P_se,
-        "pressure_top": float(np.average(x["f_top"], weights=wk)) / Lf,
-        "pressure_bottom": float(np.average(x["f_bot"], weights=wk)) / Lf,
-        "height": H,
-        "height_se": H_se,
-        "area": area,
-        "area_se": width * H_se,
-        "free_area": Lf * (H - d),
-        "packing_fraction": n * math.pi * (d / 2) ** 2 / area,
-        "density": n / area,
-        "kT_eff": kT_eff,
-        "kT_eff_se": drag * tau / 4 * _mean_se(bv)[1],
-        "D": D,
-        "Z": Z,
-        "Z_se": Z_se,
-        "t_relax": t_relax,
-        "batch_s": window / nb,
-        "n_batches": nb,
-        "se_reliable": bool(reliable),
-        "settle_s": float(settle_s),
-        "window_s": window,
-        "series": series,
-    }
 
 
 # --------------------------------------------------------------------------------------

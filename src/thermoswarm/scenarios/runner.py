@@ -198,24 +198,21 @@ def resume(out_dir: str | Path, *, progress: bool | None = None) -> dict[str, An
     return _loop(cfg, scen, setup, sim, state, acc, out, total, every, progress, fresh=False)
 
 
-def _loop(
+def _recorder(
     cfg: RunConfig,
     scen: Scenario,
     setup: Setup,
     sim: Simulator,
     state: SwarmState,
     acc: dict[str, np.ndarray],
-    out: Path,
-    total: int,
+    store: Path,
+    n_frames: int,
     every: int,
-    progress: bool | None,
     *,
     fresh: bool,
-) -> dict[str, Any]:
-    from tqdm import tqdm
-
-    n_frames = total // every + 1
-    store = out / "tracks.zarr"
+) -> ZarrRecorder:
+    """The run's Zarr recorder (``n_frames`` frames, one every ``every`` steps), opened
+    to resume unless ``fresh``; a fresh run records its first frame at once."""
     fps = 1.0 / (every * sim.params.dt)
     attrs = {
         "fps": fps,
@@ -247,6 +244,41 @@ def _loop(
         rec.add(state.time, state.by_id(state.pos), scen.frame(sim, state, acc))
         if rec.pending == rec.block:
             rec.flush(_checkpoint(cfg, state, acc), step=state.step)
+    return rec
+
+
+def _performance(n: int, steps_run: int, dt: float, wall: float, jit: Any) -> dict[str, Any]:
+    """``metrics["performance"]``: wall seconds of stepping (compiling apart), steps
+    run and robot-steps (and simulated robot-seconds) per wall second."""
+    return {
+        "wall_seconds": wall,
+        "compile_seconds": jit.seconds,
+        "compiled": jit.compiled,
+        "steps": steps_run,
+        "robot_steps_per_second": n * steps_run / wall if wall > 0 else None,
+        "simulated_robot_seconds_per_second": n * steps_run * dt / wall if wall > 0 else None,
+    }
+
+
+def _loop(
+    cfg: RunConfig,
+    scen: Scenario,
+    setup: Setup,
+    sim: Simulator,
+    state: SwarmState,
+    acc: dict[str, np.ndarray],
+    out: Path,
+    total: int,
+    every: int,
+    progress: bool | None,
+    *,
+    fresh: bool,
+) -> dict[str, Any]:
+    from tqdm import tqdm
+
+    store = out / "tracks.zarr"
+    rec = _recorder(cfg, scen, setup, sim, state, acc, store, total // every + 1, every,
+                    fresh=fresh)  # fmt: skip
     from thermoswarm.cache import jit_timer
 
     t0 = time.perf_counter()
@@ -282,17 +314,9 @@ def _loop(
                            sim.params.tau, paper_robot)  # fmt: skip
         metrics["robot_limits"] = {"robot": "paper_robot", **lim}
         warn_limits(lim)
-    steps_run = state.step - start_step
-    metrics["performance"] = {
-        "wall_seconds": wall,
-        "compile_seconds": jit.seconds,
-        "compiled": jit.compiled,
-        "steps": steps_run,
-        "robot_steps_per_second": state.n * steps_run / wall if wall > 0 else None,
-        "simulated_robot_seconds_per_second": state.n * steps_run * sim.params.dt / wall
-        if wall > 0
-        else None,
-    }
+    metrics["performance"] = _performance(
+        state.n, state.step - start_step, sim.params.dt, wall, jit
+    )
     atomic_write_json(out / "metrics.json", metrics)
     if scen.recording.netcdf:
         with atomic_path(out / "tracks.nc", suffix=".nc") as tmp:

@@ -38,6 +38,11 @@ Modelling choices (see ``docs/scenarios_transport.md`` for the measurements):
   ``group`` column and recorded per frame as ``phase``.
 
 Units: mm, s; forces in robot drag units (mm/s); temperatures mm^2/s^2; angles rad.
+
+This module holds the parameters and the registered scenario; the layout (walls,
+channel, pillar, start, target) is in :mod:`._transport_free_geometry`, the measures
+(phases by light region, displacement metrics) and :func:`plot_frame` in
+:mod:`._transport_free_results`; every public name is importable from here.
 """
 
 from __future__ import annotations
@@ -50,19 +55,29 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm.config import check
-from thermoswarm.errors import ConfigError
 from thermoswarm.maxent import kT_for_mean_speed
 from thermoswarm.policy import PHASE_HOT, LightSwitchedTransport, TurnTimeCharged
 from thermoswarm.scenarios._transport import (
     TransportSensing,
     TransportSensor,
     batch_mean_se,
-    draw_world,
     light_info,
     make_light,
-    nearest_frame,
-    segment_distance,
-    shadow_polygon,
+)
+from thermoswarm.scenarios._transport_free_geometry import (
+    Geometry,
+    arena_grid,
+    geometry,
+    robot_region,
+    zigzag_centreline,
+)
+from thermoswarm.scenarios._transport_free_results import (
+    REGIONS,
+    capped_temperature,
+    phase_by_region,
+    plot_frame,
+    summarize_phase_by_region,
+    transport_metrics,
 )
 from thermoswarm.scenarios.base import Numerics, Recording, Scenario, Setup, wrap
 from thermoswarm.scenarios.registry import register
@@ -70,7 +85,7 @@ from thermoswarm.sim import kernels as K
 from thermoswarm.sim.engine import Simulator, SwarmState, place_lattice
 from thermoswarm.sim.geometry import Shapes
 from thermoswarm.sim.light import light_level
-from thermoswarm.sim.world import Body, World, polygon_segments
+from thermoswarm.sim.world import Body, World
 
 __all__ = [
     "TransportFreeParams",
@@ -83,6 +98,7 @@ __all__ = [
     "phase_by_region",
     "summarize_phase_by_region",
     "capped_temperature",
+    "REGIONS",
 ]
 
 #: Arena (width, height) in mm when not given: about packing fraction 0.32 for 1,200
@@ -297,272 +313,6 @@ class TransportFreeParams:
         return (self.width or w, self.height or h)
 
 
-@dataclass(frozen=True)
-class Geometry:
-    """The resolved layout of a ``transport-free`` run (mm)."""
-
-    bounds: tuple[float, float, float, float]
-    walls: np.ndarray  # (M, 4)
-    obstacles: np.ndarray  # (S, 3)
-    start: tuple[float, float]
-    target_y: float
-    channel: np.ndarray | None  # zigzag: centreline vertices (k, 2)
-    mouth_y: float | None
-
-
-def zigzag_centreline(
-    x: float, mouth_y: float, top: float, amplitude: float, leg: float, straight: float
-) -> np.ndarray:
-    """Vertices (k, 2) of a zig-zag channel's centreline from ``(x, mouth_y)`` to ``top``.
-
-    A straight rise of ``straight`` mm, then legs that each rise ``leg`` mm while moving
-    ``amplitude`` mm sideways, alternately right and left, ending with a straight stub
-    at ``top`` (the last leg is cut where it meets the top).
-    """
-    pts = [(x, mouth_y), (x, min(mouth_y + straight, top))]
-    y = pts[-1][1]
-    side = 1.0
-    cx = x
-    while y < top:
-        ny = min(y + leg, top)
-        frac = (ny - y) / leg
-        cx = cx + side * amplitude * frac
-        pts.append((cx, ny))
-        y = ny
-        side = -side
-    return np.array(pts)
-
-
-def _mouth_y(p: TransportFreeParams) -> float:
-    _, h = p.arena
-    return h / 2 - 2 * p.object_radius
-
-
-def geometry(p: TransportFreeParams) -> Geometry:
-    """Arena, walls, obstacles, object start and target of ``p``; a ConfigError names
-    the field when the object or the target does not fit."""
-    W, H = p.arena
-    R = p.object_radius
-    walls = polygon_segments([(0, 0), (W, 0), (W, H), (0, H)])
-    obstacles = np.zeros((0, 3))
-    channel = None
-    mouth = None
-    ox = W / 2 if p.object_x is None else p.object_x
-    if p.variant == "zigzag":
-        mouth = _mouth_y(p)
-        oy = mouth + 2 * R if p.object_y is None else p.object_y
-        channel = zigzag_centreline(W / 2, mouth, H, p.zigzag_amplitude, p.zigzag_leg, 4 * R)
-        half = p.channel_width / 2
-        left = channel - [half, 0.0]
-        right = channel + [half, 0.0]
-        if left[:, 0].min() <= 0 or right[:, 0].max() >= W:
-            raise ConfigError(
-                f"channel_width/zigzag_amplitude: the zig-zag channel (x from "
-                f"{left[:, 0].min():.0f} to {right[:, 0].max():.0f} mm) does not fit in the "
-                f"arena width {W:g} mm"
-            )
-        # perpendicular width of the slanted legs must pass the object
-        slope = p.zigzag_amplitude / p.zigzag_leg
-        perp = p.channel_width / math.sqrt(1 + slope * slope)
-        check(
-            perp > 2 * R,
-            "channel_width",
-            f"wide enough for the object: the legs' perpendicular width {perp:.0f} mm must "
-            f"exceed the object's diameter {2 * R:g} mm",
-            p.channel_width,
-        )
-        walls = np.vstack(
-            [
-                walls,
-                polygon_segments(left, closed=False),
-                polygon_segments(right, closed=False),
-                [[0.0, mouth, left[0, 0], mouth], [right[0, 0], mouth, W, mouth]],
-            ]
-        )
-    else:
-        oy = H / 2 if p.object_y is None else p.object_y
-    if p.variant == "obstacle":
-        obstacles = np.array([[ox + p.obstacle_dx, oy + p.obstacle_dy, p.obstacle_radius]])
-        x, y, ro = obstacles[0]
-        if not (ro < x < W - ro and ro < y < H - ro):
-            raise ConfigError(
-                f"obstacle_dx/obstacle_dy: the obstacle centred at ({x:g}, {y:g}) mm with "
-                f"radius {ro:g} mm lies outside the {W:g} x {H:g} mm arena"
-            )
-    # the object must lie inside the arena, clear of walls and obstacles
-    inside = R < ox < W - R and R < oy < H - R
-    if inside and p.variant == "zigzag" and oy > mouth:
-        xc = np.interp(oy, channel[:, 1], channel[:, 0])
-        inside = abs(ox - xc) < p.channel_width / 2
-    clear = bool(segment_distance(np.array([[ox, oy]]), walls)[0] >= R)
-    if obstacles.size:
-        clear &= bool(np.hypot(ox - obstacles[0, 0], oy - obstacles[0, 1]) >= R + obstacles[0, 2])
-    if not (inside and clear):
-        raise ConfigError(
-            f"object_x/object_y: the object (radius {R:g} mm) at ({ox:g}, {oy:g}) mm must lie "
-            f"inside the {W:g} x {H:g} mm arena of variant {p.variant!r}, clear of its walls "
-            "and obstacles"
-        )
-    ty = H - 3 * R if p.target_y is None else p.target_y
-    check(
-        oy < ty <= H - R,
-        "target_y",
-        f"above the object's start y = {oy:g} and at most {H - R:g} mm (the object's "
-        "centre cannot come closer to the top wall than its radius)",
-        ty,
-    )
-    return Geometry(
-        bounds=(0.0, 0.0, float(W), float(H)),
-        walls=walls,
-        obstacles=obstacles,
-        start=(float(ox), float(oy)),
-        target_y=float(ty),
-        channel=channel,
-        mouth_y=mouth,
-    )
-
-
-def _robot_region(p: TransportFreeParams, g: Geometry, obj: tuple[float, float] | None = None):
-    """``inside(points)``: where a robot's centre may be, clear of walls, obstacles and
-    the object (at ``obj``, default its start)."""
-    r = p.diameter / 2
-    margin = 0.5
-    ox, oy = g.start if obj is None else obj
-
-    def inside(pts: np.ndarray) -> np.ndarray:
-        ok = segment_distance(pts, g.walls) >= r + margin
-        ok &= np.hypot(pts[:, 0] - ox, pts[:, 1] - oy) >= (p.object_radius + r + margin)
-        for x, y, ro in g.obstacles:
-            ok &= np.hypot(pts[:, 0] - x, pts[:, 1] - y) >= ro + r + margin
-        if g.channel is not None:
-            above = pts[:, 1] > g.mouth_y
-            xc = np.interp(pts[:, 1], g.channel[:, 1], g.channel[:, 0])
-            ok &= ~above | (np.abs(pts[:, 0] - xc) < p.channel_width / 2)
-        return ok
-
-    return inside
-
-
-#: Regions of :func:`phase_by_region`, and the keys of its per-frame series.
-REGIONS = ("lit", "shadow")
-
-
-def phase_by_region(
-    times: np.ndarray,
-    positions: np.ndarray,
-    phases: np.ndarray,
-    lit: Any,
-    grid_points: np.ndarray,
-    grid_cell_area: float,
-    grid_lit: Any,
-) -> dict[str, Any]:
-    """Phase separation over time: the robots of each phase in each light region.
-
-    Parameters
-    ----------
-    times : (k,) s
-    positions : (k, n, 2) mm
-        Robot centres per frame.
-    phases : (k, n)
-        1 hot (gas-like), 0 cold (liquid-like).
-    lit : callable ``(frame, points (m, 2)) -> bool (m,)``
-        Whether points are lit (light level above the threshold, no sensor noise) in
-        that frame (the object's shadow moves with it).
-    grid_points : (g, 2) mm
-        A regular grid over the region robots' centres can reach (at the start), of cell
-        area ``grid_cell_area`` (mm^2): the areas of the regions are counted on it.
-    grid_lit : callable ``(frame, grid_points) -> (lit bool (g,), reachable bool (g,))``
-        The grid's light and whether each cell is still reachable in that frame (the
-        object covers some).
-
-    Returns
-    -------
-    dict of lists (one value per frame): ``time``; for ``region`` in ``lit``/``shadow``:
-    ``n_<region>`` (robots), ``area_<region>`` (m^2), ``hot_fraction_<region>`` (the
-    share of that region's robots that are hot; None when it holds none) and
-    ``density_<phase>_<region>`` (robots of that phase per m^2 of the region).
-    """
-    k = len(times)
-    out: dict[str, Any] = {"time": [float(t) for t in times]}
-    for reg in REGIONS:
-        for key in ("n", "area", "hot_fraction", "density_hot", "density_cold"):
-            out[f"{key}_{reg}"] = []
-    for f in range(k):
-        pos = np.asarray(positions[f], dtype=np.float64)
-        hot = np.asarray(phases[f]) == PHASE_HOT
-        is_lit = np.asarray(lit(f, pos), dtype=bool)
-        g_lit, g_ok = grid_lit(f, grid_points)
-        for reg, sel, gsel in (
-            ("lit", is_lit, g_lit & g_ok),
-            ("shadow", ~is_lit, ~g_lit & g_ok),
-        ):
-            n_reg = int(np.count_nonzero(sel))
-            n_hot = int(np.count_nonzero(sel & hot))
-            area = float(np.count_nonzero(gsel)) * grid_cell_area / 1e6  # m^2
-            out[f"n_{reg}"].append(n_reg)
-            out[f"area_{reg}"].append(area)
-            out[f"hot_fraction_{reg}"].append(n_hot / n_reg if n_reg else None)
-            out[f"density_hot_{reg}"].append(n_hot / area if area > 0 else None)
-            out[f"density_cold_{reg}"].append((n_reg - n_hot) / area if area > 0 else None)
-    return out
-
-
-def summarize_phase_by_region(series: dict[str, Any], since: float) -> dict[str, Any]:
-    """Time means of :func:`phase_by_region`'s series over frames at ``time >= since``
-    (None entries skipped; None when there are none)."""
-    t = np.asarray(series["time"], dtype=np.float64)
-    keep = t >= since
-    out: dict[str, Any] = {"since": float(since), "frames": int(np.count_nonzero(keep))}
-    for key, vals in series.items():
-        if key == "time":
-            continue
-        v = [x for x, ok in zip(vals, keep, strict=True) if ok and x is not None]
-        out[key] = float(np.mean(v)) if v else None
-    return out
-
-
-def capped_temperature(kT: float, v_max: float | None) -> float:
-    """``<v^2> / 2`` (mm^2/s^2) of Rayleigh speeds at temperature ``kT`` cut at ``v_max``:
-    ``kT (1 - exp(-v_max^2 / (2 kT)))`` (``kT`` without a cut), what ``speed_by_phase``
-    should measure."""
-    if v_max is None:
-        return float(kT)
-    return float(kT * -math.expm1(-(v_max**2) / (2 * kT)))
-
-
-def transport_metrics(
-    times: np.ndarray, progress: np.ndarray, target_distance: float
-) -> dict[str, Any]:
-    """Displacement metrics of one run from the object's progress toward the target.
-
-    Parameters
-    ----------
-    times : (k,) s
-    progress : (k,) mm
-        Displacement of the object's centre along the target direction since the start
-        (``progress[0]`` is normally 0).
-    target_distance : float
-        Progress (mm) at which the object is at the target.
-
-    Returns
-    -------
-    dict with ``displacement_toward_target`` (the last progress, mm),
-    ``max_displacement_toward_target`` (mm), ``time_to_target`` (s, the first sample at
-    or beyond the target, None if never) and ``mean_velocity_toward_target`` (mm/s, last
-    progress over elapsed time).
-    """
-    t = np.asarray(times, dtype=np.float64)
-    d = np.asarray(progress, dtype=np.float64)
-    hit = np.flatnonzero(d >= target_distance)
-    elapsed = float(t[-1] - t[0])
-    return {
-        "displacement_toward_target": float(d[-1]),
-        "max_displacement_toward_target": float(d.max()),
-        "time_to_target": None if hit.size == 0 else float(t[hit[0]]),
-        "mean_velocity_toward_target": float(d[-1] / elapsed) if elapsed > 0 else None,
-    }
-
-
 @register
 class TransportFree(Scenario):
     name = "transport-free"
@@ -612,7 +362,7 @@ class TransportFree(Scenario):
                 dark_threshold=p.sensor.dark_threshold,
                 turns_to_light=p.heading_law == "uniform",
             )
-        pos = place_lattice(g.bounds, p.n, r, rng, inside=_robot_region(p, g))
+        pos = place_lattice(g.bounds, p.n, r, rng, inside=robot_region(p, g))
         engine = p.engine.engine(tau=p.tau, radius=r)
         info = {
             "variant": p.variant,
@@ -698,7 +448,7 @@ class TransportFree(Scenario):
         sensing: TransportSensing = setup.sensing  # type: ignore[assignment]
         obj = np.asarray(tracks["object_position"].values, dtype=np.float64)
         pos = np.moveaxis(tracks["position"].values[:, :, 0, :], 1, 2)  # (k, n, 2)
-        grid, cell = _grid(p, g)
+        grid, cell = arena_grid(p, g)
         reach = p.object_radius + p.diameter / 2 + 0.5
 
         def lit(f: int, pts: np.ndarray) -> np.ndarray:
@@ -794,51 +544,3 @@ class TransportFree(Scenario):
             },
         }
         return out
-
-
-def _grid(p: TransportFreeParams, g: Geometry) -> tuple[np.ndarray, float]:
-    """Cell centres of a regular grid over the arena where robots' centres can be (the
-    object at its start), and the cell area (mm^2); about 40,000 cells at most."""
-    x0, y0, x1, y1 = g.bounds
-    step = max(10.0, math.sqrt((x1 - x0) * (y1 - y0) / 40000.0))
-    xs = np.arange(x0 + step / 2, x1, step)
-    ys = np.arange(y0 + step / 2, y1, step)
-    pts = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
-    far = _robot_region(p, g, obj=(math.inf, math.inf))  # the object excluded per frame
-    return np.ascontiguousarray(pts[far(pts)]), step * step
-
-
-def plot_frame(ax: Any, tracks: xr.Dataset, t: float, setup_info: dict[str, Any]) -> Any:
-    """Draw the frame of ``tracks`` nearest to time ``t`` (s) on matplotlib axes ``ax``.
-
-    Walls, obstacles, the target line (dashed green), the object's shadow (grey), the
-    object (white disc) and the robots coloured by phase (red hot/gas-like, blue
-    cold/liquid-like).  ``setup_info`` is ``Setup.info`` of the run (``runner.build``).
-    Returns the robots' scatter artist.
-    """
-    from matplotlib.patches import Circle, Polygon
-
-    k = nearest_frame(tracks, t)
-    info = setup_info
-    draw_world(ax, info)
-    obj = np.asarray(tracks["object_position"].values[k], dtype=np.float64)
-    R = float(info["object_radius"])
-    shade = shadow_polygon(obj, R, info["light"], info["bounds"])
-    if shade.size:
-        ax.add_patch(Polygon(shade, closed=True, facecolor="0.85", edgecolor="none", zorder=0))
-    for x, y, ro in np.asarray(info.get("shadow_obstacles", []), dtype=float).reshape(-1, 3):
-        s = shadow_polygon((x, y), ro, info["light"], info["bounds"])
-        ax.add_patch(Polygon(s, closed=True, facecolor="0.85", edgecolor="none", zorder=0))
-    ax.add_patch(Circle(tuple(obj), R, facecolor="white", edgecolor="k", lw=1.2, zorder=5))
-    pos = tracks["position"].values[k, :, 0, :]  # (space, individuals)
-    phase = tracks["phase"].values[k]
-    colors = np.where(phase == PHASE_HOT, "tab:red", "tab:blue")
-    r = float(tracks.attrs.get("radius", 16.5))
-    # marker size in points^2 so that discs have their true size in data units
-    fig = ax.figure
-    x0, y0, x1, y1 = info["bounds"]
-    bbox = ax.get_window_extent().transformed(fig.dpi_scale_trans.inverted())
-    pts_per_mm = bbox.width * 72.0 / max(x1 - x0 + 40.0, 1e-9)
-    sc = ax.scatter(pos[0], pos[1], s=(2 * r * pts_per_mm) ** 2, c=colors, lw=0, zorder=3)
-    ax.set_title(f"t = {float(tracks['time'].values[k]):.0f} s")
-    return sc

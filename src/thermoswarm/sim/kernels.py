@@ -288,12 +288,14 @@ def overdamped_step(
     n = pos.shape[0]
     r = num.radius
     hs2 = num.half_skin * num.half_skin
+    # --- stage: 1, motion (commanded velocities, bodies, pistons; timers count down)
     if serial:  # one thread: the parallel loops' serial twins (no launch cost)
         far = _move_serial(pos, udir, fcols[SPEED], icols[TIMER], ref, num.dt)
     else:
         far = _move(pos, udir, fcols[SPEED], icols[TIMER], ref, num.dt)
     _move_bodies(bodies, pistons, seg, sdisc, num.dt)
 
+    # --- stage: 2, lists (re-sort and rebuild once a robot left its skin)
     builds = 0
     new_row = visits[1]
     if not lists_ready and (warm or far <= hs2):
@@ -310,6 +312,7 @@ def overdamped_step(
         overflows[0] = _rebuild(pos, ref, grid, num, cell, cell_start, perm, nbr, nnb, lam,
                                 new_row, True, warm)  # fmt: skip
         builds += 1
+    # --- stage: 3, warm start from the held pushes, or drop them (no jam)
     src = pos
     dst = scratch
     in_scratch = False
@@ -327,6 +330,7 @@ def overdamped_step(
         for i in range(n):
             vmax = max(vmax, speed[i])
         warm = held > 0 and top > jam_push * vmax * num.dt
+    # --- stage: 5 (warm), Gauss-Seidel passes from the held pushes
     if warm:
         src, dst = dst, src
         in_scratch = True
@@ -340,6 +344,7 @@ def overdamped_step(
             bodies, pistons, new_row, 0, n, True, warm_blind,
         )  # fmt: skip
         return sweeps, overlap, builds + more, in_scratch, lam, lamw, lamid, True
+    # --- stage: 4, Jacobi sweeps (a free swarm ends here)
     sweeps, overlap, more, in_scratch, count, everyone, jam = _jacobi(
         src, dst, ref, grid, num, gs_after, cell, cell_start, perm, nbr, nnb, overflows,
         visits, mark, near, cell_flag, seg, sdisc, bodies, pistons, new_row, lam, serial,
@@ -347,6 +352,7 @@ def overdamped_step(
     builds += more
     if not jam:
         return sweeps, overlap, builds, in_scratch, lam, lamw, lamid, False
+    # --- stage: 5 (cold), a jam: Gauss-Seidel passes, pushes from zero
     if in_scratch:
         src, dst = dst, src
     # a jam: Gauss-Seidel from here, the pushes accumulated from zero
@@ -500,11 +506,14 @@ def inertial_step(
     n = pos.shape[0]
     x0, y0, nx, ny = grid.x0, grid.y0, grid.nx, grid.ny
     inv_cs = 1.0 / grid.cell_size
+    # --- stage: ballistic flight
     for i in range(n):
         pos[i, 0] += vel[i, 0] * dt
         pos[i, 1] += vel[i, 1] * dt
+    # --- stage: re-sort by cell, velocities with the robots
     sort_by_cell(pos, fcols, icols, grid, cell, cell_start, perm, tmp2)
     _permute_pairs(vel, perm, tmp2)
+    # --- stage: pair collisions: rewind to contact, exchange normal velocities, advance
     d_rr = 2.0 * r
     for i in range(n):
         cx, cy = _cell_xy(pos[i, 0], pos[i, 1], x0, y0, inv_cs, nx, ny)
@@ -555,6 +564,7 @@ def inertial_step(
                     pos[j, 0] += vel[j, 0] * tb
                     pos[j, 1] += vel[j, 1] * tb
                     counters[0] += 1
+        # --- stage: wall collisions: mirror the penetration and the normal velocity
         for s in range(seg.shape[0]):
             ov, ex, ey = _seg_push(
                 pos[i, 0], pos[i, 1], seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r

@@ -152,6 +152,7 @@ def _gs_pass(
     for qq in range(count):
         q = count - 1 - qq if backward else qq
         i = np.int64(q) if everyone else np.int64(active[q])
+        # --- stage: walls, static discs, bodies and pistons of robot i
         near = cell_flag[cell[i]] != 0
         mx = 0.0
         my = 0.0
@@ -166,6 +167,7 @@ def _gs_pass(
         moved = mx != 0.0 or my != 0.0
         pos[i, 0] += mx
         pos[i, 1] += my
+        # --- stage: each listed pair: push apart, or take back a held push
         m = nnb[i]
         for kk in range(min(m, cap)):
             j = nbr[i, kk]
@@ -213,6 +215,7 @@ def _gs_pass(
                 sj = _slot_of(nbr, nnb, j, i)
                 if sj >= 0:
                     lam[j, sj] = L + step
+        # --- stage: mirror robot i into other; mark it if it moved
         other[i, 0] = pos[i, 0]
         other[i, 1] = pos[i, 1]
         if moved:
@@ -223,6 +226,7 @@ def _gs_pass(
             ex = pos[i, 0] - ref[i, 0]
             ey = pos[i, 1] - ref[i, 1]
             far = max(far, ex * ex + ey * ey)
+    # --- stage: the next pass's robots: the movers and everyone on their lists
     # the movers (out[:k], in the order they first moved) and everyone on their lists
     movers = k
     full = False

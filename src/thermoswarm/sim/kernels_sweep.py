@@ -104,10 +104,12 @@ def _sweep(
         mx = 0.0
         my = 0.0
         w = 0.0
+        # --- stage: walls, static discs, bodies and pistons
         if cell_flag[c] != 0 or movables:  # most robots are far from any wall
             mx, my, w = _walls_and_bodies(
                 px, py, r, cell_flag[c] != 0, seg, sdisc, bodies, pistons
             )
+        # --- stage: pairs: the Verlet list, or the 3 x 3 cells when it overflowed
         m = nnb[i]
         if m <= cap:
             for kk in range(m):
@@ -122,6 +124,7 @@ def _sweep(
                         j = perm[kj]
                         if j != i:
                             mx, my, w = _pair_push(px, py, src, i, j, c2, d_rr, half, mx, my, w)
+        # --- stage: write the corrected position; flag moved / overlapping
         x = px + mx
         y = py + my
         dst[i, 0] = x
@@ -133,6 +136,7 @@ def _sweep(
             fi = ex * ex + ey * ey
         if w > 0.0:
             fl |= OVERLAPPING
+        # --- stage: mark robot i and the neighbours it now overlaps for the next sweep
         if fl != 0:
             mark[i] = 1
             if fl & MOVED and m <= cap:  # (an overflowing list: every robot is visited next)

@@ -247,6 +247,70 @@ def load_regime(path: str | Path) -> RegimeResult:
                         setting=data["setting"])  # fmt: skip
 
 
+def _map_rows(
+    out: Path,
+    name: str,
+    base: dict[str, Any],
+    cfg: dict[str, Any],
+    seed_list: Sequence[int],
+    executor: Executor | None,
+    max_workers: int | None,
+    progress: bool | None,
+) -> list[dict[str, Any]]:
+    """One row per run of map ``name`` (one grid over its x axis per value of its y
+    axis, into ``out/<name>/``): the drift (mm/s), displacement (mm) and time to target
+    (s); speed axes in mean speed (mm/s)."""
+    rows: list[dict[str, Any]] = []
+    m = MAPS[name]
+    xs = _values(m["x"], cfg["cells"])
+    ys = _values(m["y"], cfg["cells"])
+    for y in ys:
+        b = {**base, **_set(m["y"][0], y, cfg["arena"])}
+        if m["x"][0] in SPEED_AXES:
+            grid = {m["x"][0]: [kT(x) for x in xs]}
+        else:
+            grid = {m["x"][0]: xs}
+        sub = out / name
+        sub.mkdir(exist_ok=True)
+        records = run_grid("transport-free", sub, base=b, grid=grid, seeds=seed_list,
+                           executor=executor, max_workers=max_workers,
+                           progress=progress)  # fmt: skip
+        for r in records:
+            xv = r.params[m["x"][0]]
+            if m["x"][0] in SPEED_AXES:
+                xv = round(math.sqrt(math.pi * xv / 2), 6)
+            met = r.metrics
+            rows.append(
+                {
+                    "map": name,
+                    "x": float(xv),
+                    "y": float(y),
+                    "seed": r.seed,
+                    "drift": met["mean_velocity_toward_target"],
+                    "displacement": met["displacement_toward_target"],
+                    "time_to_target": met["time_to_target"],
+                    "run_dir": r.out,
+                }
+            )
+    return rows
+
+
+def _with_earlier_maps(
+    out: Path, runs: pd.DataFrame, info: dict[str, Any], names: list[str]
+) -> tuple[pd.DataFrame, list[str]]:
+    """``runs`` and map ``names`` with the other maps that an earlier study of the same
+    setting left in ``out/regime.json`` (first)."""
+    if (out / "regime.json").is_file():  # maps run earlier into this directory stay
+        prev = json.loads((out / "regime.json").read_text())
+        same = {k: prev["setting"].get(k) for k in info} == json.loads(json.dumps(info))
+        if same and prev["runs"]:
+            old = pd.DataFrame(prev["runs"])
+            old = old[~old["map"].isin(names)]
+            runs = pd.concat([old, runs], ignore_index=True)
+            names = [*old["map"].drop_duplicates().tolist(), *names]
+    return runs, names
+
+
 def run_regime(
     out: str | Path,
     setting: str = "quick",
@@ -290,54 +354,15 @@ def run_regime(
     expand(SweepSpec("transport-free", out, base, {}, seed_list))  # bad values: nothing written
     out.mkdir(parents=True, exist_ok=True)
 
-    def _collect() -> list[dict[str, Any]]:
-        rows: list[dict[str, Any]] = []
-        for name in names:
-            m = MAPS[name]
-            xs = _values(m["x"], cfg["cells"])
-            ys = _values(m["y"], cfg["cells"])
-            for y in ys:
-                b = {**base, **_set(m["y"][0], y, cfg["arena"])}
-                if m["x"][0] in SPEED_AXES:
-                    grid = {m["x"][0]: [kT(x) for x in xs]}
-                else:
-                    grid = {m["x"][0]: xs}
-                sub = out / name
-                sub.mkdir(exist_ok=True)
-                records = run_grid("transport-free", sub, base=b, grid=grid, seeds=seed_list,
-                                   executor=executor, max_workers=max_workers,
-                                   progress=progress)  # fmt: skip
-                for r in records:
-                    xv = r.params[m["x"][0]]
-                    if m["x"][0] in SPEED_AXES:
-                        xv = round(math.sqrt(math.pi * xv / 2), 6)
-                    met = r.metrics
-                    rows.append(
-                        {
-                            "map": name,
-                            "x": float(xv),
-                            "y": float(y),
-                            "seed": r.seed,
-                            "drift": met["mean_velocity_toward_target"],
-                            "displacement": met["displacement_toward_target"],
-                            "time_to_target": met["time_to_target"],
-                            "run_dir": r.out,
-                        }
-                    )
-        return rows
-
     with study_pool(executor, max_workers) as executor:
-        rows = _collect()
+        rows = [
+            row
+            for name in names
+            for row in _map_rows(out, name, base, cfg, seed_list, executor, max_workers, progress)
+        ]
     runs = pd.DataFrame(rows)
     info = {"name": setting, "seeds": list(seed_list), "base": base}
-    if (out / "regime.json").is_file():  # maps run earlier into this directory stay
-        prev = json.loads((out / "regime.json").read_text())
-        same = {k: prev["setting"].get(k) for k in info} == json.loads(json.dumps(info))
-        if same and prev["runs"]:
-            old = pd.DataFrame(prev["runs"])
-            old = old[~old["map"].isin(names)]
-            runs = pd.concat([old, runs], ignore_index=True)
-            names = [*old["map"].drop_duplicates().tolist(), *names]
+    runs, names = _with_earlier_maps(out, runs, info, names)
     summary = summarize(runs)
     res = RegimeResult(runs=runs, summary=summary, setting={**info, "maps": names})
     atomic_write_json(out / "regime.json", res.to_dict())

@@ -263,39 +263,11 @@ def plot_scaling(
     shift = {"density": 1.07}  # side by side where both series have a size
     for summary, runs in parts:
         for series, sm in summary.groupby("series", sort=False):
-            col = colors.get(series, "k")
-            lab = labels.get(series, series)
             sm = sm.assign(n=sm["n"] * shift.get(series, 1.0))
             if runs is not None and "series" in runs:
                 runs = runs.assign(n=runs["n"] * runs["series"].map(shift).fillna(1.0))
-            ax_u.errorbar(sm["n"], sm["maxdisp_median"],
-                          yerr=_err(sm["maxdisp_median"], sm["maxdisp_ci_low"],
-                                    sm["maxdisp_ci_high"], float(sm["maxdisp_max"].max())),
-                          fmt="o-", capsize=3, color=col, label=lab)  # fmt: skip
-            med = sm["time_median"].astype(float)
-            ok = med.notna()
-            if ok.any():
-                ax_v.errorbar(sm["n"][ok], med[ok],
-                              yerr=_err(med[ok], sm["time_ci_low"][ok], sm["time_ci_high"][ok],
-                                        tmax),
-                              fmt="o-", capsize=3, color=col, label=lab)  # fmt: skip
-            for _, r in sm.iterrows():
-                y = (
-                    r["time_median"]
-                    if r["time_median"] is not None
-                    and np.isfinite(
-                        float(r["time_median"] if r["time_median"] is not None else np.nan)
-                    )
-                    else tmax / 1.15
-                )
-                ax_v.annotate(f"{int(r['reached'])}/{int(r['seeds'])}", (r["n"], y),
-                              textcoords="offset points", xytext=(4, 4), fontsize=7,
-                              color=col)  # fmt: skip
-            if runs is not None:
-                rs = runs[runs["series"] == series] if "series" in runs else runs
-                ax_u.plot(rs["n"], rs["max_displacement"], ".", color=col, alpha=0.35)
-                rr = rs[rs["time_to_target"].notna()]
-                ax_v.plot(rr["n"], rr["time_to_target"], ".", color=col, alpha=0.35)
+            _draw_series(ax_u, ax_v, series, sm, runs, colors.get(series, "k"),
+                         labels.get(series, series), tmax)  # fmt: skip
     ax_u.axhline(0, color="0.6", lw=0.8)
     for ax in (ax_u, ax_v):
         ax.set_xscale("log")
@@ -309,6 +281,46 @@ def plot_scaling(
     ax_v.set_ylabel("time to target (s)")
     ax_v.set_title("(v) time to target: median, 95 % CI, runs")
     return fig
+
+
+def _draw_series(
+    ax_u: Any,
+    ax_v: Any,
+    series: str,
+    sm: pd.DataFrame,
+    runs: pd.DataFrame | None,
+    col: str,
+    lab: str,
+    tmax: float,
+) -> None:
+    """One series of :func:`plot_scaling`: medians with their intervals on both panels,
+    the fraction of runs that reached the target beside each point of (v), and the
+    individual runs as small dots."""
+    ax_u.errorbar(sm["n"], sm["maxdisp_median"],
+                  yerr=_err(sm["maxdisp_median"], sm["maxdisp_ci_low"],
+                            sm["maxdisp_ci_high"], float(sm["maxdisp_max"].max())),
+                  fmt="o-", capsize=3, color=col, label=lab)  # fmt: skip
+    med = sm["time_median"].astype(float)
+    ok = med.notna()
+    if ok.any():
+        ax_v.errorbar(sm["n"][ok], med[ok],
+                      yerr=_err(med[ok], sm["time_ci_low"][ok], sm["time_ci_high"][ok], tmax),
+                      fmt="o-", capsize=3, color=col, label=lab)  # fmt: skip
+    for _, r in sm.iterrows():
+        y = (
+            r["time_median"]
+            if r["time_median"] is not None
+            and np.isfinite(float(r["time_median"] if r["time_median"] is not None else np.nan))
+            else tmax / 1.15
+        )
+        ax_v.annotate(f"{int(r['reached'])}/{int(r['seeds'])}", (r["n"], y),
+                      textcoords="offset points", xytext=(4, 4), fontsize=7,
+                      color=col)  # fmt: skip
+    if runs is not None:
+        rs = runs[runs["series"] == series] if "series" in runs else runs
+        ax_u.plot(rs["n"], rs["max_displacement"], ".", color=col, alpha=0.35)
+        rr = rs[rs["time_to_target"].notna()]
+        ax_v.plot(rr["n"], rr["time_to_target"], ".", color=col, alpha=0.35)
 
 
 def run_scaling(
@@ -337,14 +349,7 @@ def run_scaling(
     are further base parameters (dotted keys).  Writes ``out/scaling.json``,
     ``out/scaling.md`` and (``figure``) ``out/scaling.png``.
     """
-    from thermoswarm.config import from_mapping
     from thermoswarm.errors import ConfigError
-    from thermoswarm.scenarios.transport_free import (
-        DEFAULT_ARENA,
-        TransportFreeParams,
-        geometry,
-    )
-    from thermoswarm.sweep import SweepSpec, expand
 
     if setting not in SETTINGS:
         raise ConfigError(f"setting must be one of {sorted(SETTINGS)}, got {setting!r}")
@@ -364,63 +369,19 @@ def run_scaling(
     from thermoswarm.fsutil import check_output_dir
 
     out = check_output_dir(out)  # missing parents are created with it
-    bases = []
-    for n in ns:
-        b = dict(base)
-        if series == "density":
-            side = arena_side(int(n))
-            b.update(width=side, height=side)
-        if "target_y" not in base:
-            probe = {k: v for k, v in b.items() if "." not in k and not isinstance(v, dict)}
-            # the highest valid target, so that the probe itself is valid in any arena
-            height = b.get("height") or DEFAULT_ARENA[str(b.get("variant", "free"))][1]
-            probe["target_y"] = float(height) - float(b.get("object_radius", 50.0))
-            start_y = geometry(from_mapping(TransportFreeParams, {**probe, "n": n})).start[1]
-            b["target_y"] = start_y + float(target_distance)
-        expand(SweepSpec("transport-free", out / "runs", b, {"n": [n]}, seed_list))
-        bases.append((n, b))
-
-    def _collect() -> list[dict[str, Any]]:
-        rows: list[dict[str, Any]] = []
-        for n, b in bases:
-            records = run_grid("transport-free", out, base=b, grid={"n": [n]}, seeds=seed_list,
-                               executor=executor, max_workers=max_workers,
-                               progress=progress)  # fmt: skip
-            for r in records:
-                m = r.metrics
-                path = m["object_path"]
-                t = np.asarray(path["time"], dtype=float)
-                prog = np.asarray(path["progress"], dtype=float)
-                within = prog[t <= m["warmup"] + horizon + 1e-9]
-                rows.append(
-                    {
-                        "series": series,
-                        "n": r.params["n"],
-                        "arena": float(b.get("width") or 1800.0),
-                        "seed": r.seed,
-                        "max_displacement": float(within.max()) if within.size else math.nan,
-                        "max_displacement_run": m["max_displacement_toward_target"],
-                        "displacement": m["displacement_toward_target"],
-                        "time_to_target": m["time_to_target"],
-                        "target_y": m["target_y"],
-                        "run_dir": r.out,
-                    }
-                )
-        return rows
-
+    bases = _size_bases(out, ns, base, series, float(target_distance), seed_list)
     with study_pool(executor, max_workers) as executor:
-        rows = _collect()
+        rows = [
+            row
+            for n, b in bases
+            for row in _scaling_rows(
+                out, n, b, series, horizon, seed_list, executor, max_workers, progress
+            )
+        ]
     runs = pd.DataFrame(rows)
     setting_info = {"name": setting, "series": series, "seeds": list(seed_list), "base": base,
                     "target_distance": target_distance, "horizon": horizon}  # fmt: skip
-    old = out / "scaling.json"
-    if old.is_file():  # sizes run earlier into this directory with the same setting stay
-        prev = load_scaling(out)
-        same = {k: prev.setting.get(k) for k in setting_info} == json_roundtrip(setting_info)
-        if same and len(prev.runs):
-            keep = prev.runs[~prev.runs["n"].isin(ns)]
-            runs = pd.concat([keep, runs], ignore_index=True).sort_values(["n", "seed"])
-            runs = runs.reset_index(drop=True)
+    runs = _with_earlier_sizes(out, runs, setting_info, ns)
     ns = sorted(int(n) for n in runs["n"].unique())
     summary = summarize(runs)
     res = ScalingResult(runs=runs, summary=summary,
@@ -441,6 +402,100 @@ def run_scaling(
             fig.savefig(tmp, dpi=120, format="png")
         plt.close(fig)
     return res
+
+
+def _size_bases(
+    out: Path,
+    ns: Sequence[int],
+    base: dict[str, Any],
+    series: str,
+    target_distance: float,
+    seed_list: Sequence[int],
+) -> list[tuple[int, dict[str, Any]]]:
+    """``(n, base parameters)`` of each size: the arena scaled with ``sqrt(n)`` for the
+    ``density`` series, ``target_y`` the object's start plus ``target_distance`` (mm)
+    unless ``base`` sets it; every size's runs checked (``expand``) before any runs."""
+    from thermoswarm.config import from_mapping
+    from thermoswarm.scenarios.transport_free import (
+        DEFAULT_ARENA,
+        TransportFreeParams,
+        geometry,
+    )
+    from thermoswarm.sweep import SweepSpec, expand
+
+    bases = []
+    for n in ns:
+        b = dict(base)
+        if series == "density":
+            side = arena_side(int(n))
+            b.update(width=side, height=side)
+        if "target_y" not in base:
+            probe = {k: v for k, v in b.items() if "." not in k and not isinstance(v, dict)}
+            # the highest valid target, so that the probe itself is valid in any arena
+            height = b.get("height") or DEFAULT_ARENA[str(b.get("variant", "free"))][1]
+            probe["target_y"] = float(height) - float(b.get("object_radius", 50.0))
+            start_y = geometry(from_mapping(TransportFreeParams, {**probe, "n": n})).start[1]
+            b["target_y"] = start_y + float(target_distance)
+        expand(SweepSpec("transport-free", out / "runs", b, {"n": [n]}, seed_list))
+        bases.append((n, b))
+    return bases
+
+
+def _scaling_rows(
+    out: Path,
+    n: int,
+    b: dict[str, Any],
+    series: str,
+    horizon: float,
+    seed_list: Sequence[int],
+    executor: Executor | None,
+    max_workers: int | None,
+    progress: bool | None,
+) -> list[dict[str, Any]]:
+    """One row per run of size ``n`` (base ``b``), run or read back from ``out``: the
+    largest displacement within ``horizon`` s of the release, the run's own maximum,
+    final displacement and time to target (s)."""
+    rows: list[dict[str, Any]] = []
+    records = run_grid("transport-free", out, base=b, grid={"n": [n]}, seeds=seed_list,
+                       executor=executor, max_workers=max_workers,
+                       progress=progress)  # fmt: skip
+    for r in records:
+        m = r.metrics
+        path = m["object_path"]
+        t = np.asarray(path["time"], dtype=float)
+        prog = np.asarray(path["progress"], dtype=float)
+        within = prog[t <= m["warmup"] + horizon + 1e-9]
+        rows.append(
+            {
+                "series": series,
+                "n": r.params["n"],
+                "arena": float(b.get("width") or 1800.0),
+                "seed": r.seed,
+                "max_displacement": float(within.max()) if within.size else math.nan,
+                "max_displacement_run": m["max_displacement_toward_target"],
+                "displacement": m["displacement_toward_target"],
+                "time_to_target": m["time_to_target"],
+                "target_y": m["target_y"],
+                "run_dir": r.out,
+            }
+        )
+    return rows
+
+
+def _with_earlier_sizes(
+    out: Path, runs: pd.DataFrame, setting_info: dict[str, Any], ns: Sequence[int]
+) -> pd.DataFrame:
+    """``runs`` with the runs of other sizes that an earlier study of the same setting
+    left in ``out/scaling.json`` (sorted by size and seed)."""
+    old = out / "scaling.json"
+    if old.is_file():  # sizes run earlier into this directory with the same setting stay
+        prev = load_scaling(out)
+        same = {k: prev.setting.get(k) for k in setting_info} == json_roundtrip(setting_info)
+        if same and len(prev.runs):
+            keep = prev.runs[~prev.runs["n"].isin(ns)]
+            runs = pd.concat([keep, runs], ignore_index=True).sort_values(["n", "seed"])
+            runs = runs.reset_index(drop=True)
+    return runs
 
 
 def json_roundtrip(value: Any) -> Any:

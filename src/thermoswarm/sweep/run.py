@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from concurrent.futures import Executor, Future
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict
+from pathlib import Path
 from typing import Any
 
 from thermoswarm.errors import ConfigError, ThermoswarmError
@@ -79,6 +80,46 @@ def run_sweep(
     out.mkdir(parents=True, exist_ok=True)
     if hasattr(executor, "get_executor"):  # a dask.distributed.Client
         executor = executor.get_executor()
+    records, order, texts, todo, configs = _plan(runs, out)
+    table = ResultsTable(out, spec.scenario, {rid: c.params for rid, c in configs.items()})
+    for rec in records.values():
+        if rec.status == "skipped":
+            table.add(rec)
+    table.write()
+    if todo:
+        compile_here([configs[rid] for rid in todo])
+    own = executor is None
+    ex = local_pool(max_workers, threads_per_run) if own else executor
+    bar = tqdm(total=len(records), initial=len(records) - len(todo), unit="run",
+               disable=None if progress is None else not progress, leave=False)  # fmt: skip
+    clean = False
+    try:
+        _drive(ex, [records[rid] for rid in todo], texts, threads_per_run, retries, table, bar)
+        clean = True
+    finally:
+        bar.close()
+        table.write()
+        if own:  # interrupted: do not wait for the runs in flight
+            ex.shutdown(wait=clean, cancel_futures=True)
+    if table.unavailable:
+        import warnings
+
+        warnings.warn(f"{out / 'results.parquet'} not written: {table.unavailable}", stacklevel=2)
+    result = [records[rid] for rid in order]
+    atomic_write_json(out / "sweep.json", {
+        "scenario": spec.scenario, "grid": {k: list(v) for k, v in spec.grid.items()},
+        "seeds": list(spec.seeds), "runs": [asdict(r) for r in result],
+    })  # fmt: skip
+    return result
+
+
+def _plan(
+    runs: Sequence[tuple[dict[str, Any], int, Any]], out: Path
+) -> tuple[dict[str, RunRecord], list[str], dict[str, str], list[str], dict[str, Any]]:
+    """``(records, order, texts, todo, configs)`` of the expanded ``runs``: one record per
+    distinct run id (``"skipped"`` when ``OUT/<run_id>`` holds a finished run, else
+    ``"pending"``), every run's id in grid order, the TOML of each pending run, the
+    pending ids, and each id's configuration."""
     records: dict[str, RunRecord] = {}
     order: list[str] = []
     texts: dict[str, str] = {}
@@ -99,31 +140,35 @@ def run_sweep(
             records[rid] = RunRecord(rid, point, seed, str(rdir), "pending")
             texts[rid] = text
             todo.append(rid)
-    table = ResultsTable(out, spec.scenario, {rid: c.params for rid, c in configs.items()})
-    for rec in records.values():
-        if rec.status == "skipped":
-            table.add(rec)
-    table.write()
-    if todo:
-        compile_here([configs[rid] for rid in todo])
-    own = executor is None
-    ex = local_pool(max_workers, threads_per_run) if own else executor
-    bar = tqdm(total=len(records), initial=len(records) - len(todo), unit="run",
-               disable=None if progress is None else not progress, leave=False)  # fmt: skip
-    futures: dict[Future, str] = {}
+    return records, order, texts, todo, configs
+
+
+def _drive(
+    ex: Any,
+    todo: Sequence[RunRecord],
+    texts: dict[str, str],
+    threads_per_run: int | None,
+    retries: int,
+    table: ResultsTable,
+    bar: Any,
+) -> None:
+    """Submit every run of ``todo`` to ``ex`` and collect them as they finish: a run
+    whose worker died or that crashed is submitted again while it has attempts left
+    (``retries``), a :class:`ThermoswarmError` fails it at once; each finished run goes
+    into ``table`` and ticks ``bar``."""
+    futures: dict[Future, RunRecord] = {}
     # futures report here as they finish: O(1) per run, however many are in flight
     finished_q: queue.SimpleQueue[Future] = queue.SimpleQueue()
 
-    def submit(rid: str) -> None:
-        rec = records[rid]
+    def submit(rec: RunRecord) -> None:
         rec.attempts += 1
         # the attempt number makes every call distinct (Dask merges equal calls)
         try:
-            fut = ex.submit(run_one, texts[rid], rec.out, threads_per_run, rec.attempts)
+            fut = ex.submit(run_one, texts[rec.run_id], rec.out, threads_per_run, rec.attempts)
         except Exception as exc:  # e.g. a broken ProcessPoolExecutor refuses work
             fut = Future()
             fut.set_exception(exc)
-        futures[fut] = rid
+        futures[fut] = rec
         fut.add_done_callback(finished_q.put)
 
     def finish(rec: RunRecord, status: str) -> None:
@@ -131,47 +176,29 @@ def run_sweep(
         table.add(rec)
         bar.update(1)
 
-    clean = False
-    try:
-        for rid in todo:
-            submit(rid)
-        while futures:
-            try:
-                fut = finished_q.get(timeout=1.0)  # a timeout lets Ctrl-C through
-            except queue.Empty:
-                continue
-            rec = records[futures.pop(fut)]
-            try:
-                rec.metrics = fut.result()
-            except ThermoswarmError as exc:  # the configuration itself: no retry
-                rec.error = str(exc)
-                finish(rec, "failed")
-            except Exception as exc:  # a dead worker or a crash inside the run
-                if _worker_lost(exc):
-                    rec.error = f"worker lost: {exc}"
-                else:
-                    rec.error = "".join(traceback.format_exception_only(exc)).strip()
-                if rec.attempts <= retries:
-                    submit(rec.run_id)
-                else:
-                    finish(rec, "failed")
+    for rec in todo:
+        submit(rec)
+    while futures:
+        try:
+            fut = finished_q.get(timeout=1.0)  # a timeout lets Ctrl-C through
+        except queue.Empty:
+            continue
+        rec = futures.pop(fut)
+        try:
+            rec.metrics = fut.result()
+        except ThermoswarmError as exc:  # the configuration itself: no retry
+            rec.error = str(exc)
+            finish(rec, "failed")
+        except Exception as exc:  # a dead worker or a crash inside the run
+            if _worker_lost(exc):
+                rec.error = f"worker lost: {exc}"
             else:
-                rec.error = None
-                finish(rec, "done")
-            table.maybe_write()
-        clean = True
-    finally:
-        bar.close()
-        table.write()
-        if own:  # interrupted: do not wait for the runs in flight
-            ex.shutdown(wait=clean, cancel_futures=True)
-    if table.unavailable:
-        import warnings
-
-        warnings.warn(f"{out / 'results.parquet'} not written: {table.unavailable}", stacklevel=2)
-    result = [records[rid] for rid in order]
-    atomic_write_json(out / "sweep.json", {
-        "scenario": spec.scenario, "grid": {k: list(v) for k, v in spec.grid.items()},
-        "seeds": list(spec.seeds), "runs": [asdict(r) for r in result],
-    })  # fmt: skip
-    return result
+                rec.error = "".join(traceback.format_exception_only(exc)).strip()
+            if rec.attempts <= retries:
+                submit(rec)
+            else:
+                finish(rec, "failed")
+        else:
+            rec.error = None
+            finish(rec, "done")
+        table.maybe_write()

@@ -108,6 +108,11 @@ class NarrowRoadParams:
     record: Recording = Recording(interval=0.1, block=1000)
 
     def __post_init__(self) -> None:
+        self._check_road()
+        self._check_motion()
+
+    def _check_road(self) -> None:
+        """The road's sections, the robot size, the ends and the entry/arrival depths."""
         fin = math.isfinite
         check_positive("length", self.length, "a positive length (mm)")
         k = len(self.section_fractions)
@@ -164,6 +169,11 @@ class NarrowRoadParams:
                 ok = fin(a) and 0 <= a <= self.length / 3
                 want = f"in [0, {self.length / 3:g}] mm"
             check(ok, "arrive_depth", want, a)
+
+    def _check_motion(self) -> None:
+        """The swarm (occupation, n, entry clearance), its speed and steering laws, the
+        flow bins and the duration."""
+        fin = math.isfinite
         check(
             fin(self.occupation) and 0 < self.occupation < 0.6,
             "occupation",

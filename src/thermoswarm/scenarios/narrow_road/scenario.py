@@ -303,14 +303,7 @@ class NarrowRoadScenario(Scenario):
                 "overall": longest_gap(ev_t, 0.0, T),
             },
         }
-        flows: dict[str, Any] = {"bin_s": p.flow_bin}
-        for g, d in enumerate(DIRECTIONS):
-            starts, f = flow_series(ev_t[ev_g == g], T, p.flow_bin)
-            flows["t_start"] = starts.tolist()
-            flows[d] = f.tolist()
-        # whole bins only: the seconds after the last one are in the totals, not binned
-        flows["unbinned_tail_s"] = max(T - len(flows["t_start"]) * p.flow_bin, 0.0)
-        out["flow_over_time"] = flows
+        out["flow_over_time"] = _flow_over_time(ev_t, ev_g, T, p.flow_bin)
         out["transit_times"] = {}
         for g, d in enumerate(DIRECTIONS):
             vals = ev_transit[(ev_g == g) & np.isfinite(ev_transit)]
@@ -327,19 +320,38 @@ class NarrowRoadScenario(Scenario):
         }
         areas = geo.section_areas()
         out["sections"] = section_stats(tracks, geo.names, areas)
-        out["road"] = {
-            "length": geo.length,
-            "area_mm2": geo.area,
-            "sections": [
-                {
-                    "name": geo.names[k],
-                    "x0": float(geo.edges[k]),
-                    "x1": float(geo.edges[k + 1]),
-                    "width": float(geo.widths[k]),
-                    "area_mm2": float(areas[k]),
-                }
-                for k in range(len(geo.names))
-            ],
-            "geometry": geo.info(),
-        }
+        out["road"] = _road_info(geo, areas)
         return out
+
+
+def _flow_over_time(ev_t: np.ndarray, ev_g: np.ndarray, T: float, flow_bin: float) -> dict:
+    """Crossings per minute of each direction in whole bins of ``flow_bin`` s (``T``:
+    the run's duration, s), with the bins' starts and the unbinned tail (s)."""
+    flows: dict[str, Any] = {"bin_s": flow_bin}
+    for g, d in enumerate(DIRECTIONS):
+        starts, f = flow_series(ev_t[ev_g == g], T, flow_bin)
+        flows["t_start"] = starts.tolist()
+        flows[d] = f.tolist()
+    # whole bins only: the seconds after the last one are in the totals, not binned
+    flows["unbinned_tail_s"] = max(T - len(flows["t_start"]) * flow_bin, 0.0)
+    return flows
+
+
+def _road_info(geo: RoadGeometry, areas: np.ndarray) -> dict[str, Any]:
+    """``metrics["road"]``: length (mm), area (mm^2), each section's extent, width and
+    area, and the geometry's own description."""
+    return {
+        "length": geo.length,
+        "area_mm2": geo.area,
+        "sections": [
+            {
+                "name": geo.names[k],
+                "x0": float(geo.edges[k]),
+                "x1": float(geo.edges[k + 1]),
+                "width": float(geo.widths[k]),
+                "area_mm2": float(areas[k]),
+            }
+            for k in range(len(geo.names))
+        ],
+        "geometry": geo.info(),
+    }

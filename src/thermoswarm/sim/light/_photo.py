@@ -89,6 +89,7 @@ def _turn_one(
     rng,
 ):
     """TurnToAngle for one robot: (final heading, steps, converged)."""
+    # --- stage: the brightest unshadowed source (none: stop at once)
     nl = lights.shape[0]
     best = -1
     bw = 0.0
@@ -98,6 +99,7 @@ def _turn_one(
             best = li
     if best < 0:
         return h0, 0, False  # every source shadowed: ends at once
+    # --- stage: sensor geometry; dark facing that source: stop at once
     _source_dirs(px, py, lights, ux, uy)
     c1 = sens[0, 0]
     s1 = sens[0, 1]
@@ -113,6 +115,7 @@ def _turn_one(
     f2 = _reading(hx * c2 - hy * s2, hy * c2 + hx * s2, wi, ux, uy, cos_half_fov, ambient)
     if max(f1, f2) <= dark:
         return h0, 0, False
+    # --- stage: turn step by step until the front sensors balance and the back one is dark
     noisy = sig_m > 0.0 or sig_a > 0.0  # the guard below halves the noise-free cost
     cs = math.cos(step)
     ss = math.sin(step)

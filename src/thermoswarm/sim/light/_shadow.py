@@ -108,6 +108,7 @@ def _soft_visibility(px, py, ux, uy, dist, alpha, discs, segs, buf):
     ``dist`` is the distance to the source (inf for directional light): occluder parts
     farther than that do not block.  Angles are measured from ``u``.
     """
+    # --- stage: the arcs of the source each occluding disc hides
     n = 0
     for j in range(discs.shape[0]):
         wx = discs[j, 0] - px
@@ -126,6 +127,7 @@ def _soft_visibility(px, py, ux, uy, dist, alpha, discs, segs, buf):
             c = (d2 + dist * dist - r * r) / (2.0 * d * dist)
             h = math.acos(min(1.0, max(-1.0, c)))
         n = _push(buf, n, beta - h, beta + h, alpha)
+    # --- stage: the arcs each segment hides (clipped to the source's distance)
     for j in range(segs.shape[0]):
         ax = segs[j, 0]
         ay = segs[j, 1]
@@ -166,6 +168,7 @@ def _soft_visibility(px, py, ux, uy, dist, alpha, discs, segs, buf):
             n = _push(buf, n, -math.pi, lo, alpha)
     if n == 0:
         return 1.0
+    # --- stage: sort the arcs by start
     for i in range(1, n):  # insertion sort by start: n is a handful
         lo = buf[i, 0]
         hi = buf[i, 1]
@@ -176,6 +179,7 @@ def _soft_visibility(px, py, ux, uy, dist, alpha, discs, segs, buf):
             k -= 1
         buf[k + 1, 0] = lo
         buf[k + 1, 1] = hi
+    # --- stage: merge them: the share of the source left unblocked
     covered = 0.0
     cur_lo = buf[0, 0]
     cur_hi = buf[0, 1]
