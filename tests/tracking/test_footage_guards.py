@@ -18,7 +18,6 @@ from thermoswarm.tracking.detect.register import camera_path
 from thermoswarm.tracking.pipeline import track_video
 from thermoswarm.tracking.pipeline.flood import flood_reasons
 from thermoswarm.tracking.synth.clip import write_video
-from thermoswarm.tracking.track.result import TrackResult
 from thermoswarm.tracking.video import open_video
 
 
@@ -59,14 +58,14 @@ def test_scene_cut_ends_every_track(cut_clip, tmp_path):
     assert len(before) >= 6 and len(after) >= 6
 
 
-def _result(paths: np.ndarray) -> TrackResult:
-    """A TrackResult from body paths ``(T, n, 2)`` px."""
+def _rows(paths: np.ndarray) -> np.ndarray:
+    """MOT detection rows (frames from 1) of body paths ``(T, n, 2)`` px, 4 px boxes."""
     T, n, _ = paths.shape
-    frames = np.repeat(np.arange(T), n)
-    ids = np.tile(np.arange(1, n + 1), T)
-    pts = np.repeat(paths.reshape(-1, 1, 2), 3, axis=1)
-    boxes = np.column_stack([paths.reshape(-1, 2) - 2, np.full((T * n, 2), 4.0)])
-    return TrackResult(frames, ids, pts, boxes, np.ones(T * n), np.zeros(T * n, bool), T)
+    rows = np.full((T * n, 10), -1.0)
+    rows[:, 0] = np.repeat(np.arange(1, T + 1), n)
+    rows[:, 2:4] = paths.reshape(-1, 2) - 2
+    rows[:, 4:6] = 4.0
+    return rows
 
 
 def test_flood_reasons():
@@ -75,13 +74,13 @@ def test_flood_reasons():
     # px^2 each: 91 %; 50 of them cover 2 %.
     assert any("would cover" in r for r in flood_reasons(np.full(20, 2000), (320, 240), 10.0))
     assert flood_reasons(np.full(20, 50), (320, 240), 10.0) == []
-    # Stillness: 30 tracks that jitter in place (0.5 px) are not animals; 30 that walk
-    # 1.5 px a frame are.
+    # Stillness at 10 frames/s: 30 specks that jitter in place (0.5 px) are not
+    # animals; 30 that walk 1.5 px a frame (1.5 body lengths a second) are.
     still = rng.uniform(20, 300, (1, 30, 2)) + rng.normal(0, 0.5, (40, 30, 2))
     walk = still + np.arange(40)[:, None, None] * np.array([1.5, 0.0])
-    reasons = flood_reasons(np.full(40, 30), (320, 240), 10.0, _result(still))
+    reasons = flood_reasons(np.full(40, 30), (320, 240), 10.0, _rows(still), fps=10.0)
     assert len(reasons) == 1 and "do not move like animals" in reasons[0]
-    assert flood_reasons(np.full(40, 30), (320, 240), 10.0, _result(walk)) == []
+    assert flood_reasons(np.full(40, 30), (320, 240), 10.0, _rows(walk), fps=10.0) == []
 
 
 def _glitter(path, n_frames=60):

@@ -7,11 +7,12 @@ checks a run's output against what animals can be:
 * **crowding** -- the median frame holds more detections than the image can hold at
   the measured size: their bodies (``length x 0.35 length``, the paper's ant's
   proportions) would cover over ``max_cover`` of the frame;
-* **stillness** (for detectors that subtract a background; ``result`` given) --
-  among at least ``min_tracks`` confirmed tracks, fewer than ``min_moving`` of them
-  ever get one body length from where they began (animals that a background
-  subtraction finds are the ones that move: 70 % of the tracks of the rendered test
-  clip; glitter that flickers in place: 6-8 %).
+* **stillness** (for detectors that subtract a background; ``dets`` given) -- of at
+  least ``min_dets`` detections, more than ``max_in_place`` lie where a detection lay
+  one second before (animals that a background subtraction finds are the ones that
+  move; specks that flicker in place return to their places).  Measured on the
+  detections, not on tracks: the tracker's gate, made for an ant's real speed, links
+  neighbouring specks into tracks that seem to walk.
 
 :func:`refuse_flood` then raises :class:`~thermoswarm.errors.InputError` with the
 reasons and what to try, after the outputs are written with ``WARNING.txt`` beside
@@ -21,7 +22,6 @@ them (so the user can look), and the CLI exits with status 2.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -39,36 +39,47 @@ FLOOD_HINT = (
 )
 
 
-def _moving_share(result: Any, length_px: float) -> tuple[float, int]:
-    """``(share, n)``: of the ``n`` tracks, the share that get one body length (px)
-    from where they began."""
-    ids, body = result.ids, result.points[:, 1, :]
-    if ids.size == 0:
-        return 1.0, 0
-    order = np.argsort(ids, kind="stable")
-    ids, body = ids[order], body[order]
-    uniq, start = np.unique(ids, return_index=True)
-    first = body[start]
-    runs = np.diff(np.append(start, ids.size))
-    d = np.linalg.norm(body - np.repeat(first, runs, axis=0), axis=1)
-    reach = np.zeros(uniq.size)
-    np.maximum.at(reach, np.searchsorted(uniq, ids), np.nan_to_num(d))
-    return float(np.mean(reach >= length_px)), int(uniq.size)
+def _in_place_share(dets: np.ndarray, length_px: float, fps: float) -> tuple[float, int]:
+    """``(share, n)``: of the ``n`` detections that have a frame one second before
+    them, the share that lie within ``0.3`` body length (px) of a detection there (or a
+    frame either side).
+
+    Measured on the detections, not on tracks: a tracker that allows an ant's real
+    speed will link specks that flicker in place into tracks that seem to walk.
+    ``dets`` are MOT rows (frame, id, left, top, width, height, ...).
+    """
+    from scipy.spatial import cKDTree
+
+    frame = dets[:, 0].astype(np.int64)
+    centre = dets[:, 2:4] + 0.5 * dets[:, 4:6]
+    lag = max(1, int(round(fps)))
+    first, last = (int(frame.min()), int(frame.max())) if frame.size else (0, -1)
+    starts = np.searchsorted(frame, np.arange(first, last + 2))  # rows are in frame order
+    hits = n = 0
+    for f in range(first + lag + 1, last + 1, max(1, (last - first) // 200)):
+        here = centre[starts[f - first] : starts[f - first + 1]]
+        before = centre[starts[f - lag - 1 - first] : starts[f - lag + 2 - first]]
+        if len(here) and len(before):
+            d, _ = cKDTree(before).query(here, distance_upper_bound=0.3 * length_px)
+            hits += int(np.isfinite(d).sum())
+        n += len(here)
+    return (hits / n if n else 0.0), n
 
 
 def flood_reasons(
     per_frame: np.ndarray,
     frame_size: tuple[int, int],
     length_px: float,
-    result: Any | None = None,
+    dets: np.ndarray | None = None,
     *,
+    fps: float = 10.0,
     max_cover: float = 0.5,
-    min_tracks: int = 20,
-    min_moving: float = 0.2,
+    min_dets: int = 200,
+    max_in_place: float = 0.8,
 ) -> list[str]:
-    """Why the detections (``per_frame``: counts per frame) and tracks (``result``, a
-    :class:`~thermoswarm.tracking.track.result.TrackResult` in px, or ``None``) are not
-    animals of body length ``length_px`` in a ``frame_size`` (w, h px) image; empty
+    """Why the detections (``per_frame``: counts per frame; ``dets``: their MOT rows in
+    frame order, px, or ``None`` to skip the stillness check) are not animals of body
+    length ``length_px`` in a ``frame_size`` (w, h px) image at ``fps`` frames/s; empty
     when they may be."""
     reasons = []
     w, h = frame_size
@@ -81,12 +92,13 @@ def flood_reasons(
             f"{100 * cover:.0f} % of the image (more than {100 * max_cover:.0f} % cannot "
             "be animals)"
         )
-    if result is not None:
-        share, nt = _moving_share(result, length_px)
-        if nt >= min_tracks and share < min_moving:
+    if dets is not None:
+        share, nd = _in_place_share(dets, length_px, fps)
+        if nd >= min_dets and share > max_in_place:
             reasons.append(
-                f"only {100 * share:.1f} % of {nt} tracks ever move one body length "
-                f"({length_px:.1f} px) from where they began: they do not move like animals"
+                f"{100 * share:.1f} % of {nd} detections lie where a detection lay one "
+                f"second before (within 0.3 body length, {0.3 * length_px:.1f} px): they "
+                "flicker in place, they do not move like animals"
             )
     return reasons
 

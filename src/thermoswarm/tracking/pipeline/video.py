@@ -349,8 +349,10 @@ def _write_video_outputs(
     summary["outputs"][-1:-1] = run["camera"]["outputs"]
     dets = run["dets"]
     per_frame = np.bincount(dets[:, 0].astype(np.int64) - 1, minlength=result.n_frames)
-    still_bg = det_name == "classical"  # finds what moves: tracks that never move are not
-    reasons = flood_reasons(per_frame, src.size, scale["length_px"], result if still_bg else None)
+    still_bg = det_name == "classical"  # finds what moves: specks flickering in place are not
+    reasons = flood_reasons(
+        per_frame, src.size, scale["length_px"], dets if still_bg else None, fps=rate
+    )
     summary["warnings"] = reasons
     atomic_write_json(out / "summary.json", summary)
     if reasons:
