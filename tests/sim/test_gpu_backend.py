@@ -90,7 +90,7 @@ def test_pair_search_cannot_miss_a_pair_when_the_grid_is_never_rebuilt():
             assert sim.max_overlap(state) == pytest.approx(exact["max"], abs=2e-4)
     # non-vacuous: robots moved so far since the build that the sweeps had to scan
     # more than one ring of cells
-    d_bound = float(sim._dev.ctrl_f.copy_to_host()[1])
+    d_bound = float(sim._dev.ctrl.copy_to_host()[1])  # D_IN
     assert 2 * R + 2 * d_bound > sim._dev.cs
 
 

@@ -36,6 +36,7 @@ _COMMANDS: dict[str, str] = {
     "formats": "thermoswarm.cli.convert:formats",
     "cache": "thermoswarm.cli.cache:cache",
     "view": "thermoswarm.cli.view:view",
+    "gpu": "thermoswarm.cli.gpu:gpu",
 }
 
 
