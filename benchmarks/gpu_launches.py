@@ -7,9 +7,10 @@ numba-cuda's simulator (the engine's launcher and every ``copy_to_host`` instrum
 
 Workloads (steps after a warm-up of ``--warmup`` steps): ``free`` (the engine
 benchmark's: discs of 33 mm at packing ``--phi`` in a walled box, mean speed 10 mm/s,
-re-drawn every 0.1 s) and ``jam`` (40 robots heading up into the top wall of a 200 x
-400 mm box, 20 mm/s, 1 s control periods).  Prints one JSON line per workload: launches,
-reads and sweeps per step (their means), grid rebuilds.  Launch overhead is what these
+re-drawn every 0.1 s) and ``jam`` (``tests/sim/test_gpu_jam.py``'s: 24 robots heading
+up within 30 degrees into the top wall of a 100 x 350 mm box, 20 mm/s, 1 s control
+periods; use ``--warmup 13 --steps 13`` for its jammed half).  Prints one JSON line
+per workload: launches, reads and sweeps per step (their means).  Launch overhead is what these
 counts cost on a GPU: about 5-10 us a launch on an H100 plus numba-cuda's Python-side
 argument handling (tens of us), and a read back waits for the device.
 """
@@ -35,6 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "src")
     sys.path.insert(0, os.path.abspath(a.src or here))
     os.environ["THERMOSWARM_GPU_DEVICE"] = "simulator"
+    os.environ["NUMBA_ENABLE_CUDASIM"] = "1"
 
     import numpy as np
     from numba.cuda.simulator.cudadrv import devicearray as fake
@@ -72,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
             params = EngineParams(dt=0.1, tau=0.1, radius=r)
             policy = BoltzmannUniform(kT_for_mean_speed(10.0))
         else:
-            world, n, area = box_world(200.0, 400.0), 40, (0.0, 0.0, 200.0, 240.0)
+            world, n, area = box_world(100.0, 350.0), 24, None
             params = EngineParams(dt=0.1, tau=1.0, radius=r)
             policy = BoltzmannUniform(kT_for_mean_speed(20.0), half_width=math.pi / 6)
         sim = E.GpuSimulator(world, params, policy)

@@ -129,6 +129,8 @@ class GpuSimulator:
         self.launches = 0
         #: control-block read backs so far (one a step, two in a cold jam)
         self.readbacks = 0
+        #: grid rebuilds so far
+        self.rebuilds = 0
 
     # ------------------------------------------------------------------ launches
     def _launch(self, kernel, dim: int, inputs: list[Any]) -> None:
@@ -285,6 +287,7 @@ class GpuSimulator:
         d = self._dev
         assert d is not None
         n = self._n
+        self.rebuilds += 1
         if n:
             cur, oth = d.cur, 1 - d.cur
             self._launch_coop(rebuild_kernel, max(n, d.nx * d.ny + 1), [

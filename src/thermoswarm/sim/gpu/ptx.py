@@ -2,11 +2,11 @@
 
 numba-cuda's simulator runs the kernels as Python, which accepts code that the CUDA
 compiler rejects (types it cannot infer, unsupported calls).  This check closes that
-gap on any machine: small workloads run in the simulator with every launch recorded
-(kernel, argument types: :func:`record_signatures`), then each kernel is compiled for
-those types by NVVM (``numba.cuda.compile_ptx``) for each architecture asked for
-(:func:`compile_kernels`, in a child process: numba-cuda picks simulator or CUDA once
-per process).  NVVM and NVRTC come with the ``gpu`` extra (NVIDIA's wheels); no GPU,
+gap on any machine: the engine makes every launch it has with the launcher replaced by
+a recorder (kernel, argument types: :func:`record_signatures`), then each kernel is
+compiled for those types by NVVM (``numba.cuda.compile_ptx``) for each architecture
+asked for (:func:`compile_kernels`, in a child process: numba-cuda picks simulator or
+CUDA once per process).  NVVM and NVRTC come with the ``gpu`` extra (NVIDIA's wheels); no GPU,
 driver or CUDA toolkit is needed.  ``tests/sim/test_gpu_ptx.py`` runs it in the fast
 suite for sm_80 (A100) and sm_90 (H100/H200); ``thermoswarm gpu check --ptx`` on demand.
 """
@@ -32,49 +32,36 @@ print(json.dumps(record_signatures()))
 
 
 def _workloads() -> None:
-    """Small runs that launch every kernel with every argument type the engine uses:
-    walls, a body and a piston; both speed laws; a large sparse grid (many scan tiles);
-    a jam (the Gauss-Seidel launch, cold and warm)."""
-    import math
-
+    """Every launch the engine makes, made dry (the launcher records and skips): a step,
+    a rebuild with held pushes, each Gauss-Seidel mode, the overlap check, on a world
+    with walls, a body and a piston (argument types do not depend on the values)."""
     import numpy as np
 
     from thermoswarm.policy import BoltzmannUniform
-    from thermoswarm.sim import engine as E
     from thermoswarm.sim.engine import EngineParams, place_lattice
+    from thermoswarm.sim.gpu import kernels_gs as KS
     from thermoswarm.sim.gpu.engine import GpuSimulator
-    from thermoswarm.sim.world import Body, Piston, World, box_world, polygon_segments
+    from thermoswarm.sim.world import Body, Piston, World, polygon_segments
 
     body = Body(x=300.0, y=100.0, radius=50.0, drag=4.0)
     piston = Piston(axis=0, position=300.0, side=-1, lo=250.0, hi=450.0, drag=9.0)
     walls = polygon_segments([(0, 0), (2000, 0), (2000, 500), (0, 500)])
-    cases = [
-        (World((0.0, 0.0, 2000.0, 500.0), walls, bodies=(body,), pistons=(piston,)), None,
-         30, (0, 0, 600, 200), "boltzmann", math.pi, 3),
-        (box_world(13000.0, 13000.0), 50.0, 1200, None, "half-normal", math.pi, 1),
-        (box_world(200.0, 300.0), None, 30, (0, 100, 200, 300), "boltzmann", math.pi / 8, 4),
-    ]  # fmt: skip
-    gs_after = E.GS_AFTER
-    try:
-        for world, cs, n, area, law, half_width, steps in cases:
-            E.GS_AFTER = 2 if half_width < 1 else gs_after  # the jam: Gauss-Seidel at once
-            params = EngineParams(radius=16.5, cell_size=cs, tau=1.0)
-            policy = BoltzmannUniform(63.7 * 4, half_width=half_width, speed_law=law)
-            sim = GpuSimulator(world, params, policy)
-            rng = np.random.default_rng(0)
-            state = sim.init(place_lattice(area or world.bounds, n, 16.5, rng), rng)
-            for _ in range(steps):
-                sim.step(state)
-            sim._dev.need_rebuild = True  # a rebuild (with the held pushes, in the jam)
-            sim.step(state)
-            sim.max_overlap(state)
-    finally:
-        E.GS_AFTER = gs_after
+    world = World((0.0, 0.0, 2000.0, 500.0), walls, bodies=(body,), pistons=(piston,))
+    sim = GpuSimulator(world, EngineParams(radius=16.5, tau=1.0), BoltzmannUniform(63.7))
+    rng = np.random.default_rng(0)
+    state = sim.init(place_lattice((0, 0, 600, 200), 30, 16.5, rng), rng)
+    sim.step(state)
+    sim._dev.alloc_tables()
+    sim._held = True
+    sim._rebuild()
+    for mode in (KS.WARM, KS.COLD_START, KS.RESUME):
+        sim._gauss_seidel(mode)
+    sim.max_overlap(state)
 
 
 def record_signatures() -> dict[str, list[list[str]]]:
-    """``{kernel name: [argument types, ...]}`` of every launch of small workloads (in
-    the simulator: call it in a process where numba-cuda runs its simulator)."""
+    """``{kernel name: [argument types, ...]}`` of every launch the engine makes (call
+    it in a process where numba-cuda runs its simulator: the device arrays are its)."""
     import numba
 
     from thermoswarm.sim.gpu import engine as E
@@ -92,15 +79,12 @@ def record_signatures() -> dict[str, list[list[str]]]:
     def typ(a: Any) -> str:
         return str(numba.typeof(a.copy_to_host() if hasattr(a, "copy_to_host") else a))
 
-    def wrap(orig):
-        def rec(self, kernel, dim, inputs):
-            sigs.setdefault(names[id(kernel)], set()).add(tuple(typ(a) for a in inputs))
-            return orig(self, kernel, dim, inputs)
-
-        return rec
+    def record(self, kernel, dim, inputs):
+        self.launches += 1
+        sigs.setdefault(names[id(kernel)], set()).add(tuple(typ(a) for a in inputs))
 
     saved = E.GpuSimulator._launch, E.GpuSimulator._launch_coop
-    E.GpuSimulator._launch, E.GpuSimulator._launch_coop = wrap(saved[0]), wrap(saved[1])
+    E.GpuSimulator._launch = E.GpuSimulator._launch_coop = record
     try:
         _workloads()
     finally:
