@@ -11,9 +11,9 @@ import numpy as np
 from thermoswarm.errors import ConfigError
 from thermoswarm.sim import kernels as K
 from thermoswarm.sim.gpu import kernels as G
-from thermoswarm.sim.gpu.kernels_grid import SCAN_ITEMS
+from thermoswarm.sim.gpu.kernels_grid import SCAN_TILE
 from thermoswarm.sim.gpu.kernels_gs import CAP
-from thermoswarm.sim.gpu.runtime import cuda, grid
+from thermoswarm.sim.gpu.runtime import cuda
 from thermoswarm.sim.world import World
 
 if TYPE_CHECKING:
@@ -72,8 +72,7 @@ class Device:
         self.fscratch = z(n, f4)
         self.fscratch2 = z(n, f4)
         self.cell_start = z(ncell + 1, i4)
-        _blocks, threads = grid(n)
-        self.scan = z(-(-(ncell + 1) // (threads * SCAN_ITEMS)), i4)  # one per tile
+        self.scan = z(-(-(ncell + 1) // SCAN_TILE), i4)  # one per tile of the scan
         self.cell_flag = cuda.to_device(self._cell_flags(w, r * (1 + p.skin)))
         c2 = (2 * r - K.SLOP) ** 2
         self.geo = cuda.to_device(np.array([gx0, gy0, cs, r, eps, c2], f4))

@@ -6,7 +6,7 @@ barriers:
 1. every cell's count set to zero;
 2. each robot takes its cell and an arrival rank in it from an atomic counter;
 3. an exclusive prefix sum over the cells turns the counts into ``cell_start``
-   (:func:`scan_tiles`): each block loads a tile of ``blockDim x SCAN_ITEMS`` counts
+   (:func:`scan_tiles`): each block loads a tile of ``SCAN_TILE`` counts
    with coalesced reads (consecutive threads, consecutive addresses), scans it in shared
    memory and writes the tile's total; one block scans the totals; every tile adds its
    offset, again coalesced.  (The scan it replaces gave each thread 256 consecutive
@@ -26,11 +26,11 @@ from numba import cuda
 
 from thermoswarm.sim.gpu.kernels import CUR, D_IN, D_OUT, G_CS, G_X0, G_Y0, cell_of
 
-#: Counts per thread in a tile of the prefix sum (a tile: blockDim x SCAN_ITEMS).
-SCAN_ITEMS = 16
-#: Largest block (threads) the scan's shared memory is sized for.
+#: Counts in a tile of the prefix sum (shared memory: 16 KB); a block of ``nt`` threads
+#: scans ``SCAN_TILE / nt`` consecutive counts a thread (16 with 256 threads on a GPU).
+SCAN_TILE = 4096
+#: Largest block (threads) the scan is sized for (a power of 2 up to this).
 MAX_THREADS = 256
-_SHARED = MAX_THREADS * SCAN_ITEMS
 
 
 @cuda.jit(device=True)
@@ -48,26 +48,27 @@ def block_scan(tot, tx, nt):
 
 @cuda.jit(device=True)
 def tile_exclusive(a, m, base, buf, tot, tx, nt):
-    """Exclusive prefix sum, in place, of the tile ``a[base : base + nt * SCAN_ITEMS]``
+    """Exclusive prefix sum, in place, of the tile ``a[base : base + SCAN_TILE]``
     (entries past ``m`` count as 0); returns the tile's total.  Reads and writes are
     coalesced; the per-thread runs are scanned in shared memory."""
-    for q in range(SCAN_ITEMS):
+    items = SCAN_TILE // nt
+    for q in range(items):
         idx = base + q * nt + tx
         buf[q * nt + tx] = a[idx] if idx < m else 0
     cuda.syncthreads()
     s = 0
-    for q in range(SCAN_ITEMS):
-        v = buf[tx * SCAN_ITEMS + q]
-        buf[tx * SCAN_ITEMS + q] = s
+    for q in range(items):
+        v = buf[tx * items + q]
+        buf[tx * items + q] = s
         s += v
     tot[tx] = s
     cuda.syncthreads()
     block_scan(tot, tx, nt)
     off = tot[tx] - s
-    for q in range(SCAN_ITEMS):
-        buf[tx * SCAN_ITEMS + q] += off
+    for q in range(items):
+        buf[tx * items + q] += off
     cuda.syncthreads()
-    for q in range(SCAN_ITEMS):
+    for q in range(items):
         idx = base + q * nt + tx
         if idx < m:
             a[idx] = buf[q * nt + tx]
@@ -83,9 +84,10 @@ def scan_tiles(g, a, m, sums):
     tx = cuda.threadIdx.x
     nt = cuda.blockDim.x
     bid = cuda.blockIdx.x
-    width = nt * SCAN_ITEMS
+    width = SCAN_TILE
+    items = width // nt
     tiles = (m + width - 1) // width
-    buf = cuda.shared.array(_SHARED, np.int32)
+    buf = cuda.shared.array(SCAN_TILE, np.int32)
     tot = cuda.shared.array(MAX_THREADS, np.int32)
     for t in range(bid, tiles, cuda.gridDim.x):
         total = tile_exclusive(a, m, t * width, buf, tot, tx, nt)
@@ -96,7 +98,7 @@ def scan_tiles(g, a, m, sums):
         carry = 0
         for base in range(0, tiles, width):
             total = tile_exclusive(sums, tiles, base, buf, tot, tx, nt)
-            for q in range(SCAN_ITEMS):
+            for q in range(items):
                 idx = base + q * nt + tx
                 if idx < tiles:
                     sums[idx] += carry
@@ -105,7 +107,7 @@ def scan_tiles(g, a, m, sums):
     g.sync()
     for t in range(bid, tiles, cuda.gridDim.x):
         off = sums[t]
-        for q in range(SCAN_ITEMS):
+        for q in range(items):
             idx = t * width + q * nt + tx
             if idx < m:
                 a[idx] += off
