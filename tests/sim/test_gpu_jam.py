@@ -22,6 +22,7 @@ from thermoswarm.policy import BoltzmannUniform
 from thermoswarm.sim.engine import EngineParams, Simulator, place_lattice
 from thermoswarm.sim.gpu import GpuSimulator
 from thermoswarm.sim.gpu.check import exact_max_overlap
+from thermoswarm.sim.gpu.runtime import simulated
 from thermoswarm.sim.world import box_world
 
 R = 16.5
@@ -83,9 +84,12 @@ def test_a_free_step_is_two_launches_and_one_read_back():
 
 
 @pytest.mark.slow
+@pytest.mark.skipif(simulated(), reason="hours in numba-cuda's simulator: on a GPU only")
 def test_the_mechanism_studys_jam_on_the_gpu_engine():
     """The mechanism study's slowest run (``benchmarks/engine_jam.py``'s combination:
-    600 robots pressed into the arena's walls), shortened to 60 s: the same checks."""
+    600 robots pressed into the arena's walls), shortened to 60 s: the same checks.
+    In the simulator it would take hours (600 robots, ~25 sweeps a step, 600 steps:
+    ~300 times the small jam above), so it runs where the engine runs on a GPU."""
     from thermoswarm.scenarios.runner import build, resolve
     from thermoswarm.studies.mechanism import SETTINGS
 
