@@ -42,3 +42,37 @@ def test_every_kernel_compiles_to_ptx_for_sm80_and_sm90():
     by = {(r["kernel"], r["arch"]): r for r in rows}
     assert by[("jacobi", "sm_90")]["ptx_chars"] > 10_000
     assert by[("gauss_seidel", "sm_80")]["ptx_chars"] > 10_000
+
+
+def test_gpu_check_names_what_is_missing(monkeypatch):
+    """``thermoswarm gpu check`` (issue 34 item 1): the lock's CUDA 13 libraries are
+    found in site-packages; a missing one, or a missing driver, is named exactly."""
+    import json
+
+    from click.testing import CliRunner
+    from cuda import pathfinder
+
+    from thermoswarm.cli import cli
+    from thermoswarm.sim.gpu import doctor
+
+    res = CliRunner().invoke(cli, ["gpu", "check", "--json"])
+    rep = json.loads(res.output.strip().splitlines()[-1])
+    libs = rep["libraries"]
+    assert all(libs[k]["found"] for k in ("nvvm", "nvrtc", "cudart", "nvJitLink", "cudadevrt"))
+    assert libs["nvrtc"]["version"].startswith("13.")
+    assert res.exit_code == (1 if rep["problems"] else 0)
+    if not rep["driver"]["found"]:  # this machine: no driver, the simulator
+        assert rep["device"] == {"mode": "simulator"}
+        assert any("no CUDA driver" in p for p in rep["problems"])
+    real = pathfinder.load_nvidia_dynamic_lib
+
+    def without_nvrtc(name):
+        if name == "nvrtc":
+            raise pathfinder.DynamicLibNotFoundError('Failure finding "libnvrtc.so.13"')
+        return real(name)
+
+    monkeypatch.setattr(pathfinder, "load_nvidia_dynamic_lib", without_nvrtc)
+    rep = doctor.diagnose()
+    assert any("nvrtc" in p and "libnvrtc.so.13" in p for p in rep["problems"]), rep["problems"]
+    text = doctor.format_report(rep)
+    assert "nvrtc     MISSING" in text and "problem: CUDA library nvrtc not found" in text
