@@ -20,7 +20,8 @@ short keeps what it measured):
   weights of the shipped architecture: the same arithmetic; at most 40 detections per
   frame, the benchmark video's ant count), and with the pose network run on 40 crops
   per frame (``frames_per_second_with_40_poses``: untrained weights may find no ant);
-- ``tests``: the GPU engine's tests (``tests/sim/test_gpu_backend.py``) on this device;
+- ``tests``: the GPU engine's tests (``tests/sim/test_gpu_backend.py`` and
+  ``tests/sim/test_gpu_jam.py``) on this device;
 - ``goals``: the goal figures and whether this run met them.
 
 A baseline that cannot run says why in its entry.  ``--budget`` (seconds) stops
@@ -230,8 +231,8 @@ def _unet(frames: int) -> dict:
 def _tests(out_dir: Path, select: str | None, sites: list[str]) -> dict:
     """Run the GPU engine's tests on this process's device; counts from JUnit XML."""
     xml = out_dir / "gpu_tests.xml"
-    args = ["tests/sim/test_gpu_backend.py", "-q", "-m", "not slow", "-p", "no:cacheprovider",
-            f"--junitxml={xml}"]  # fmt: skip
+    args = ["tests/sim/test_gpu_backend.py", "tests/sim/test_gpu_jam.py", "-q", "-m",
+            "not slow", "-p", "no:cacheprovider", f"--junitxml={xml}"]  # fmt: skip
     if select:
         args += ["-k", select]
     # pytest in a child process, with the extra folders at the end of its sys.path

@@ -37,6 +37,7 @@ _COMMANDS: dict[str, str] = {
     "cache": "thermoswarm.cli.cache:cache",
     "view": "thermoswarm.cli.view:view",
     "robot": "thermoswarm.cli.robot:robot",
+    "gpu": "thermoswarm.cli.gpu:gpu",
 }
 
 

@@ -15,6 +15,7 @@ from thermoswarm.sim.kernels_walls import (
     _applied_steps,
     _apply_body_steps,
     _bodies_pass,
+    _gs_pair_step,
     _movables_applied,
     _near_moved,
     _seg_gap,
@@ -175,27 +176,12 @@ def _gs_pass(
             dy = pos[i, 1] - pos[j, 1]
             d2 = dx * dx + dy * dy
             L = np.float64(lam[i, kk]) if m <= cap else 0.0
-            step = 0.0
-            d = 1.0
-            if d2 < c2:
-                d = math.sqrt(d2)
-                step = half * (d_rr - d)
-                if d <= 1e-12:
-                    dx = 1.0 if i < j else -1.0
-                    dy = 0.0
-                    d = 1.0
-            elif L > 0.0:
-                d = math.sqrt(d2)
-                g = 0.5 * (d - d_rr)
-                if g > SLOP:
-                    step = -min(L, omega * g)
+            step, ux, uy = _gs_pair_step(dx, dy, d2, L, c2, d_rr, half, omega, i, j)
             if step == 0.0:
                 continue
             held = m <= cap and nnb[j] <= cap
             if not held and step < 0.0:
                 continue
-            ux = step * dx / d
-            uy = step * dy / d
             pos[i, 0] += ux
             pos[i, 1] += uy
             pos[j, 0] -= ux

@@ -3,34 +3,20 @@ next sweep visits (see :mod:`thermoswarm.sim.kernels`)."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit, prange
 
 from thermoswarm.sim.kernels_grid import MOVED, OVERLAPPING, SLOP, prefetch, serial_twin
-from thermoswarm.sim.kernels_walls import _walls_and_bodies
+from thermoswarm.sim.kernels_walls import _pair_core, _walls_and_bodies
 
 
 @njit(cache=True, inline="always")
 def _pair_push(px, py, src, i, j, c2, d_rr, half, mx, my, w):
     """Robot ``i`` at ``(px, py)`` against robot ``j`` of ``src``: if they overlap, ``i``'s
     share of the separation added to ``(mx, my)`` and the overlap to the running maximum
-    ``w``; returns the three."""
-    dx = px - src[j, 0]
-    dy = py - src[j, 1]
-    d2 = dx * dx + dy * dy
-    if d2 < c2:
-        d = math.sqrt(d2)
-        if d_rr - d > w:
-            w = d_rr - d
-        if d > 1e-12:
-            f = half * (d_rr - d) / d
-            mx += f * dx
-            my += f * dy
-        else:  # coincident centres: separate along x by row order
-            mx += half * d_rr * (1.0 if i < j else -1.0)
-    return mx, my, w
+    ``w``; returns the three (:func:`~thermoswarm.sim.kernels_walls._pair_core`, which
+    the GPU engine shares)."""
+    return _pair_core(px, py, src[j, 0], src[j, 1], i, j, c2, d_rr, half, mx, my, w)
 
 
 #: How many visits ahead a later sweep starts loading a robot's rows (see

@@ -38,6 +38,100 @@ from thermoswarm.sim.kernels_grid import (
 )
 
 
+# ------------------------------------------------ contacts shared with the GPU engine
+# Scalar functions (no arrays of the CPU engine's layout): the CPU kernels call them, and
+# the GPU engine (:mod:`thermoswarm.sim.gpu.kernels`) compiles the same source for CUDA,
+# so the two engines' contact rules cannot drift apart.
+@njit(cache=True, inline="always")
+def _pair_core(px, py, qx, qy, i, j, c2, d_rr, half, mx, my, w):
+    """Robot ``i`` at ``(px, py)`` against robot ``j`` at ``(qx, qy)``: if they overlap
+    (squared distance below ``c2``), ``i``'s share ``half`` of the separation added to
+    ``(mx, my)`` and the overlap (``d_rr`` minus the distance, mm) to the running maximum
+    ``w``; returns the three."""
+    dx = px - qx
+    dy = py - qy
+    d2 = dx * dx + dy * dy
+    if d2 < c2:
+        d = math.sqrt(d2)
+        if d_rr - d > w:
+            w = d_rr - d
+        if d > 1e-12:
+            f = half * (d_rr - d) / d
+            mx += f * dx
+            my += f * dy
+        else:  # coincident centres: separate along x by row order
+            mx += half * d_rr * (1.0 if i < j else -1.0)
+    return mx, my, w
+
+
+@njit(cache=True, inline="always")
+def _gs_pair_step(dx, dy, d2, L, c2, d_rr, half, omega, i, j):
+    """One pair of a Gauss-Seidel pass (:func:`~thermoswarm.sim.kernels_held._gs_pass`):
+    robots ``i`` and ``j`` with ``(dx, dy)`` from ``j`` to ``i``, squared distance
+    ``d2`` and push ``L`` (mm) held between them.  Overlapping, each moves ``half`` x
+    the overlap; apart with a push held, each takes back up to ``omega`` x half the gap.
+    Returns ``(step, ux, uy)``: the push added (mm, < 0: taken back) and ``i``'s
+    displacement (``j`` moves by minus it); ``step`` is 0 when nothing moves."""
+    step = 0.0
+    d = 1.0
+    if d2 < c2:
+        d = math.sqrt(d2)
+        step = half * (d_rr - d)
+        if d <= 1e-12:
+            dx = 1.0 if i < j else -1.0
+            dy = 0.0
+            d = 1.0
+    elif L > 0.0:
+        d = math.sqrt(d2)
+        g = 0.5 * (d - d_rr)
+        if g > SLOP:
+            step = -min(L, omega * g)
+    if step == 0.0:
+        return 0.0, 0.0, 0.0
+    return step, step * dx / d, step * dy / d
+
+
+@njit(cache=True, inline="always")
+def _body_contact(px, py, bx, by, R):
+    """A robot at ``(px, py)`` against a body at ``(bx, by)`` (``R``: the sum of the
+    radii, mm): ``(1, ox, oy)`` with the overlap vector pushing the body away from the
+    robot when they touch, else ``(0, 0, 0)``."""
+    dx = px - bx
+    dy = py - by
+    d2 = dx * dx + dy * dy
+    if d2 < (R - SLOP) * (R - SLOP):
+        d = math.sqrt(d2)
+        if d < 1e-12:
+            return 0, 0.0, 0.0
+        ov = R - d
+        return 1, -ov * dx / d, -ov * dy / d
+    return 0, 0.0, 0.0
+
+
+@njit(cache=True, inline="always")
+def _piston_contact(px, py, a, side, ppos, lo, hi, r):
+    """A robot of radius ``r`` at ``(px, py)`` against a piston (axis ``a``, ``side``,
+    position ``ppos``, extent ``lo..hi``): its overlap (mm) when they touch, else 0."""
+    q = py if a == 0 else px
+    if q < lo or q > hi:
+        return 0.0
+    gap = side * ((px if a == 0 else py) - ppos)
+    if gap < r - SLOP:
+        return r - gap
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def _contact_solve(k, sx, sy, drag, gamma_r):
+    """The step of a body or piston of ``drag`` touched by ``k`` >= 1 robots of drag
+    ``gamma_r`` whose overlaps sum to ``(sx, sy)`` (mm), and the robots' share of each
+    overlap: ``(step x, step y, share)`` (see :func:`_bodies_pass`)."""
+    if math.isinf(drag):
+        return 0.0, 0.0, 1.0
+    den = k * gamma_r + drag
+    return gamma_r * sx / den, gamma_r * sy / den, drag / den
+
+
 # ------------------------------------------------------------------ geometry bits
 @njit(cache=True, inline="always")
 def _seg_push(px, py, x0, y0, x1, y1, r):
@@ -273,6 +367,41 @@ def _walls_held(px, py, r, i, lw, lid, pull, seg):
     return mx, my, w, slack
 
 
+@njit(cache=True, inline="always")
+def _body_finish(bodies, b, k, sx, sy, gamma_r, dt, contact):
+    """Body ``b``'s step and the robots' share from its ``k`` contacts, whose overlaps
+    sum to ``(sx, sy)``; the robots' force on it in this sweep into ``contact[b]``."""
+    contact[b, 0] = 0.0
+    contact[b, 1] = 0.0
+    if k == 0:
+        bodies[b, BODY_STEP_X] = 0.0
+        bodies[b, BODY_STEP_Y] = 0.0
+        bodies[b, BODY_SHARE] = 1.0
+        return
+    stx, sty, share = _contact_solve(k, sx, sy, bodies[b, BODY_DRAG], gamma_r)
+    bodies[b, BODY_STEP_X] = stx
+    bodies[b, BODY_STEP_Y] = sty
+    bodies[b, BODY_SHARE] = share
+    contact[b, 0] = gamma_r * share * sx / dt
+    contact[b, 1] = gamma_r * share * sy / dt
+
+
+@njit(cache=True, inline="always")
+def _piston_finish(pistons, p, nb, k, s, gamma_r, dt, contact):
+    """Piston ``p``'s step and the robots' share from its ``k`` contacts, whose overlaps
+    sum to ``s``; the robots' force on it in this sweep into ``contact[nb + p, 0]``."""
+    contact[nb + p, 0] = 0.0
+    if k == 0:
+        pistons[p, PISTON_STEP] = 0.0
+        pistons[p, PISTON_SHARE] = 1.0
+        return
+    side = pistons[p, PISTON_SIDE]
+    st, _, share = _contact_solve(k, s, 0.0, pistons[p, PISTON_DRAG], gamma_r)
+    pistons[p, PISTON_STEP] = 0.0 if st == 0.0 else -side * st  # away from the robots
+    pistons[p, PISTON_SHARE] = share
+    contact[nb + p, 0] = -side * gamma_r * share * s / dt
+
+
 @njit(cache=True)
 def _bodies_pass(pos, cell_start, perm, grid, r, gamma_r, dt, bodies, pistons, contact):
     """Serial pass: each movable body's and piston's step from its current contacts.
@@ -303,37 +432,12 @@ def _bodies_pass(pos, cell_start, perm, grid, r, gamma_r, dt, bodies, pistons, c
                 c = cy * nx + cx
                 for kk in range(cell_start[c], cell_start[c + 1]):
                     i = perm[kk]
-                    dx = pos[i, 0] - bx
-                    dy = pos[i, 1] - by
-                    d2 = dx * dx + dy * dy
-                    if d2 < (R - SLOP) * (R - SLOP):
-                        d = math.sqrt(d2)
-                        if d < 1e-12:
-                            continue
-                        ov = R - d
+                    hit, ox, oy = _body_contact(pos[i, 0], pos[i, 1], bx, by, R)
+                    if hit:
                         k += 1
-                        sx -= ov * dx / d
-                        sy -= ov * dy / d
-        drag = bodies[b, BODY_DRAG]
-        contact[b, 0] = 0.0
-        contact[b, 1] = 0.0
-        if k == 0:
-            bodies[b, BODY_STEP_X] = 0.0
-            bodies[b, BODY_STEP_Y] = 0.0
-            bodies[b, BODY_SHARE] = 1.0
-            continue
-        if math.isinf(drag):
-            share = 1.0
-            bodies[b, BODY_STEP_X] = 0.0
-            bodies[b, BODY_STEP_Y] = 0.0
-        else:
-            den = k * gamma_r + drag
-            share = drag / den
-            bodies[b, BODY_STEP_X] = gamma_r * sx / den
-            bodies[b, BODY_STEP_Y] = gamma_r * sy / den
-        bodies[b, BODY_SHARE] = share
-        contact[b, 0] = gamma_r * share * sx / dt
-        contact[b, 1] = gamma_r * share * sy / dt
+                        sx += ox
+                        sy += oy
+        _body_finish(bodies, b, k, sx, sy, gamma_r, dt, contact)
     for p in range(pistons.shape[0]):
         a = int(pistons[p, PISTON_AXIS])
         side = pistons[p, PISTON_SIDE]
@@ -346,7 +450,6 @@ def _bodies_pass(pos, cell_start, perm, grid, r, gamma_r, dt, bodies, pistons, c
         else:
             ca, cb = _cell_range(ppos - r - cs, ppos + r + cs, y0, cs, ny)
             oa, ob = _cell_range(lo - r - cs, hi + r + cs, x0, cs, nx)
-        o = 1 - a
         k = 0
         s = 0.0
         for u in range(ca, cb + 1):
@@ -354,28 +457,11 @@ def _bodies_pass(pos, cell_start, perm, grid, r, gamma_r, dt, bodies, pistons, c
                 c = w * nx + u if a == 0 else u * nx + w
                 for kk in range(cell_start[c], cell_start[c + 1]):
                     i = perm[kk]
-                    q = pos[i, o]
-                    if q < lo or q > hi:
-                        continue
-                    gap = side * (pos[i, a] - ppos)
-                    if gap < r - SLOP:
+                    ov = _piston_contact(pos[i, 0], pos[i, 1], a, side, ppos, lo, hi, r)
+                    if ov > 0.0:
                         k += 1
-                        s += r - gap
-        drag = pistons[p, PISTON_DRAG]
-        contact[nb + p, 0] = 0.0
-        if k == 0:
-            pistons[p, PISTON_STEP] = 0.0
-            pistons[p, PISTON_SHARE] = 1.0
-            continue
-        if math.isinf(drag):
-            share = 1.0
-            pistons[p, PISTON_STEP] = 0.0
-        else:
-            den = k * gamma_r + drag
-            share = drag / den
-            pistons[p, PISTON_STEP] = -side * gamma_r * s / den  # away from the robots
-        pistons[p, PISTON_SHARE] = share
-        contact[nb + p, 0] = -side * gamma_r * share * s / dt
+                        s += ov
+        _piston_finish(pistons, p, nb, k, s, gamma_r, dt, contact)
 
 
 @njit(cache=True)

@@ -10,7 +10,10 @@ device's exhaustive pair search without ``exact_check``), ``max_overlap_fraction
 (the largest of that, of the overlap left by any step's sweeps and of the device's
 checks during the run), ``device_bytes_per_robot`` (every device array of the
 engine, divided by n), ``device`` (the GPU's name, or numba-cuda's simulator),
-``mean_sweeps_per_step``.
+``mean_sweeps_per_step``, ``launches_per_step``, ``rebuilds_per_step``,
+``bytes_per_robot_step`` (the device-memory traffic the kernels make, counted in
+:data:`STEP_BYTES`, with the run's sweeps and rebuilds) and ``bandwidth_share`` (that
+traffic at the measured speed over the card's peak bandwidth; None in the simulator).
 """
 
 from __future__ import annotations
@@ -29,7 +32,40 @@ from thermoswarm.sim.gpu.engine import GpuSimulator
 from thermoswarm.sim.gpu.runtime import cuda, device_name, simulated
 from thermoswarm.sim.world import box_world
 
-__all__ = ["run_bench_gpu"]
+__all__ = ["bytes_per_robot_step", "peak_bandwidth", "run_bench_gpu"]
+
+#: Device-memory bytes a robot moves in each part of a step, counted from the kernels
+#: (reads + writes of its own entries; a neighbour's position, read by the ~9 robots
+#: around it from memory sorted by cell, counted once, as it comes from the L2 cache).
+STEP_BYTES = {
+    # x, y, xr, yr, heading, speed, timer, ids read; x, y, heading, speed, timer written
+    "begin_step": 32 + 20,
+    # per sweep: source position, build position, cell_start (~1 entry), cell flag read;
+    # corrected position written
+    "sweep": 8 + 8 + 4 + 1 + 8,
+    # per rebuild: zero counts, keys (positions read, cell and rank written, an atomic
+    # read-modify-write), the scan (counts read and written twice), the scatter, the
+    # in-cell order, the gather of the 9 robot arrays (read and written) and the perm
+    "rebuild": 4 + 8 + 8 + 8 + 16 + 16 + 12 + 4 + 36 + 36,
+}
+
+
+def bytes_per_robot_step(sweeps: float, rebuilds_per_step: float) -> float:
+    """Device-memory traffic (bytes) of one robot-step with ``sweeps`` Jacobi sweeps a
+    step and a grid rebuild every ``1 / rebuilds_per_step`` steps (:data:`STEP_BYTES`).
+    A lower bound: scattered reads that miss the cache cost whole 32-byte sectors."""
+    b = STEP_BYTES
+    return b["begin_step"] + sweeps * b["sweep"] + rebuilds_per_step * b["rebuild"]
+
+
+def peak_bandwidth() -> float | None:
+    """The current GPU's peak memory bandwidth (bytes/s: 2 x memory clock x bus width),
+    or None in the simulator."""
+    if simulated():
+        return None
+    dev = cuda.get_current_device()
+    return 2.0 * dev.MEMORY_CLOCK_RATE * 1e3 * dev.GLOBAL_MEMORY_BUS_WIDTH / 8
+
 
 DIAMETER = 33.0
 MEAN_SPEED = 10.0
@@ -68,6 +104,8 @@ def run_bench_gpu(
     cuda.synchronize()
     setup = time.perf_counter() - t0
     state.counters[:] = 0
+    rebuilds0 = sim.rebuilds
+    launches0 = sim.launches
     if seconds is None:
         budget = 2e4 if simulated() else 2e9
         steps = min(2000, max(20, int(budget / max(n, 1))))
@@ -99,7 +137,17 @@ def run_bench_gpu(
         "mean_sweeps_per_step": float(state.counters[0]) / steps,
         "device_bytes_per_robot": sim.workspace_bytes() / max(n, 1),
         "policy_on_device": not host_policy,
+        "launches_per_step": (sim.launches - launches0) / steps,
+        "rebuilds_per_step": (sim.rebuilds - rebuilds0) / steps,
     }
+    out["bytes_per_robot_step"] = bytes_per_robot_step(
+        out["mean_sweeps_per_step"], out["rebuilds_per_step"]
+    )
+    bw = peak_bandwidth()
+    out["peak_bandwidth_bytes_per_second"] = bw
+    out["bandwidth_share"] = (
+        None if bw is None else out["robot_steps_per_second"] * out["bytes_per_robot_step"] / bw
+    )
     seen = float(state.counters[1]) / 1e6
     final_device = sim.max_overlap(state)
     out["device_max_overlap_fraction"] = max(worst_device, final_device) / DIAMETER

@@ -77,11 +77,33 @@ def default_device() -> str:
     if simulated():
         return SIMULATOR
     if not cuda.is_available():
+        from numba.cuda.cudadrv.driver import driver
+
+        why = getattr(driver, "initialization_error", None) or "no CUDA device found"
         raise ConfigError(
-            "engine.backend = 'gpu' found a CUDA driver but no usable GPU; set "
-            "THERMOSWARM_GPU_DEVICE=simulator to run its kernels in numba-cuda's simulator"
+            f"engine.backend = 'gpu' found a CUDA driver but no usable GPU ({why}); "
+            "`thermoswarm gpu check` says more; THERMOSWARM_GPU_DEVICE=simulator runs the "
+            "kernels in numba-cuda's simulator"
         )
+    missing = toolchain_error()
+    if missing:
+        raise ConfigError(f"engine.backend = 'gpu': {missing}")
     return f"cuda:{cuda.get_current_device().id}"
+
+
+def toolchain_error() -> str | None:
+    """Why numba-cuda cannot compile and link kernels here (a CUDA library it needs is
+    missing: its exact name and where it was looked for), or None."""
+    from cuda import pathfinder
+
+    try:
+        for name in ("nvvm", "nvrtc"):
+            pathfinder.load_nvidia_dynamic_lib(name)
+        pathfinder.locate_static_lib("cudadevrt")
+    except Exception as exc:  # cuda-pathfinder's own message names the library
+        return (f"{type(exc).__name__}: {exc}; pip install 'thermoswarm[gpu]' installs the "
+                "CUDA 13 libraries (NVVM, NVRTC, cudadevrt)")  # fmt: skip
+    return None
 
 
 def check_device(device: str | None) -> str:
