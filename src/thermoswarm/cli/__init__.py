@@ -168,8 +168,17 @@ def cli() -> None:
     """Maximum-entropy swarms: simulate robots, analyse trajectories, track ants."""
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings reach the user as ``warning: <first line>``, never with a source line."""
+    text = str(message).splitlines()[0] if str(message) else category.__name__
+    click.echo(f"warning: {text}", err=True)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point."""
+    import warnings
+
+    warnings.showwarning = _one_line_warning
     try:
         cli.main(args=argv, prog_name="thermoswarm", standalone_mode=True)
     except KeyboardInterrupt:  # pragma: no cover - interactive
