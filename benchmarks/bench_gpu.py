@@ -187,7 +187,7 @@ def _unet(frames: int) -> dict:
     """Frames per second of the U-Net detector on 1920x1080 RGB frames."""
     import torch
 
-    from thermoswarm.tracking.unet import (
+    from thermoswarm.tracking.detect.unet import (
         TopDownModel,
         UNetDetector,
         UNetOptions,

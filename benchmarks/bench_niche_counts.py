@@ -305,7 +305,7 @@ def _detect_windows(
     with its own background (lighting, rims and stains drift over two days); the body
     length is measured once from the trial's first 90 photos (no scale given)."""
     from thermoswarm.tracking import anatomy
-    from thermoswarm.tracking.detect import estimate_length_px
+    from thermoswarm.tracking.detect.classical import estimate_length_px
     from thermoswarm.tracking.pipeline import detect_inputs
     from thermoswarm.tracking.video import VideoSource
 

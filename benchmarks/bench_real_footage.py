@@ -65,7 +65,7 @@ import numpy as np
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 from thermoswarm.tracking import anatomy  # noqa: E402
-from thermoswarm.tracking.train import (  # noqa: E402
+from thermoswarm.tracking.train.fit import (  # noqa: E402
     LabeledFrames,
     TrainConfig,
     detection_metrics,
@@ -185,7 +185,7 @@ def mota(
     weighted by the run's labelled boxes.  ``dets`` are tracked by thermoswarm's
     tracker; ``tables`` (one MOT table per run, frames from 1) are a peer's tracks."""
     from thermoswarm.tracking.evaluate import evaluate_tables
-    from thermoswarm.tracking.tracker import track_detections
+    from thermoswarm.tracking.track.tracker import track_detections
 
     if not runs:
         return None
@@ -271,7 +271,7 @@ def read_peer(
 def run_classical(
     data: LabeledFrames, test: list[int], length: float, polarity: str = "dark"
 ) -> tuple[dict, dict]:
-    from thermoswarm.tracking.detect import ClassicalConfig, ClassicalDetector
+    from thermoswarm.tracking.detect.classical import ClassicalConfig, ClassicalDetector
 
     keys = data.keys or [(0, i) for i in range(len(data))]
     dets: dict[int, Any] = {}
@@ -291,7 +291,7 @@ def run_classical(
 def run_unet(
     model_path: Path, data: LabeledFrames, test: list[int], length: float, threads: int | None
 ) -> tuple[dict, dict]:
-    from thermoswarm.tracking.unet import UNetDetector, UNetOptions, load_model
+    from thermoswarm.tracking.detect.unet import UNetDetector, UNetOptions, load_model
 
     det = UNetDetector(
         load_model(model_path), px_per_mm=data.px_per_mm, options=UNetOptions(threads=threads)
@@ -310,7 +310,7 @@ def write_gt_mot(path: Path, nodes: list[str] | None, length: float, out: Path) 
     import sleap_io as sio
 
     from thermoswarm.fsutil import atomic_write_text
-    from thermoswarm.tracking.train_data import node_map
+    from thermoswarm.tracking.train.data import node_map
 
     labels = sio.load_slp(str(path))
     track_no = {id(t): k for k, t in enumerate(labels.tracks)}

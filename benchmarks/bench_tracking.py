@@ -42,7 +42,7 @@ import numpy as np
 
 
 def _generate(seed: int, folder: str, n_frames: int, n_ants: int) -> None:
-    from thermoswarm.tracking.synth import SynthConfig, generate, write_sequence
+    from thermoswarm.tracking.synth.clip import SynthConfig, generate, write_sequence
 
     cfg = SynthConfig(width=1920, height=1080, n_ants=n_ants, n_frames=n_frames, fps=30.0)
     write_sequence(generate(cfg, np.random.default_rng(seed)), folder)
@@ -161,7 +161,7 @@ def main(argv: list[str] | None = None) -> dict:
 
     from thermoswarm.tracking.evaluate import evaluate_files
     from thermoswarm.tracking.pipeline import track_video
-    from thermoswarm.tracking.synth import SynthConfig
+    from thermoswarm.tracking.synth.clip import SynthConfig
 
     args.cache.mkdir(parents=True, exist_ok=True)
     runs = []

@@ -39,9 +39,9 @@ from typing import Any
 import numpy as np
 
 from thermoswarm.io.mot import read_mot_table
-from thermoswarm.tracking.detect import FrameDetections
+from thermoswarm.tracking.detect.classical import FrameDetections
 from thermoswarm.tracking.evaluate import evaluate_tables
-from thermoswarm.tracking.tracker import Tracker, TrackerConfig
+from thermoswarm.tracking.track.tracker import Tracker, TrackerConfig
 
 #: Noise levels of the detection model (per ground-truth box unless said otherwise).
 NOISE = {

@@ -1,7 +1,7 @@
 """Benchmark of the trained top-down detector (U-Net centroids + pose network).
 
 1. **Training** (unless ``--model`` is given): ``train_from_sources(synthetic=True)``
-   with the default :class:`~thermoswarm.tracking.train.TrainConfig` (seed ``--seed``):
+   with the default :class:`~thermoswarm.tracking.train.fit.TrainConfig` (seed ``--seed``):
    synthetic training videos, periodic evaluation on a held-out synthetic video
    (tracked, CLEAR-MOT), stop when MOTA >= 0.95 and ID switches <= 1 %.  Reports the
    wall time and the CPU time (this process, all threads) to reach the target.
@@ -100,10 +100,10 @@ def main(argv: list[str] | None = None) -> dict:
     import torch
 
     from thermoswarm.config import from_mapping, parse_overrides
-    from thermoswarm.tracking.detect import make_detector
+    from thermoswarm.tracking.detect.classical import make_detector
     from thermoswarm.tracking.pipeline import track_video
-    from thermoswarm.tracking.tracker import TrackerConfig
-    from thermoswarm.tracking.train import TrainConfig, train_from_sources
+    from thermoswarm.tracking.track.tracker import TrackerConfig
+    from thermoswarm.tracking.train.fit import TrainConfig, train_from_sources
     from thermoswarm.tracking.video import open_video
 
     if args.threads is not None:

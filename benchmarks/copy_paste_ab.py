@@ -42,9 +42,9 @@ def held_out_scores(models: dict[str, Path], args: argparse.Namespace) -> dict:
     """Detection scores of each model on composites of the held-out individuals."""
     import dataclasses
 
-    from thermoswarm.tracking.train import TrainConfig, _real_composites
-    from thermoswarm.tracking.train_validate import evaluate_detector
-    from thermoswarm.tracking.unet import UNetDetector, load_model
+    from thermoswarm.tracking.detect.unet import UNetDetector, load_model
+    from thermoswarm.tracking.train.fit import TrainConfig, _real_composites
+    from thermoswarm.tracking.train.validate import evaluate_detector
 
     cfg = TrainConfig(seed=args.seed)
     # n_frames sets the held-out set's size (a tenth of it); the split comes first

@@ -11,7 +11,7 @@ box-only detections, alternately, ``--repeat`` times; the best times are compare
 ``--synthetic N`` objects (:func:`bench_tracking_real.synthetic_boxes`, same noise), and
 posed detections (head, body, tail) of ``--poses N`` ants of the synthetic video
 generator (:func:`pose_detections`), for which the whole
-:class:`~thermoswarm.tracking.track_result.TrackResult` (points and head-tail order,
+:class:`~thermoswarm.tracking.track.result.TrackResult` (points and head-tail order,
 boxes, scores, interpolation flags) must be equal, not only the MOT table.
 
     python benchmarks/tracker_ab.py --base d3abd6a --data DATA --limit \\
@@ -38,20 +38,32 @@ MODULES = ("tracker", "kalman", "association", "track_bank", "track_result")
 
 
 def export(rev: str, where: Path) -> str:
-    """Write revision ``rev``'s tracker modules into package ``where/trk_<rev>``."""
+    """Write revision ``rev``'s tracker modules into package ``where/trk_<rev>``: the
+    ``tracking/track/`` room where the revision has it, else the flat modules of the
+    revisions before the rooms (``tracking/tracker.py`` and its neighbours)."""
     pkg = "trk_" + re.sub(r"\W", "_", rev)
     d = where / pkg
     d.mkdir(parents=True)
     (d / "__init__.py").write_text("")
+    room = subprocess.run(
+        ["git", "ls-tree", "--name-only", f"{rev}:src/thermoswarm/tracking/track/"],
+        cwd=ROOT, capture_output=True, text=True,
+    )  # fmt: skip
+    if room.returncode == 0:
+        for name in room.stdout.split():
+            if name.endswith(".py") and name != "__init__.py":
+                src = _show(rev, f"src/thermoswarm/tracking/track/{name}")
+                (d / name).write_text(re.sub(r"thermoswarm\.tracking\.track\b", pkg, src))
+        if not (d / "tracker.py").exists():
+            raise SystemExit(f"{rev}: no src/thermoswarm/tracking/track/tracker.py")
+        return pkg
     have = []
     for m in MODULES:
-        r = subprocess.run(
-            ["git", "show", f"{rev}:src/thermoswarm/tracking/{m}.py"],
-            cwd=ROOT, capture_output=True, text=True,
-        )  # fmt: skip
-        if r.returncode == 0:
-            (d / f"{m}.py").write_text(r.stdout)
+        try:
+            (d / f"{m}.py").write_text(_show(rev, f"src/thermoswarm/tracking/{m}.py"))
             have.append(m)
+        except FileNotFoundError:
+            pass
     if "tracker" not in have:
         raise SystemExit(f"{rev}: no src/thermoswarm/tracking/tracker.py")
     names = "|".join(have)
@@ -74,13 +86,21 @@ def export(rev: str, where: Path) -> str:
     return pkg
 
 
+def _show(rev: str, path: str) -> str:
+    """``git show REV:PATH``; FileNotFoundError when the revision has no such file."""
+    r = subprocess.run(["git", "show", f"{rev}:{path}"], cwd=ROOT, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise FileNotFoundError(f"{rev}:{path}")
+    return r.stdout
+
+
 def pose_detections(n_ants: int, n_frames: int, seed: int) -> tuple[list[Any], float]:
-    """Posed detections of a synthetic video (:func:`thermoswarm.tracking.synth.generate`,
+    """Posed detections of a synthetic video (:func:`thermoswarm.tracking.synth.clip.generate`,
     1920x1080): the true keypoints plus 1 px noise, 5 % of the ants missed in each frame,
     head and tail swapped in 20 % of the detections with a head confidence of 0.3 (0.8
     otherwise), scores uniform in [0.5, 1]; and the frame rate."""
     from thermoswarm.tracking.detection import FrameDetections
-    from thermoswarm.tracking.synth import SynthConfig, generate
+    from thermoswarm.tracking.synth.clip import SynthConfig, generate
 
     rng = np.random.default_rng(seed)
     video = generate(SynthConfig(n_ants=n_ants, n_frames=n_frames), rng)
@@ -156,7 +176,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.path.insert(0, tmp)
         base = importlib.import_module(export(args.base, Path(tmp)) + ".tracker")
         if args.new is None:
-            import thermoswarm.tracking.tracker as new
+            import thermoswarm.tracking.track.tracker as new
         else:
             new = importlib.import_module(export(args.new, Path(tmp)) + ".tracker")
         print(f"{'detections':36s} {'base f/s':>9s} {'new f/s':>9s} {'new/base':>9s}")

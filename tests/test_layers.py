@@ -10,6 +10,11 @@ component of more than one module.
 The layers, bottom to top: the law and the simulator; the analysis; the scenarios; the
 sweeps and the studies; the report; ``reproduce``; the CLI.  Each rule below names what
 a layer must never import.
+
+Inside ``tracking``, the rooms (``thermoswarm/tracking/__init__.py`` draws them): the floor
+(``anatomy``, ``detection``, ``video``, ``evaluate``); ``synth``, ``detect`` and ``track``,
+which never import each other; ``train``; ``pipeline``; and ``batch`` (many videos through
+the pipeline) at the top.
 """
 
 from __future__ import annotations
@@ -37,6 +42,22 @@ FORBIDDEN = {
     "thermoswarm.report": ("thermoswarm.cli", "thermoswarm.reproduce"),
     "thermoswarm.reproduce": ("thermoswarm.cli",),
 }  # fmt: skip
+
+_T = "thermoswarm.tracking."
+#: the tracking rooms, bottom to top: each tuple is one rank
+TRACKING_RANKS = (
+    ("anatomy", "detection", "video", "evaluate"),
+    ("synth", "detect", "track"),
+    ("train",),
+    ("pipeline",),
+    ("batch",),
+)
+for _rank, _rooms in enumerate(TRACKING_RANKS):
+    _above = [r for rooms in TRACKING_RANKS[_rank + 1 :] for r in rooms]
+    for _room in _rooms:
+        # a room imports neither a room above it nor another room of its own rank
+        _others = [r for r in _rooms if r != _room] if _rank else []
+        FORBIDDEN[_T + _room] = tuple(_T + r for r in _above + _others)
 
 
 def _module_name(path: Path, root: Path) -> str:
@@ -133,6 +154,25 @@ def test_no_layer_imports_a_layer_above_it(edges):
         if _in(a, layer) and any(_in(b, up) for up in above)
     )
     assert not bad, "imports against the layering:\n" + "\n".join(bad)
+
+
+def test_every_tracking_room_has_a_rank():
+    """A new module or subpackage of ``tracking`` must be placed in a rank, or the layer
+    rules above would not see it."""
+    root = Path(importlib.util.find_spec("thermoswarm.tracking").origin).parent
+    rooms = {p.stem for p in root.glob("*.py") if p.stem != "__init__"}
+    rooms |= {p.parent.name for p in root.glob("*/__init__.py")}
+    ranked = {r for rooms_ in TRACKING_RANKS for r in rooms_}
+    assert rooms == ranked, f"unranked: {sorted(rooms - ranked)}; gone: {sorted(ranked - rooms)}"
+
+
+def test_the_tracking_rooms_forbid_their_neighbours():
+    """The rule table itself: ``track`` may not import ``detect`` (same rank), ``synth``
+    may not import ``train`` (above), ``train`` may import ``detect`` (below)."""
+    assert _T + "detect" in FORBIDDEN[_T + "track"]
+    assert _T + "train" in FORBIDDEN[_T + "synth"]
+    assert _T + "detect" not in FORBIDDEN[_T + "train"]
+    assert _T + "pipeline" in FORBIDDEN[_T + "anatomy"]
 
 
 def test_nothing_below_the_cli_imports_it(edges):

@@ -310,7 +310,7 @@ PYTHON_NOT_RUN = {
         "runs on the robot, with the board's hardware layer",
     ("io.md", "from thermoswarm.io import read_tracks, write_tracks"):
         "reads the reader's SLEAP, idtracker.ai and CSV files",
-    ("tracking_unet.md", "from thermoswarm.tracking.unet import load_model, UNetDetector"):
+    ("tracking_unet.md", "from thermoswarm.tracking.detect.unet import load_model, UNetDetector"):
         "needs a trained model (thermoswarm track train, minutes)",
     ("robot.md", "from controller import HAL, Config, Controller"):
         "runs on the robot, with the board's hardware layer",

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from tracking_fixtures import small_video
 
-from thermoswarm.tracking.synth import SynthVideo
+from thermoswarm.tracking.synth.clip import SynthVideo
 
 
 @pytest.fixture(scope="session")

@@ -28,7 +28,7 @@ def _train(labels, tmp_path):
 
 
 def _slp(tmp_path, frame_idx, *, write_video=True):
-    from thermoswarm.tracking.synth import write_video as wv
+    from thermoswarm.tracking.synth.clip import write_video as wv
 
     frames = [np.full((48, 64, 3), 200, np.uint8) for _ in range(3)]
     if write_video:

@@ -16,7 +16,7 @@ from tracking_fixtures import small_video
 from thermoswarm.cli import cli
 from thermoswarm.errors import InputError
 from thermoswarm.tracking.batch import expand_batch_dirs, find_videos, track_batch
-from thermoswarm.tracking.synth import write_video
+from thermoswarm.tracking.synth.clip import write_video
 
 #: Options of every batch run here: the paper's scale, no overlay (fast, small).
 TRACK = ["--px-per-mm", "paper", "--no-overlay", "--quiet"]

@@ -16,8 +16,8 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 import sleap_io as sio  # noqa: E402
 from tracking_fixtures import small_video  # noqa: E402
 
-from thermoswarm.tracking import train as tr  # noqa: E402
-from thermoswarm.tracking import unet  # noqa: E402
+from thermoswarm.tracking.detect import unet  # noqa: E402
+from thermoswarm.tracking.train import fit as tr  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 

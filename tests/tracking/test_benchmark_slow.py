@@ -12,7 +12,7 @@ import pytest
 
 from thermoswarm.tracking.evaluate import evaluate_files
 from thermoswarm.tracking.pipeline import track_video
-from thermoswarm.tracking.synth import SynthConfig, generate, write_sequence
+from thermoswarm.tracking.synth.clip import SynthConfig, generate, write_sequence
 
 
 @pytest.mark.slow

@@ -9,7 +9,7 @@ from tracking_fixtures import small_video
 
 from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.detect import (
+from thermoswarm.tracking.detect.classical import (
     ClassicalDetector,
     Detector,
     DetectorEntry,
@@ -76,7 +76,7 @@ def test_model_detector_missing_module_is_an_input_error(tmp_path):
         with pytest.raises(InputError, match="does not exist"):
             make_detector("ghost", px_per_mm=3.04, model=tmp_path / "absent.pt")
     finally:
-        from thermoswarm.tracking import detect
+        from thermoswarm.tracking.detect import classical as detect
 
         detect._DETECTORS.pop("ghost")
 

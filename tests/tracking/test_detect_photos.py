@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from thermoswarm.errors import InputError
-from thermoswarm.tracking.detect import ClassicalConfig, make_detector, typical_area
+from thermoswarm.tracking.detect.classical import ClassicalConfig, make_detector, typical_area
 
 H, W = 240, 320
 ANT_LEN, ANT_WID = 24, 8  # px, full resolution

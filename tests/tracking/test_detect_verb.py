@@ -12,10 +12,10 @@ from tracking_fixtures import small_video
 
 from thermoswarm.cli import cli
 from thermoswarm.io.mot import read_mot_table
-from thermoswarm.tracking.detfiles import read_detections
+from thermoswarm.tracking.detect.files import read_detections
 from thermoswarm.tracking.evaluate import evaluate_files
 from thermoswarm.tracking.pipeline import track_video
-from thermoswarm.tracking.synth import write_sequence
+from thermoswarm.tracking.synth.clip import write_sequence
 
 
 def _one_line_error(res):

@@ -13,11 +13,11 @@ from tracking_fixtures import small_video
 from thermoswarm.cli import cli
 from thermoswarm.errors import InputError
 from thermoswarm.io.mot import read_mot_table, write_mot_table
-from thermoswarm.tracking.detect import FrameDetections
-from thermoswarm.tracking.detfiles import parse_image_size, read_detections
+from thermoswarm.tracking.detect.classical import FrameDetections
+from thermoswarm.tracking.detect.files import parse_image_size, read_detections
 from thermoswarm.tracking.evaluate import evaluate_tables
 from thermoswarm.tracking.pipeline import track_detection_file
-from thermoswarm.tracking.tracker import track_detections
+from thermoswarm.tracking.track.tracker import track_detections
 
 W, H = 480, 200
 

@@ -13,8 +13,12 @@ from thermoswarm.cli import cli
 from thermoswarm.errors import InputError
 from thermoswarm.io import read_tracks
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.detect import ClassicalConfig, ClassicalDetector, estimate_length_px
-from thermoswarm.tracking.synth import write_sequence
+from thermoswarm.tracking.detect.classical import (
+    ClassicalConfig,
+    ClassicalDetector,
+    estimate_length_px,
+)
+from thermoswarm.tracking.synth.clip import write_sequence
 
 
 def _one_line_error(res):
@@ -206,7 +210,7 @@ def test_unet_without_a_scale_gets_the_measured_one(tmp_path):
     # scale that makes the paper's ant as long as the measured animals (then it
     # resizes frames by its training scale over that one).
     torch = pytest.importorskip("torch")  # noqa: F841
-    from thermoswarm.tracking import unet
+    from thermoswarm.tracking.detect import unet
     from thermoswarm.tracking.pipeline import build_detector
     from thermoswarm.tracking.video import open_video
 

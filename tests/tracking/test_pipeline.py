@@ -17,7 +17,7 @@ from thermoswarm.io import read_tracks
 from thermoswarm.io.mot import read_mot_table, write_mot_table
 from thermoswarm.tracking.evaluate import METRIC_KEYS, evaluate_files
 from thermoswarm.tracking.pipeline import track_video
-from thermoswarm.tracking.synth import write_sequence
+from thermoswarm.tracking.synth.clip import write_sequence
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import sleap_io as sio
 
-from thermoswarm.tracking import train as tr
+from thermoswarm.tracking.train import fit as tr
 
 ROOT = Path(__file__).resolve().parents[2]
 L_PX = 100.0  # body length of the tests, px

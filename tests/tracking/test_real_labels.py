@@ -20,8 +20,8 @@ from click.testing import CliRunner  # noqa: E402
 
 from thermoswarm.cli import cli  # noqa: E402
 from thermoswarm.errors import InputError  # noqa: E402
-from thermoswarm.tracking import train as tr  # noqa: E402
-from thermoswarm.tracking.train_data import NodeMap, node_map  # noqa: E402
+from thermoswarm.tracking.train import fit as tr  # noqa: E402
+from thermoswarm.tracking.train.data import NodeMap, node_map  # noqa: E402
 
 #: The node order of one public leaf-cutter project's file (names with spaces).
 NODES = ["Neck", "Abdomen", "Head", "Lower Thorax", "Upper Thorax", "LHindLeg"]
@@ -80,7 +80,7 @@ def _project(tmp_path, *, video_beside=True, predicted_frames_only=False):
     of public ant projects: frame 0 labelled in part (3 user instances, one without its
     lower thorax; a prediction repeating a user instance and one of an ant nobody
     labelled), frame 3 with predictions only; two tracks."""
-    from thermoswarm.tracking.synth import write_video
+    from thermoswarm.tracking.synth.clip import write_video
 
     rng = np.random.default_rng(5)
     frames = [rng.integers(0, 255, (64, 96, 3), dtype=np.uint8) for _ in range(4)]
@@ -230,7 +230,7 @@ def test_centroid_patches_do_not_teach_background_on_unlabelled_ants():
 
 
 def test_detections_on_unlabelled_ants_are_not_false_positives():
-    from thermoswarm.tracking.detect import FrameDetections
+    from thermoswarm.tracking.detect.classical import FrameDetections
 
     gt = np.array([[[0, 0], [10, 0], [20, 0]]], float)
     pts = np.array(

@@ -20,7 +20,7 @@ import pytest
 from click.testing import CliRunner
 
 from thermoswarm.cli import cli
-from thermoswarm.tracking.synth import write_video
+from thermoswarm.tracking.synth.clip import write_video
 
 W, H, FPS = 84, 72, 24.0
 ANT = (8, 3)  # drawn length and width (ellipse axes), px, as the real ants look

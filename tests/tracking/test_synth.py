@@ -13,7 +13,7 @@ from thermoswarm.errors import ConfigError, InputError
 from thermoswarm.io import read_tracks
 from thermoswarm.io.mot import read_mot_table
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.synth import SynthConfig, generate, write_sequence, write_video
+from thermoswarm.tracking.synth.clip import SynthConfig, generate, write_sequence, write_video
 
 
 def _road_coords(video, pos_mm):

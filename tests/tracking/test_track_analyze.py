@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from thermoswarm.cli import cli
-from thermoswarm.tracking.synth import SynthConfig, generate, write_sequence
+from thermoswarm.tracking.synth.clip import SynthConfig, generate, write_sequence
 
 
 def _track_and_analyze(seq, tmp_path, extra=()):

@@ -7,10 +7,10 @@ import pytest
 from tracking_fixtures import small_video
 
 from thermoswarm.errors import ConfigError
-from thermoswarm.tracking import kalman
-from thermoswarm.tracking.detect import FrameDetections
+from thermoswarm.tracking.detect.classical import FrameDetections
 from thermoswarm.tracking.evaluate import evaluate_tables
-from thermoswarm.tracking.tracker import Tracker, TrackerConfig, track_detections
+from thermoswarm.tracking.track import kalman
+from thermoswarm.tracking.track.tracker import Tracker, TrackerConfig, track_detections
 
 
 def _gt_detections(video, *, noise=0.0, drop=None, flip_rng=None, seed=0):

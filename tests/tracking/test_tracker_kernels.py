@@ -7,10 +7,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from thermoswarm.tracking import anatomy, association, kalman, track_bank
+from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detection import FrameDetections
-from thermoswarm.tracking.track_bank import TrackBank
-from thermoswarm.tracking.tracker import TrackerConfig, track_detections
+from thermoswarm.tracking.track import association, kalman
+from thermoswarm.tracking.track import bank as track_bank
+from thermoswarm.tracking.track.bank import TrackBank
+from thermoswarm.tracking.track.tracker import TrackerConfig, track_detections
 
 
 def _random_bank(rng: np.random.Generator, n: int) -> TrackBank:

@@ -1,4 +1,4 @@
-"""Copy-paste augmentation (:mod:`thermoswarm.tracking.train_real`) on a shipped excerpt
+"""Copy-paste augmentation (:mod:`thermoswarm.tracking.train.real`) on a shipped excerpt
 of anTraX's JS16 data (real ant crops and a cut of the real background frame;
 GPL-3.0, provenance in ``tests/data/antrax_crops/README.md``)."""
 
@@ -18,7 +18,7 @@ from click.testing import CliRunner  # noqa: E402
 from thermoswarm.cli import cli  # noqa: E402
 from thermoswarm.errors import InputError  # noqa: E402
 from thermoswarm.tracking import anatomy  # noqa: E402
-from thermoswarm.tracking import train_real as trr  # noqa: E402
+from thermoswarm.tracking.train import real as trr  # noqa: E402
 
 DATA = Path(__file__).parents[1] / "data" / "antrax_crops"
 CROPS = DATA / "crops"

@@ -9,7 +9,7 @@ import os
 import numpy as np
 import pytest
 
-# Before torch starts its OpenMP runtime (see thermoswarm.tracking.unet).
+# Before torch starts its OpenMP runtime (see thermoswarm.tracking.detect.unet).
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 import torch  # noqa: E402  (a missing torch fails: make install installs it)
 from click.testing import CliRunner  # noqa: E402
@@ -17,9 +17,9 @@ from tracking_fixtures import small_video  # noqa: E402
 
 from thermoswarm.cli import cli  # noqa: E402
 from thermoswarm.errors import InputError  # noqa: E402
-from thermoswarm.tracking import train as tr  # noqa: E402
-from thermoswarm.tracking import unet  # noqa: E402
-from thermoswarm.tracking.detect import make_detector  # noqa: E402
+from thermoswarm.tracking.detect import unet  # noqa: E402
+from thermoswarm.tracking.detect.classical import make_detector  # noqa: E402
+from thermoswarm.tracking.train import fit as tr  # noqa: E402
 
 # A small model and small batches: the tests train for seconds, not minutes.
 SMALL_MODEL = unet.ModelConfig(centroid_channels=(8, 16, 16), pose_channels=(12, 16, 16))
@@ -256,7 +256,7 @@ def test_synthetic_data_are_labelled_frames():
 
 
 def test_detection_metrics_counts_and_errors():
-    from thermoswarm.tracking.detect import FrameDetections
+    from thermoswarm.tracking.detect.classical import FrameDetections
 
     gt = [np.array([[[10, 0], [0, 0], [-8, 0]], [[110, 50], [100, 50], [92, 50]]], float)]
     pred = gt[0][:1] + np.array([0.0, 1.0])  # first ant, 1 px off; second missed
@@ -402,7 +402,7 @@ def test_labels_rescale_to_the_model_scale():
 
 @pytest.fixture(scope="module")
 def tiny_video(tmp_path_factory):
-    from thermoswarm.tracking.synth import write_sequence
+    from thermoswarm.tracking.synth.clip import write_sequence
 
     v = small_video(seed=21, n_ants=4, n_frames=12)
     return write_sequence(v, tmp_path_factory.mktemp("seq") / "seq")

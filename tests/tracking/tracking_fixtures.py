@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoswarm.tracking.synth import SynthConfig, SynthVideo, generate
+from thermoswarm.tracking.synth.clip import SynthConfig, SynthVideo, generate
 
 #: A small frame that still holds the paper's 40 mm road at 3.04 px/mm (122 px).
 SMALL = dict(width=480, height=200, fps=30.0)

@@ -93,7 +93,7 @@ def _warm_tracker(rng) -> None:
     import numpy as np
 
     from thermoswarm.tracking.detection import FrameDetections
-    from thermoswarm.tracking.tracker import track_detections
+    from thermoswarm.tracking.track.tracker import track_detections
 
     centres = rng.uniform(50.0, 450.0, (6, 2))
     step = np.array([2.0, 1.0])

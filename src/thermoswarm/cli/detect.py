@@ -78,7 +78,7 @@ def detect(
         raise InputError("detection needs OpenCV: pip install 'thermoswarm[track]'") from None
     from thermoswarm.cli.track import _load_settings
     from thermoswarm.io import resolve_px_per_mm
-    from thermoswarm.tracking.detect import NOTHING_FOUND_HINT
+    from thermoswarm.tracking.detect.classical import NOTHING_FOUND_HINT
     from thermoswarm.tracking.pipeline import detect_inputs
 
     settings = _load_settings(config, overrides)

@@ -259,7 +259,7 @@ def _options(
     """The scale (px/mm or ``None``), the settings tables and the tracker's config."""
     from thermoswarm.config import from_mapping
     from thermoswarm.io import resolve_px_per_mm
-    from thermoswarm.tracking.tracker import TrackerConfig
+    from thermoswarm.tracking.track.tracker import TrackerConfig
 
     scale = resolve_px_per_mm(px_per_mm) if px_per_mm is not None else None
     settings = _load_settings(config, overrides)
@@ -285,7 +285,7 @@ def _track_detections(
 ) -> dict[str, Any]:
     """Check the --detections options and run
     :func:`~thermoswarm.tracking.pipeline.track_detection_file`; return its summary."""
-    from thermoswarm.tracking.detfiles import parse_image_size
+    from thermoswarm.tracking.detect.files import parse_image_size
     from thermoswarm.tracking.pipeline import track_detection_file
 
     if uses_detector:

@@ -131,7 +131,7 @@ def track_train(
         raise InputError("--roi is the mask of --background: give --background too")
     from thermoswarm.config import apply_overrides, from_mapping, load_toml, parse_overrides
     from thermoswarm.io import resolve_px_per_mm
-    from thermoswarm.tracking.train import TrainConfig, train_from_sources
+    from thermoswarm.tracking.train.fit import TrainConfig, train_from_sources
 
     data = load_toml(config) if config else {}
     data = apply_overrides(data, parse_overrides(overrides))

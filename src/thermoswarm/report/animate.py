@@ -77,7 +77,7 @@ def animate(
 
     try:
         if fmt == "mp4":
-            from thermoswarm.tracking.synth import write_video
+            from thermoswarm.tracking.synth.clip import write_video
 
             write_video(images(), path, fps)
         else:

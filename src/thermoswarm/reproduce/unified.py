@@ -119,7 +119,7 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
     from thermoswarm.analysis.study import run_study
     from thermoswarm.maxent import kT_for_mean_speed
     from thermoswarm.report.analysis_figures import plot_density_fit
-    from thermoswarm.tracking.synth import SynthConfig, generate
+    from thermoswarm.tracking.synth.clip import SynthConfig, generate
 
     ants = generate(SynthConfig(n_frames=plan.ant_frames), np.random.default_rng(seed)).tracks
     work = out / "unified"

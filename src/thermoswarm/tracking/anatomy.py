@@ -1,6 +1,6 @@
 """The ant's shape, its three keypoints and the body-centred box.
 
-One place for the geometry that the renderer (:mod:`~thermoswarm.tracking.synth`), the
+One place for the geometry that the renderer (:mod:`~thermoswarm.tracking.synth.clip`), the
 classical detector, the tracker and the MOT tables share.
 
 Keypoints are ``head`` (centre of the head), ``body`` (centre of the mesosoma, the

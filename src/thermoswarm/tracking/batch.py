@@ -161,13 +161,13 @@ def track_one(video: str, out: str, options: dict[str, Any], key: str, attempt: 
     """Track one video into ``out`` (on a worker); write ``done.json`` last.
 
     ``options`` are :func:`~thermoswarm.tracking.pipeline.track_video`'s keywords with
-    ``tracker`` a mapping of :class:`~thermoswarm.tracking.tracker.TrackerConfig`
+    ``tracker`` a mapping of :class:`~thermoswarm.tracking.track.tracker.TrackerConfig`
     fields.  ``attempt`` only makes repeated calls distinct (Dask merges equal calls).
     Returns the frame and track counts.
     """
     from thermoswarm.config import from_mapping
     from thermoswarm.tracking.pipeline import track_video
-    from thermoswarm.tracking.tracker import TrackerConfig
+    from thermoswarm.tracking.track.tracker import TrackerConfig
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)  # holds failed.json if the video is bad

@@ -1,8 +1,8 @@
 """What every detector returns and how trained weights are read.
 
 :class:`FrameDetections` (one frame's ants), the :class:`Detector` protocol and the
-checked loading of PyTorch weight files.  Detectors (:mod:`thermoswarm.tracking.detect`,
-:mod:`thermoswarm.tracking.unet`) import this module; it imports none of them, so the
+checked loading of PyTorch weight files.  Detectors (:mod:`thermoswarm.tracking.detect.classical`,
+:mod:`thermoswarm.tracking.detect.unet`) import this module; it imports none of them, so the
 detector registry in ``detect`` can name ``unet`` without an import cycle.  Units: px of
 the full frame.
 """

@@ -1,6 +1,6 @@
 """Association of one frame's detections with the live tracks (paper, Methods).
 
-Pure functions on arrays, used by :class:`~thermoswarm.tracking.tracker.Tracker`:
+Pure functions on arrays, used by :class:`~thermoswarm.tracking.track.tracker.Tracker`:
 
 - :func:`pair_costs`: the cost of every (track, detection) pair inside the gate, for
   all live tracks at once (one compiled pass over the pairs);
@@ -10,7 +10,7 @@ Pure functions on arrays, used by :class:`~thermoswarm.tracking.tracker.Tracker`
   new detections.
 
 Units: px and frames; weights as in
-:class:`~thermoswarm.tracking.tracker.TrackerConfig`.
+:class:`~thermoswarm.tracking.track.tracker.TrackerConfig`.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def pair_costs(
     Tracks: innovation covariances ``S`` ``(n, 2, 2)``, predicted body points ``pred``
     ``(n, 2)``, boxes ``track_boxes`` ``(n, 4)`` and axes (head - tail) ``axes``
     ``(n, 2)``, ``any_axis`` whether any is known
-    (:func:`~thermoswarm.tracking.track_bank.prepare_costs`).  Detections: ``pts``
+    (:func:`~thermoswarm.tracking.track.bank.prepare_costs`).  Detections: ``pts``
     ``(m, 3, 2)``, ``boxes`` ``(m, 4)``.  Each entry depends on its own track and
     detection only, so any subset of rows equals the costs of that subset of tracks.
     """

@@ -1,4 +1,4 @@
-"""Training the top-down detector (:mod:`thermoswarm.tracking.unet`): data and loop.
+"""Training the top-down detector (:mod:`thermoswarm.tracking.detect.unet`): data and loop.
 
 Training data (:class:`LabeledFrames`: RGB frames and each ant's head, body and tail
 in px) come from
@@ -60,9 +60,9 @@ from thermoswarm.config import to_dict
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_json
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.train_augment import _Sampler
-from thermoswarm.tracking.train_config import AugmentConfig, TrainConfig
-from thermoswarm.tracking.train_data import (
+from thermoswarm.tracking.train.augment import _Sampler
+from thermoswarm.tracking.train.config import AugmentConfig, TrainConfig
+from thermoswarm.tracking.train.data import (
     NODE_ALIASES,
     LabeledFrames,
     SynthDataConfig,
@@ -71,7 +71,7 @@ from thermoswarm.tracking.train_data import (
     read_slp,
     synthetic_data,
 )
-from thermoswarm.tracking.train_validate import (
+from thermoswarm.tracking.train.validate import (
     ValidationConfig,
     ValidationSet,
     detection_metrics,
@@ -139,7 +139,7 @@ def calibrate_peaks(
     """Median confidence-map peak (raw value) of the labelled ants found in up to
     ``n_frames`` frames of ``data`` (a peak within a quarter body length of a labelled
     body point); 1 when none is found."""
-    from thermoswarm.tracking.unet import UNetDetector, find_peaks, to_model_scale
+    from thermoswarm.tracking.detect.unet import UNetDetector, find_peaks, to_model_scale
 
     det = UNetDetector(model, px_per_mm=data.px_per_mm, options=None)
     idx = rng.choice(len(data), size=min(n_frames, len(data)), replace=False)
@@ -189,7 +189,7 @@ def _model_and_data(
 ) -> tuple[Any, LabeledFrames, TrainConfig]:
     """The model to train (new, or the weights of ``init``), the data at its scale and
     the configuration with its model section."""
-    from thermoswarm.tracking.unet import TopDownModel, load_model
+    from thermoswarm.tracking.detect.unet import TopDownModel, load_model
 
     if init is not None:
         model = load_model(init)
@@ -241,7 +241,7 @@ def _step(model: Any, sampler: _Sampler, opt: Any, sched: Any, cfg: TrainConfig
     """One optimisation step on a centroid batch and a pose batch; their losses."""
     import torch
 
-    from thermoswarm.tracking.unet import soft_argmax
+    from thermoswarm.tracking.detect.unet import soft_argmax
 
     xb, yb, wb = sampler.centroid_batch()
     x = torch.from_numpy(xb).permute(0, 3, 1, 2).float().div_(255.0)
@@ -292,7 +292,7 @@ def _evaluate(
 ) -> dict[str, Any]:
     """One evaluation: losses, learning rate, the peak reference measured on the
     training frames and (with ``validation``) the detector's scores."""
-    from thermoswarm.tracking.unet import UNetDetector
+    from thermoswarm.tracking.detect.unet import UNetDetector
 
     entry: dict[str, Any] = {
         "step": st.step,
@@ -462,7 +462,7 @@ def train(
     dict
         The report (also written as JSON, keys in ``docs/tracking_unet.md``).
     """
-    from thermoswarm.tracking.unet import save_model
+    from thermoswarm.tracking.detect.unet import save_model
 
     cfg = config or TrainConfig()
     out = Path(out)
@@ -547,7 +547,7 @@ def train_from_sources(
         :class:`TrainConfig`.  The synthetic data are drawn from
         ``numpy.random.default_rng([config.seed, 1])``.
     real_crops, background, roi
-        Copy-paste composites (:mod:`thermoswarm.tracking.train_real`, ``config.real``):
+        Copy-paste composites (:mod:`thermoswarm.tracking.train.real`, ``config.real``):
         a folder of real ant crops, one sub-folder per individual, pasted on tiles
         of the ``background`` PNG (inside the ``roi`` mask PNG, if given).  The
         individuals are split into training and held-out ones; the held-out ones'
@@ -567,7 +567,7 @@ def train_from_sources(
     if px_per_mm is not None and not (math.isfinite(px_per_mm) and px_per_mm > 0):
         raise InputError(f"px_per_mm must be a positive number, got {px_per_mm!r}")
     if init is not None:
-        from thermoswarm.tracking.unet import load_model
+        from thermoswarm.tracking.detect.unet import load_model
 
         scale = load_model(init).config.px_per_mm
     else:
@@ -611,7 +611,7 @@ def _real_composites(
     """Training composites of the training individuals and a validation set of
     composites of the held-out ones (``None`` when none is held out); one generator,
     ``default_rng([seed, 2])``, draws the split and both sets."""
-    from thermoswarm.tracking import train_real as tr
+    from thermoswarm.tracking.train import real as tr
 
     bg, mask = tr.load_background(background, roi, cfg.real.tile)
     crops = tr.load_crops(crops_dir)

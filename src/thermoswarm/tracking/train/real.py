@@ -39,7 +39,7 @@ import numpy as np
 from thermoswarm.config import check
 from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.train_data import LabeledFrames
+from thermoswarm.tracking.train.data import LabeledFrames
 
 __all__ = [
     "RealCropConfig",

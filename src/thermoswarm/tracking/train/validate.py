@@ -1,5 +1,5 @@
 """Validation of a detector during training: synthetic validation video, detection
-metrics and tracking scores.  Part of :mod:`thermoswarm.tracking.train`."""
+metrics and tracking scores.  Part of :mod:`thermoswarm.tracking.train.fit`."""
 
 from __future__ import annotations
 
@@ -72,7 +72,7 @@ def synthetic_validation(
     temporary file, which lives as long as the returned object; otherwise the frames
     are kept in memory.
     """
-    from thermoswarm.tracking.synth import SynthConfig, generate, write_video
+    from thermoswarm.tracking.synth.clip import SynthConfig, generate, write_video
 
     cfg = SynthConfig(
         width=config.width,
@@ -198,7 +198,7 @@ def evaluate_detector(detector: Any, val: ValidationSet) -> dict[str, Any]:
     out["eval_seconds"] = time.perf_counter() - t0
     if val.mot_gt is not None:
         from thermoswarm.tracking.evaluate import evaluate_tables
-        from thermoswarm.tracking.tracker import track_detections
+        from thermoswarm.tracking.track.tracker import track_detections
 
         H, W = size
         res = track_detections(dets, px_per_mm=val.px_per_mm, fps=val.fps, frame_size=(W, H))

@@ -1,4 +1,4 @@
-"""The live tracks of :class:`~thermoswarm.tracking.tracker.Tracker`, as arrays.
+"""The live tracks of :class:`~thermoswarm.tracking.track.tracker.Tracker`, as arrays.
 
 One row per live track, in the order the tracks were created (the order in which the
 assignment sees them, which decides ties).  All numbers of a track sit in one row of
@@ -12,7 +12,7 @@ instead of a Python loop over track objects or dozens of small array operations:
 (docs/tracking.md, "Speed of the tracker").  The arithmetic of each kernel is that of
 the array code it replaced, in the same order, so the numbers are the same.
 
-Fields (px, frames; see :mod:`~thermoswarm.tracking.kalman` for ``x``, ``P``, ``q``,
+Fields (px, frames; see :mod:`~thermoswarm.tracking.track.kalman` for ``x``, ``P``, ``q``,
 ``nis``):
 
 ``x`` ``(n, 4)``, ``P`` ``(n, 4, 4)``, ``q``, ``nis``
@@ -196,7 +196,7 @@ class TrackBank:
 @njit(cache=True)
 def predict(F, I, n):
     """Advance every filter one frame (``x' = F x``, ``P' = F P F' + q Q1``, as
-    :func:`~thermoswarm.tracking.kalman.predict`) and return the predicted
+    :func:`~thermoswarm.tracking.track.kalman.predict`) and return the predicted
     poses ``(k, 3, 2)`` and keys of the tracks surely on an object (confirmed and
     detected in the previous frame)."""
     k = 0
@@ -232,7 +232,7 @@ def predict(F, I, n):
 
 @njit(cache=True)
 def prepare_costs(F, I, n, frame, r2, pad, step_px):
-    """What :func:`~thermoswarm.tracking.association.pair_costs` needs of the tracks:
+    """What :func:`~thermoswarm.tracking.track.association.pair_costs` needs of the tracks:
     innovation covariances ``S`` ``(n, 2, 2)`` (``P[:2, :2] + r2 I``), predicted body
     points ``(n, 2)``, predicted boxes ``(n, 4)``, predicted body axes (head - tail)
     ``(n, 2)``, the gate's reach in px (``step_px`` per frame since the last detection

@@ -22,7 +22,7 @@ Registry
     :func:`register_detector` adds a detector by name with a lazily imported factory
     ``factory(*, px_per_mm, model, options) -> Detector``; :func:`make_detector` builds
     one.  ``classical`` (:class:`ClassicalDetector`, the default, needs no training) is
-    registered here, and ``unet`` points at ``thermoswarm.tracking.unet:make_detector``,
+    registered here, and ``unet`` points at ``thermoswarm.tracking.detect.unet:make_detector``,
     the trained top-down model (U-Net centroid peaks, then a pose model on crops), which
     is a separate module.  ``thermoswarm track --model PATH`` selects the first
     registered detector with ``needs_model=True`` (``unet``) unless ``--detector`` names
@@ -987,14 +987,14 @@ def _split(
 register_detector(
     DetectorEntry(
         "classical",
-        "thermoswarm.tracking.detect:_classical_factory",
+        "thermoswarm.tracking.detect.classical:_classical_factory",
         "background subtraction + blob moments (no training)",
     )
 )
 register_detector(
     DetectorEntry(
         "unet",
-        "thermoswarm.tracking.unet:make_detector",
+        "thermoswarm.tracking.detect.unet:make_detector",
         "trained top-down U-Net + pose model (--model PATH)",
         needs_model=True,
     )

@@ -1,6 +1,6 @@
 """Synthetic ants' motion on the paper's road: the configuration, the road geometry
 and the simulation (mm, s, rad).  The model is described in
-:mod:`thermoswarm.tracking.synth`, which is the public API."""
+:mod:`thermoswarm.tracking.synth.clip`, which is the public API."""
 
 from __future__ import annotations
 

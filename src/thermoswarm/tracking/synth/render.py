@@ -1,6 +1,6 @@
 """Rendering of the synthetic ants: wood texture, lighting, the articulated ant shape,
 and :class:`SynthVideo`, the ground truth with a lazy frame renderer.  Part of
-:mod:`thermoswarm.tracking.synth`, which is the public API."""
+:mod:`thermoswarm.tracking.synth.clip`, which is the public API."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import numpy as np
 import xarray as xr
 
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.synth_motion import Road, SynthConfig, _Motion
+from thermoswarm.tracking.synth.motion import Road, SynthConfig, _Motion
 
 
 def _smooth_noise(

@@ -4,7 +4,7 @@ PAPER_NOTES section 3 (SLEAP's top-down design): a U-Net turns the frame into a
 confidence map whose peaks are the ants' body points (the *anchors*); a crop centred on
 each anchor goes to a pose network that predicts head, body and tail; the pose loss is
 the mean squared distance of the points.  Both networks are small enough to train on
-two CPU cores in minutes (:mod:`thermoswarm.tracking.train`) and to run at a useful
+two CPU cores in minutes (:mod:`thermoswarm.tracking.train.fit`) and to run at a useful
 speed on a CPU.
 
 Centroid network (:class:`CentroidNet`)
@@ -49,7 +49,7 @@ Weights file
     :class:`~thermoswarm.errors.InputError` naming the file and the first bad tensor.
 
 This module imports PyTorch at the top: it is imported only when the ``unet`` detector
-or training is used (``thermoswarm.tracking.detect`` registers it lazily).
+or training is used (``thermoswarm.tracking.detect.classical`` registers it lazily).
 """
 
 from __future__ import annotations
@@ -122,7 +122,7 @@ class ModelConfig:
     network's levels (at 1/2, 1/4 and 1/4 of the crop).  ``keypoints``: names of the
     three points, in the order of the tracker's ``head, body, tail``.
     ``peak_reference``: the median confidence-map peak of correctly found ants, measured
-    after training (:func:`thermoswarm.tracking.train.calibrate_peaks`); a detection's
+    after training (:func:`thermoswarm.tracking.train.fit.calibrate_peaks`); a detection's
     score is its peak divided by it (at most 1), so that a typical correct detection
     scores 1, as the tracker expects (it trusts detections less as their score falls).
     """
@@ -679,7 +679,8 @@ def _deduplicate(points: np.ndarray, scores: np.ndarray, radius: float) -> np.nd
 def make_detector(
     *, px_per_mm: float, model: Path | None, options: Mapping[str, Any]
 ) -> UNetDetector:
-    """Registry factory of the ``unet`` detector (see :mod:`thermoswarm.tracking.detect`)."""
+    """Registry factory of the ``unet`` detector (see
+    :mod:`thermoswarm.tracking.detect.classical`)."""
     if model is None:
         raise InputError("detector 'unet' needs a trained model: pass --model PATH")
     opts = from_mapping(UNetOptions, dict(options), source="detector options")

@@ -3,7 +3,7 @@
 Each frame:
 
 1. **Predict** every track's body point with its adaptive constant-velocity Kalman
-   filter (:mod:`~thermoswarm.tracking.kalman`) and its body-centred box (the box of
+   filter (:mod:`~thermoswarm.tracking.track.kalman`) and its body-centred box (the box of
    the predicted pose: last head/body/tail offsets moved to the predicted body point;
    :func:`~thermoswarm.tracking.anatomy.pose_boxes`).  The predicted poses are also
    given to detectors that accept them (``hints``), to split touching ants.
@@ -37,7 +37,7 @@ Each frame:
    single misplaced row is interpolated; after a jump that stays, the first row is
    dropped so that no speed spans it; ``fix_jumps``), and each track's head-tail
    order is chosen over its whole life (Viterbi;
-   :func:`~thermoswarm.tracking.track_result.orient_tracks`).
+   :func:`~thermoswarm.tracking.track.result.orient_tracks`).
    Neither changes identities.
 
 Online output is final with a fixed lag (``Tracker.lag`` frames): identities and rows
@@ -46,9 +46,9 @@ be drawn while the video streams; only step 7 then touches a few rows and the
 head-tail order.
 
 Code: the live tracks are rows of packed arrays
-(:mod:`~thermoswarm.tracking.track_bank`), the costs and the assignment are in
-:mod:`~thermoswarm.tracking.association`, the output and the end-of-video corrections in
-:mod:`~thermoswarm.tracking.track_result`; this module holds the options and the loop.
+(:mod:`~thermoswarm.tracking.track.bank`), the costs and the assignment are in
+:mod:`~thermoswarm.tracking.track.association`, the output and the end-of-video corrections in
+:mod:`~thermoswarm.tracking.track.result`; this module holds the options and the loop.
 
 Scale: positions are px (full frame), and every length in the config is in body
 lengths ``L`` (px per body length: given, derived from ``px_per_mm`` and the paper's
@@ -66,10 +66,12 @@ import numpy as np
 
 from thermoswarm.config import check
 from thermoswarm.errors import InputError
-from thermoswarm.tracking import anatomy, association, kalman, track_bank
+from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detection import FrameDetections
-from thermoswarm.tracking.track_bank import TrackBank
-from thermoswarm.tracking.track_result import TrackResult, fix_jumps, orient_tracks
+from thermoswarm.tracking.track import association, kalman
+from thermoswarm.tracking.track import bank as track_bank
+from thermoswarm.tracking.track.bank import TrackBank
+from thermoswarm.tracking.track.result import TrackResult, fix_jumps, orient_tracks
 
 __all__ = ["TrackerConfig", "Tracker", "TrackResult", "track_detections", "estimate_length_px"]
 
@@ -664,7 +666,7 @@ class Tracker:
         scores: np.ndarray,
         interp: np.ndarray,
     ) -> np.ndarray:
-        """:func:`~thermoswarm.tracking.track_result.fix_jumps` at this tracker's speed
+        """:func:`~thermoswarm.tracking.track.result.fix_jumps` at this tracker's speed
         limit (``max_speed_bl_s``)."""
         return fix_jumps(frames, ids, pts, boxes, scores, interp, self.step_px)
 

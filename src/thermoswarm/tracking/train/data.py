@@ -1,5 +1,5 @@
 """Labelled frames for training the U-Net + pose model: SLEAP ``.slp`` and COCO keypoint
-readers and synthetic training data.  Part of :mod:`thermoswarm.tracking.train`."""
+readers and synthetic training data.  Part of :mod:`thermoswarm.tracking.train.fit`."""
 
 from __future__ import annotations
 
@@ -106,7 +106,7 @@ class LabeledFrames:
 
     def rescaled(self, px_per_mm: float) -> LabeledFrames:
         """The frames resized to another scale (px per mm), points mapped with them."""
-        from thermoswarm.tracking.unet import to_model_scale
+        from thermoswarm.tracking.detect.unet import to_model_scale
 
         ratio = px_per_mm / self.px_per_mm
         if abs(ratio - 1) < 1e-6:
@@ -196,7 +196,7 @@ class SynthDataConfig:
 
 def _codec_roundtrip(frames: list[np.ndarray], fps: float) -> list[np.ndarray]:
     """Encode frames with x264 (CRF 20, as the benchmark videos) and decode them."""
-    from thermoswarm.tracking.synth import write_video
+    from thermoswarm.tracking.synth.clip import write_video
     from thermoswarm.tracking.video import open_video
 
     with tempfile.TemporaryDirectory(prefix="thermoswarm-train-") as tmp:
@@ -216,7 +216,7 @@ def synthetic_data(
     progress: Callable[[int, int], None] | None = None,
 ) -> LabeledFrames:
     """Render labelled frames from many synthetic videos (see :class:`SynthDataConfig`)."""
-    from thermoswarm.tracking.synth import SynthConfig, generate
+    from thermoswarm.tracking.synth.clip import SynthConfig, generate
 
     frames: list[np.ndarray] = []
     points: list[np.ndarray] = []

@@ -1,7 +1,7 @@
 """The training configuration: :class:`TrainConfig` and its ``[augment]`` section.
 
-Part of :mod:`thermoswarm.tracking.train`; a module of its own so that the batch
-sampler (:mod:`thermoswarm.tracking.train_augment`) and the loop both read it without
+Part of :mod:`thermoswarm.tracking.train.fit`; a module of its own so that the batch
+sampler (:mod:`thermoswarm.tracking.train.augment`) and the loop both read it without
 importing each other.
 """
 
@@ -11,10 +11,10 @@ import math
 from dataclasses import dataclass, field
 
 from thermoswarm.config import check
-from thermoswarm.tracking.train_data import SynthDataConfig
-from thermoswarm.tracking.train_real import RealCropConfig
-from thermoswarm.tracking.train_validate import ValidationConfig
-from thermoswarm.tracking.unet import ModelConfig
+from thermoswarm.tracking.detect.unet import ModelConfig
+from thermoswarm.tracking.train.data import SynthDataConfig
+from thermoswarm.tracking.train.real import RealCropConfig
+from thermoswarm.tracking.train.validate import ValidationConfig
 
 __all__ = ["AugmentConfig", "TrainConfig"]
 
@@ -53,7 +53,7 @@ class AugmentConfig:
 class TrainConfig:
     """Training options (TOML: top-level keys and ``[model]``, ``[augment]``,
     ``[synth]``, ``[validation]``, ``[real]`` tables; ``[real]``: the copy-paste
-    composites of real ant crops, :class:`~thermoswarm.tracking.train_real.RealCropConfig`).
+    composites of real ant crops, :class:`~thermoswarm.tracking.train.real.RealCropConfig`).
 
     ``seed``: of every random draw.  ``max_steps``: most optimisation steps (one batch
     for each network per step).  ``max_minutes``: wall-clock limit (``None``: none).

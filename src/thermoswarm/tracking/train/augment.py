@@ -1,5 +1,5 @@
 """Augmentation and batch sampling for training (affine, photometric, heat-map targets).
-Part of :mod:`thermoswarm.tracking.train`."""
+Part of :mod:`thermoswarm.tracking.train.fit`."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import numpy as np
 
 from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.train_config import AugmentConfig, TrainConfig
-from thermoswarm.tracking.train_data import LabeledFrames
+from thermoswarm.tracking.train.config import AugmentConfig, TrainConfig
+from thermoswarm.tracking.train.data import LabeledFrames
 
 
 def _affine(

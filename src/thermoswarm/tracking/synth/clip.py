@@ -69,8 +69,8 @@ from thermoswarm.fsutil import (
     prepare_output_dir,
 )
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.synth_motion import Road, SynthConfig, _simulate, _skeleton
-from thermoswarm.tracking.synth_render import SynthVideo, _lighting, _mot_gt
+from thermoswarm.tracking.synth.motion import Road, SynthConfig, _simulate, _skeleton
+from thermoswarm.tracking.synth.render import SynthVideo, _lighting, _mot_gt
 from thermoswarm.tracks import make_tracks
 
 __all__ = [
@@ -125,7 +125,7 @@ def generate(
         fps=cfg.fps,
         individuals=[f"ant_{i}" for i in ids],
         keypoints=list(anatomy.KEYPOINTS),
-        source_software="thermoswarm.tracking.synth",
+        source_software=__package__,  # "thermoswarm.tracking.synth", as before the rooms
         attrs={
             "px_per_mm": cfg.px_per_mm,
             "frame_width": cfg.width,

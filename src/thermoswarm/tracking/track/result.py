@@ -2,7 +2,7 @@
 
 :class:`TrackResult` holds every confirmed track's rows; :func:`fix_jumps` removes motion
 no ant can make and :func:`orient_tracks` chooses each track's head-tail order over its
-whole life (both called by :meth:`~thermoswarm.tracking.tracker.Tracker.finish`; neither
+whole life (both called by :meth:`~thermoswarm.tracking.track.tracker.Tracker.finish`; neither
 changes identities).  Both take rows sorted by track, then frame, and work on one track
 at a time only where there is something to do (a speed over the limit, a track with
 head and tail): the checks that find those tracks are made on all rows at once.

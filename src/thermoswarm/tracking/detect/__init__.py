@@ -1,0 +1,29 @@
+"""Finding the animals in frames (the room ``tracking.detect``).
+
+Owns the detector interface and registry and the classical detector (background
+subtraction and blob moments, no training: :mod:`.classical`), the trained U-Net + pose
+detector (:mod:`.unet`, needs PyTorch) and the detection files other tools write (MOT,
+COCO, YOLO: :mod:`.files`). May import the floor (``tracking.anatomy``,
+``tracking.detection``, ``tracking.video``) and the configuration helpers; never
+``synth``, ``track``, ``train`` or the pipeline.
+"""
+
+from thermoswarm.tracking.detect.classical import (
+    NOTHING_FOUND_HINT,
+    ClassicalConfig,
+    ClassicalDetector,
+    Detector,
+    DetectorEntry,
+    SizeEstimate,
+    detectors,
+    estimate_length_px,
+    make_detector,
+    register_detector,
+    typical_area,
+)
+
+__all__ = [
+    "Detector", "DetectorEntry", "register_detector", "detectors", "make_detector",
+    "ClassicalConfig", "ClassicalDetector", "SizeEstimate", "estimate_length_px",
+    "typical_area", "NOTHING_FOUND_HINT",
+]  # fmt: skip

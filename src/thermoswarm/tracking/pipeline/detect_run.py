@@ -1,0 +1,181 @@
+"""Detection without tracking: :func:`detect_inputs`, what ``thermoswarm detect`` runs
+(COCO keypoints and MOTChallenge detections per input)."""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from thermoswarm.errors import InputError
+from thermoswarm.fsutil import atomic_write_json, prepare_output_dir
+from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector
+from thermoswarm.tracking.track.tracker import TrackerConfig
+
+
+def _detect_sources(inputs: list[Path]) -> list[tuple[str, Any, bool]]:
+    """``(name, source, is_video)`` per input: each video file or folder of frames is one
+    source; the image files given are one sequence together (sorted by name)."""
+    from thermoswarm.tracking.video import IMAGE_EXTS, VideoSource, open_video
+
+    images = sorted(p for p in inputs if p.is_file() and p.suffix.lower() in IMAGE_EXTS)
+    out: list[tuple[str, Any, bool]] = []
+    names: set[str] = set()
+    for p in inputs:
+        if p in images:
+            continue
+        name = p.stem if p.is_file() else p.name
+        if name in names:
+            raise InputError(f"{p}: two inputs are named {name!r}; rename one")
+        names.add(name)
+        out.append((name, open_video(p), True))
+    if images:
+        if "images" in names:
+            raise InputError("an input named 'images' clashes with the image files given")
+        out.append(("images", VideoSource.from_images(images, "images"), False))
+    return out
+
+
+def detect_inputs(
+    inputs: list[str | os.PathLike],
+    out_dir: str | os.PathLike,
+    *,
+    px_per_mm: float | None = None,
+    detector: str | None = None,
+    model: str | os.PathLike | None = None,
+    detector_options: dict[str, Any] | None = None,
+    fps: float | None = None,
+    max_frames: int | None = None,
+    prepare_s: float = 3.0,
+    width_bl: float | None = None,
+) -> dict[str, Any]:
+    """Detect the animals of videos, folders of frames or images; write COCO and MOT.
+
+    The detector is built and prepared exactly as :func:`track_video` does (the same
+    registry, the same size measurement without a scale), but without the tracker's
+    predictions, so ``thermoswarm track --detections NAME.json`` on the output gives
+    the tracks of ``track_video(..., hints=False)``.
+
+    Writes, per input ``NAME`` (a video's or folder's name; ``images`` for the image
+    files given, taken as one sequence): ``NAME.json`` (COCO keypoints: images,
+    annotations with ``bbox``, ``score``, head/body/tail ``keypoints``, categories
+    with the keypoint names and skeleton) and, for videos and folders,
+    ``NAME_det.txt`` (MOTChallenge detections, frames from 1); and ``summary.json``.
+
+    Parameters
+    ----------
+    inputs
+        Video files, folders of frames and image files.
+    out_dir
+        Output folder (created with its parents).
+    px_per_mm, detector, model, detector_options, prepare_s
+        As for :func:`track_video`.
+    fps
+        Frame rate of folders and images (only sets how many frames ``prepare_s``
+        spans; default the video's own, else 30: up to 90 images).
+    max_frames
+        Detect at most this many frames of each input.
+    width_bl
+        Object width in body lengths, half of which pads the boxes of poses (default
+        the tracker's ``width_bl``, so the boxes are those the tracker draws).
+    """
+    if not inputs:
+        raise InputError("give at least one video, folder of frames or image")
+    if max_frames is not None and max_frames < 1:
+        raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
+    if fps is not None and not (fps > 0 and np.isfinite(fps)):
+        raise InputError(f"fps must be a positive number, got {fps!r}")
+    wbl = TrackerConfig().width_bl if width_bl is None else float(width_bl)
+    sources = _detect_sources([Path(p) for p in inputs])
+    out = prepare_output_dir(out_dir)
+    results = [
+        _detect_source(
+            name,
+            src,
+            is_video,
+            out,
+            px_per_mm=px_per_mm,
+            detector=detector,
+            model=model,
+            detector_options=detector_options,
+            fps=fps,
+            max_frames=max_frames,
+            prepare_s=prepare_s,
+            width_bl=wbl,
+        )
+        for name, src, is_video in sources
+    ]
+    summary = {"inputs": results, "outputs": [f for r in results for f in r["outputs"]]}
+    summary["outputs"].append("summary.json")
+    atomic_write_json(out / "summary.json", summary)
+    return summary
+
+
+def _detect_source(
+    name: str,
+    src: Any,
+    is_video: bool,
+    out: Path,
+    *,
+    px_per_mm: float | None,
+    detector: str | None,
+    model: str | os.PathLike | None,
+    detector_options: dict[str, Any] | None,
+    fps: float | None,
+    max_frames: int | None,
+    prepare_s: float,
+    width_bl: float,
+) -> dict[str, Any]:
+    """Detect one source of :func:`detect_inputs`; write its COCO (and MOT) file.
+
+    Returns the source's summary record (counts, scale, seconds, files written).
+    """
+    from thermoswarm.io.mot import write_mot_table
+    from thermoswarm.tracking.detect.files import coco_dataset, mot_rows
+
+    t0 = time.perf_counter()
+    rate = fps or src.fps or 30.0  # images: the background from up to 90 of them
+    det, scale = build_detector(
+        src,
+        _prep_frames(prepare_s, rate, max_frames),
+        px_per_mm=px_per_mm,
+        detector=detector,
+        model=model,
+        options=detector_options,
+    )
+    dets = [det.detect(frame) for frame in src.frames(max_frames, prefetch=4)]
+    files = src.files
+    images = []
+    for k in range(len(dets)):
+        img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
+        img["file_name"] = files[k].name if files else f"{src.path.name}#{k + 1:06d}"
+        images.append(img)
+    pad = 0.5 * width_bl * scale["length_px"]
+    coco = coco_dataset(
+        images,
+        dets,
+        pad=pad,
+        length_px=scale["length_px"],
+        description=f"thermoswarm detect {src.path} ({getattr(det, 'name', detector)})",
+    )
+    written = [f"{name}.json"]
+    atomic_write_json(out / f"{name}.json", coco)
+    if is_video:
+        write_mot_table(out / f"{name}_det.txt", mot_rows(dets, pad=pad))
+        written.append(f"{name}_det.txt")
+    n_det = sum(len(d) for d in dets)
+    return {
+        "input": str(src.path),
+        "n_frames": len(dets),
+        "n_detections": n_det,
+        "detections_per_frame": n_det / max(len(dets), 1),
+        "detector": str(getattr(det, "name", detector)),
+        "px_per_mm": px_per_mm,
+        "length_px": scale["length_px"],
+        "scale_source": scale["scale_source"],
+        "seconds": time.perf_counter() - t0,
+        "outputs": written,
+    }
