@@ -107,7 +107,7 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     show_default=True,
     help="Size of the overlay relative to the video (1: the video's resolution).",
 )
-@click.option("--max-frames", type=int, help="Stop after this many frames.")
+@click.option("--max-frames", type=click.IntRange(min=1), help="Stop after this many frames.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @click.option(
     "--workers",
@@ -166,7 +166,10 @@ def track(
     )
     if videos:
         _check_video_options(det_format, image_size, first_frame, object_size_px)
+    check_rate(fps, "--fps")
     scale, settings, tcfg = _options(px_per_mm, config, overrides)
+    if videos and scale is not None:
+        check_body_px(scale)
     if many:
         options = dict(
             px_per_mm=scale, fps=fps, detector=detector, model=str(model) if model else None,
@@ -207,6 +210,34 @@ def track(
             progress=not quiet,
         )
     _echo_summary(summary, out_dir)
+
+
+#: The tracked objects' length in px: shorter, nothing can be detected or told apart.
+MIN_BODY_PX, MAX_BODY_PX = 2.0, 1e5
+
+
+def check_rate(fps: float | None, flag: str) -> float | None:
+    """``None`` or a frame rate within the readers' range (``--fps 0``, ``1e308``,
+    ``nan``: one-line errors naming ``flag``)."""
+    from thermoswarm.io import check_fps
+
+    try:
+        return check_fps(Path(flag), fps, flag)
+    except InputError as exc:  # "PATH: MESSAGE" without the path, which is the flag
+        raise InputError(str(exc).split(": ", 1)[-1]) from None
+
+
+def check_body_px(px_per_mm: float) -> None:
+    """Refuse a scale at which an ant (:data:`~thermoswarm.tracking.anatomy.ANT_LENGTH_MM`)
+    would be shorter than :data:`MIN_BODY_PX` or longer than :data:`MAX_BODY_PX`."""
+    from thermoswarm.tracking.anatomy import ANT_LENGTH_MM
+
+    length = ANT_LENGTH_MM * px_per_mm
+    if not MIN_BODY_PX <= length <= MAX_BODY_PX:
+        raise InputError(
+            f"--px-per-mm {px_per_mm:g}: an ant ({ANT_LENGTH_MM:g} mm) would be {length:.3g} px "
+            f"long; expected {MIN_BODY_PX:g} to {MAX_BODY_PX:g} px"
+        )
 
 
 def _check_inputs(
@@ -294,8 +325,10 @@ def _track_detections(
         raise InputError("[detector] options apply to videos, not to --detections")
     if fps is None:
         raise InputError(f"{detections}: detections have frame numbers only; pass --fps")
-    if object_size_px is not None and not (0 < object_size_px < float("inf")):
-        raise InputError(f"--object-size-px must be positive, got {object_size_px!r}")
+    lo, hi = MIN_BODY_PX, MAX_BODY_PX
+    if object_size_px is not None and not lo <= object_size_px <= hi:
+        raise InputError(f"--object-size-px must be a number from {lo:g} to {hi:g} (px), "
+                         f"got {object_size_px!r}")  # fmt: skip
     return track_detection_file(
         detections,
         out_dir,

@@ -124,16 +124,15 @@ class TrackerConfig:
     width_bl: float = anatomy.ANT_WIDTH_MM / anatomy.ANT_LENGTH_MM
 
     def __post_init__(self) -> None:
-        check(self.n_init >= 1, "n_init", "a positive integer", self.n_init)
-        check(
-            self.tentative_max_misses >= 0,
-            "tentative_max_misses",
-            "a non-negative integer",
-            self.tentative_max_misses,
-        )
+        # the track bank keeps n_init detections per tentative track and a lag of
+        # n_init + tentative_max_misses frames: both bounded before any allocation
+        check(1 <= self.n_init <= 1000, "n_init", "an integer from 1 to 1000", self.n_init)
+        check(0 <= self.tentative_max_misses <= 1000, "tentative_max_misses",
+              "an integer from 0 to 1000", self.tentative_max_misses)  # fmt: skip
         for name in ("max_gap_s", "duplicate_radius"):
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
+        check(self.max_gap_s <= 3600, "max_gap_s", "at most 3600 (s)", self.max_gap_s)
         for name in (
             "max_speed_bl_s",
             "accel_bl_s2",
