@@ -60,8 +60,8 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
 @click.option(
     "--first-frame",
     type=click.IntRange(0, 1),
-    help="Number of the first frame of --detections (default: 0 if the file has a "
-    "frame 0, else 1); the tracks keep this numbering.",
+    help="Number of the first frame of --detections, 0 or 1 (default: the file's first "
+    "frame number); the tracks keep the file's numbering.",
 )
 @click.option(
     "--object-size-px",
