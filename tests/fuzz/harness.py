@@ -5,7 +5,8 @@ alarm and classifies the end:
 
 - ``"ok"``: exit status 0;
 - ``"error"``: exit status 2 and stderr's last line ``error: ...`` (one line, no
-  traceback, no ``np.float64(`` repr);
+  traceback, no ``np.float64(`` repr), or click's own usage error (``Usage: ...``
+  then ``Error: ...``);
 - ``"traceback"``: any other exception, exit status, or an error message of several
   lines or with a traceback;
 - ``"hang"``: the alarm rang (``limit_s``);
@@ -80,7 +81,7 @@ def outcome(argv: list[str], *, limit_s: int = 60) -> Outcome:
         lines = [ln for ln in text.splitlines() if ln.strip()]
         clean = (
             bool(lines)
-            and lines[-1].startswith("error: ")
+            and lines[-1].startswith(("error: ", "Error: "))
             and "Traceback" not in text
             and "np.float64(" not in text
             and not any(ln.startswith("  File ") for ln in lines)
@@ -118,7 +119,8 @@ def assert_clean(verb: str, result: Outcome, *, correct: bool | None = None) -> 
     if result.kind == "ok":
         assert correct is not False, f"wrong result: {result}"
     else:
-        assert len([ln for ln in result.err.splitlines() if ln.startswith("error:")]) == 1
+        errors = [ln for ln in result.err.splitlines() if ln.startswith(("error:", "Error:"))]
+        assert len(errors) == 1, str(result)
 
 
 def table() -> str:
