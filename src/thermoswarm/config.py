@@ -80,10 +80,18 @@ def check(condition: bool, field: str, expectation: str, value: Any = None) -> N
 
 
 def check_magnitudes(
-    obj: Any, source: str, *, smallest: float, largest: float, what: str, prefix: str = ""
+    obj: Any,
+    source: str,
+    *,
+    smallest: float,
+    largest: float,
+    what: str,
+    prefix: str = "",
+    unbounded: tuple[str, ...] = (),
 ) -> None:
     """Refuse a finite, non-zero float field of config ``obj`` (nested sections and
-    tuples included) whose magnitude is outside ``[smallest, largest]``, naming its key.
+    tuples included) whose magnitude is outside ``[smallest, largest]``, naming its key;
+    the keys in ``unbounded`` (dotted) are checked against ``smallest`` only.
 
     Raises
     ------
@@ -95,11 +103,12 @@ def check_magnitudes(
         key = prefix + f.name
         if dataclasses.is_dataclass(v):
             check_magnitudes(v, source, smallest=smallest, largest=largest, what=what,
-                             prefix=key + ".")  # fmt: skip
+                             prefix=key + ".", unbounded=unbounded)  # fmt: skip
             continue
+        top = math.inf if key in unbounded else largest
         for x in v if isinstance(v, tuple) else (v,):
             if isinstance(x, float) and math.isfinite(x) and x != 0.0:
-                if not smallest <= abs(x) <= largest:
+                if not smallest <= abs(x) <= top:
                     raise ConfigError(
                         f"{source}: {key} = {x!r} is outside {what} "
                         f"(magnitude {smallest:g} to {largest:g}, or 0)"

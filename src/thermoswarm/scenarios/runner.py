@@ -110,8 +110,10 @@ MAX_STEPS = 10**12
 def check_run_params(params: Any, source: str) -> None:
     """Refuse a float parameter outside [:data:`MIN_PARAM`, :data:`MAX_PARAM`] (or 0),
     naming its key, before the scenario computes with it."""
+    # a long duration is refused by the memory check (its recorded frames) and by
+    # MAX_STEPS, with the numbers
     check_magnitudes(params, source, smallest=MIN_PARAM, largest=MAX_PARAM,
-                     what="the range the simulator handles")  # fmt: skip
+                     what="the range the simulator handles", unbounded=("duration",))  # fmt: skip
 
 
 def build(cfg: RunConfig) -> tuple[Scenario, Setup, Simulator, SwarmState]:
