@@ -21,8 +21,9 @@ It serves one run and nothing else, by construction:
   Content-Security-Policy that allows only the page's own two inline scripts (by
   hash), its own origin for data and no framing (``frame-ancestors 'none'``, and
   ``X-Frame-Options: DENY``);
-- a client that disconnects is dropped quietly; any other failure answers 500 with the
-  error's type only (the server's stderr gets one line), never a path or a traceback.
+- a client that disconnects is dropped quietly; any other failure answers 500 with one
+  line (the error's type and the first 200 characters of its message, which the page
+  shows; the server's stderr gets the same line), never a traceback.
 
 Routes under ``/TOKEN/``: the page; ``api/meta`` (JSON); ``api/frame/K?var=NAME``
 (float32 LE, see :mod:`thermoswarm.view.data`); ``api/series/I`` (JSON);
@@ -158,9 +159,11 @@ class _Handler(BaseHTTPRequestHandler):
             self._text(400, str(exc).splitlines()[0] if str(exc) else "bad request")
         except ValueError:  # parse_qs' field limit
             self._text(400, "bad query")
-        except Exception as exc:  # the page shows the type; the terminal one line
-            print(f"thermoswarm view: {type(exc).__name__} on {rest[:80]!r}", file=sys.stderr)
-            self._text(500, f"internal error ({type(exc).__name__})")
+        except Exception as exc:  # the page and the terminal show one line, no traceback
+            first = (str(exc).splitlines() or [""])[0][:200]
+            line = f"{type(exc).__name__}: {first}"
+            print(f"thermoswarm view: {line} (on {rest[:80]!r})", file=sys.stderr)
+            self._text(500, line)
 
     def _route(self, rest: str, query: dict[str, list[str]]) -> None:
         data = self.server.data
