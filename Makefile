@@ -15,7 +15,7 @@ OUT    ?= out
 # `make lock` refreshes the lock from the newest versions the ranges allow, and
 # `make test-latest` runs the suite on those newest versions without touching the lock.
 LOCK   := requirements/lock.txt
-EXTRAS := io,track,video,bench,dev,dask,gpu,docs
+EXTRAS := io,track,video,bench,dev,dask,gpu,docs,robot
 # The CPU build of PyTorch: pip takes torch==2.13.0 from this machine's local wheels; an
 # unpinned torch would pull several GB of CUDA packages.  The lock pins the same version.
 TORCH  := torch==2.13.0

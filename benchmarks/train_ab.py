@@ -26,8 +26,12 @@ ROOT = Path(__file__).resolve().parent.parent
 CHILD = r"""
 import hashlib, json, sys
 import numpy as np
-from thermoswarm.tracking.detect import unet
-from thermoswarm.tracking.train import fit as tr
+try:
+    from thermoswarm.tracking.detect import unet
+    from thermoswarm.tracking.train import fit as tr
+except ImportError:  # the flat layout before the rooms (e33dc8e and older)
+    from thermoswarm.tracking import unet
+    from thermoswarm.tracking import train as tr
 out = sys.argv[1]
 small = unet.ModelConfig(centroid_channels=(8, 16, 16), pose_channels=(12, 16, 16))
 data = tr.synthetic_data(tr.SynthDataConfig(n_videos=2, frames_per_video=3, width=400,

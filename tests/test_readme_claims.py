@@ -176,6 +176,7 @@ def _benchmark(name: str):
 ON_THEIR_OWN = {
     "bench_real_footage": "needs the user's own labelled footage",
     "bench_niche_counts": "needs the Niche-Lab photos, which may not be redistributed",
+    "bench_moving_camera": "needs a real still clip (SLEAP's fly clip), not in git",
 }
 
 

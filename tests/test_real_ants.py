@@ -94,6 +94,11 @@ def test_the_real_row_states_its_rule_and_source():
             "source": "anTraX-data JS16", "samples": {"total": 10, "single": 4,
             "cluster_shared": 5, "missing": 1}, "steps": {"resting": 3},
             "n_bootstrap": 9}  # fmt: skip
+    # 9 replicates: the smallest p-value is 0.1, so the LR test cannot prefer two phases
+    weak = compare("unified_law", {"ants_real": real})[0]
+    assert weak["verdict"] == "not resolved at this scale" and "smallest p-value is 0.1" in (
+        weak["why"])  # fmt: skip
+    real = dict(real, n_bootstrap=200)
     rows = compare("unified_law", {"ants_real": real})
     assert rows[0]["claim"].startswith("ants (real)") and rows[0]["verdict"] == "differs"
     assert "rule: two phases preferred" in rows[0]["why"] and "anTraX-data JS16" in rows[0]["why"]
@@ -103,3 +108,32 @@ def test_the_real_row_states_its_rule_and_source():
     assert row["verdict"] == "reproduced" and "rms speed is 0.77 mm/s" in row["why"]
     assert compare("unified_law", {})[0]["verdict"] == "not measured"
     assert rows[1]["claim"].startswith("ants (synthetic control)")
+
+
+def test_the_real_row_is_the_analyze_command_it_prints(fitted, tmp_path, monkeypatch):
+    """Issue 33: the report's real-ant row prints the ``analyze`` command that gives its
+    numbers; run that command (from the checkout's root) and compare every number."""
+    import json
+    import shlex
+
+    from click.testing import CliRunner
+
+    from thermoswarm.cli import cli
+
+    study, counts = fitted
+    words = shlex.split(counts["command"])
+    assert words[:2] == ["thermoswarm", "analyze"] and "--mask-shared-positions" in words
+    words[words.index("OUT")] = str(tmp_path / "res")
+    monkeypatch.chdir(ANTRAX_JS16.parents[3])
+    got = CliRunner().invoke(cli, words[1:])
+    assert got.exit_code == 0, got.output
+    fits = json.loads((tmp_path / "res" / "fits.json").read_text())
+    want = study.fits["energy"]
+    e = fits["energy"]
+    assert e["preferred"] == want["preferred"] and e["n"] == want["n"] == counts["steps"]["used"]
+    assert e["lr_p_value"] == want["lr_p_value"]
+    assert e["one_phase"]["kT"] == want["one_phase"]["kT"]
+    for k in ("phi", "kT1", "kT2", "p_value"):
+        assert e["two_phase"][k] == want["two_phase"][k]
+    shared = fits["data_quality"]["n_shared_positions_masked"]
+    assert shared == counts["samples"]["cluster_shared"] == _shared_in_csv()

@@ -86,7 +86,14 @@ def test_scaling_trend_and_the_empty_panel_v():
     assert _verdicts("scaling", flat)[0] == "differs"
     timed = [dict(r, reached=5, time_median=t) for r, t in zip(rows, [900, 500, 200],
                                                                   strict=True)]  # fmt: skip
-    assert _verdicts("scaling", {"rows": timed, "trend": up["trend"]})[1] == "reproduced"
+    # no interval given (unbounded): the test has no power to decide (issue 33)
+    v = compare("scaling", {"rows": timed, "trend": up["trend"]})[1]
+    assert v["verdict"] == "not resolved at this scale" and "reproduce --full" in v["why"]
+    assert "5 of 5 runs at N = 1,200" in v["why"]
+    bounded = [dict(r, time_ci_high=t * 1.2) for r, t in zip(timed, [900, 500, 200],
+                                                             strict=True)]  # fmt: skip
+    assert _verdicts("scaling", {"rows": bounded, "trend": up["trend"]})[1] == "reproduced"
+    assert summary_verdict([v, dict(v)]) == "not resolved at this scale"
 
 
 def test_scaling_per_series_says_where_it_saturates():
@@ -145,7 +152,15 @@ def test_regime_cells_toward_the_light():
     row = compare("regime", res)[0]
     assert row["verdict"] == "partly"
     assert "toward the light in 2 of 3 cells, away in 0" in row["ours"]
-    assert "fastest 1.8 +- 0.1 mm/s at cold phase: cold steering 5, cold speed 20" in row["ours"]
+    assert "fastest detectable 1.8 +- 0.1 mm/s at cold phase: cold steering 5, cold speed 20" in (
+        row["ours"])  # fmt: skip
+    # a larger mean whose own verdict is "no detectable motion" is not the headline (issue 33)
+    noisy = {**res, "rows": [*rows, cell(9.0, 30.0, 2.5, "no detectable motion")]}
+    assert "fastest detectable 1.8 +- 0.1" in compare("regime", noisy)[0]["ours"]
+    still = {**res, "rows": [cell(0.1, 15.0, 2.5, "no detectable motion")]}
+    assert "no cell with detectable motion" in compare("regime", still)[0]["ours"]
+    # every cell's interval holds 0: no power to decide, not "differs"
+    assert compare("regime", still)[0]["verdict"] == "not resolved at this scale"
     assert "the default cell 1.5 +- 0.1 mm/s" in row["ours"]
     every = {**res, "rows": [dict(r, verdict="toward target") for r in rows]}
     assert _verdicts("regime", every) == ["reproduced"]
@@ -182,3 +197,22 @@ def test_unified_law_rules_and_the_bootstrap_floor():
 def test_numbers_read_as_numbers():
     assert fmt(5600.0, unit="s") == "5,600 s" and fmt(0.012345) == "0.0123"
     assert fmt(None) == "\u2013" and fmt(float("nan")) == "\u2013" and fmt(1200) == "1,200"
+
+
+def test_the_steering_claims_are_rows_with_their_rules():
+    """Issue 33: the paper's steering-rate law and T_theta against speed have rows."""
+    st = {"by": "energy", "bins": 8, "bins_exponential": 6, "slope": -0.01, "p_value": 0.003,
+          "spearman_rho": -0.9, "direction": "decreasing"}  # fmt: skip
+    ants = {"preferred": "two_phase", "steering": st, "command": "thermoswarm analyze X"}
+    rows = compare("unified_law", {"ants": ants})
+    law = next(r for r in rows if "exponential in each speed bin" in r["claim"])
+    trend = next(r for r in rows if "falls with speed" in r["claim"])
+    assert law["verdict"] == "partly" and "6 of 8 energy bins" in law["ours"]
+    assert (
+        trend["verdict"] == "reproduced" and "numbers from: thermoswarm analyze X" in trend["why"]
+    )
+    flat = compare("unified_law", {"ants": {**ants, "steering": {**st, "p_value": 0.4}}})
+    assert next(r for r in flat if "falls with speed" in r["claim"])["verdict"] == "differs"
+    every = {**ants, "steering": {**st, "bins_exponential": 8}}
+    rows = compare("unified_law", {"ants": every})
+    assert next(r for r in rows if "speed bin" in r["claim"])["verdict"] == "reproduced"

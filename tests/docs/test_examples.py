@@ -304,6 +304,8 @@ def run_page(page: Path, cwd: Path, *, slow: bool) -> list[str]:
                     notes.append(f"{where}: {text} (parsed only: reads the reader's {missing})")
                 elif verb in SLOW_VERBS and not slow:
                     notes.append(f"{where}: {text} (slow test)")
+                elif args[:2] in (["robot", "deploy"], ["robot", "calibrate"]):
+                    notes.append(f"{where}: {text} (parsed only: needs the reader's board)")
                 elif verb == "track-train":
                     notes.append(f"{where}: {text} (parsed only: training takes minutes)")
                 elif "--scheduler" in args:

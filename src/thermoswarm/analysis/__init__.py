@@ -13,6 +13,8 @@ the study -> :mod:`thermoswarm.report.analysis_figures` (figures, the HTML repor
 - :mod:`~thermoswarm.analysis.phase_tests`: bootstrap goodness of fit, bootstrap
   likelihood-ratio test, one phase against two;
 - :mod:`~thermoswarm.analysis.sampling`: the thinned test sample the tests run on;
+- :mod:`~thermoswarm.analysis.recording`: what a recording says of itself (sampling
+  interval, control period, recorded speeds and headings), shared-position masking;
 - :mod:`~thermoswarm.analysis.regions`: named polygons from TOML;
 - :mod:`~thermoswarm.analysis.study`: the paper's study (:func:`analyze_tracks`), built
   from :mod:`~thermoswarm.analysis.phases` (one phase or two, plausibility),

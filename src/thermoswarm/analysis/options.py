@@ -181,6 +181,9 @@ class CleanOptions:
         Savitzky-Golay window of the positions (s); ``None``: no smoothing.
     polyorder : int | None
         Order of the Savitzky-Golay polynomial (``None``: 2).
+    mask_shared_positions : bool
+        Make missing every sample whose position another individual has in the same
+        frame (a tracker that gives every member of a cluster the cluster's position).
     """
 
     keypoint: str | None = None
@@ -190,6 +193,7 @@ class CleanOptions:
     max_gap: float = 0.0
     smooth: float | None = None
     polyorder: int | None = None
+    mask_shared_positions: bool = False
 
     def __post_init__(self) -> None:
         _floats(self, "min_confidence", "max_gap", "smooth")
@@ -221,12 +225,17 @@ class StepOptions:
         Steps longer than this many of the individual's median steps are gaps (1).
     regular_tolerance : float
         A step is regular within this fraction of the individual's median step (1).
+    speed_source : str
+        Where the fitted energies' speeds come from: ``"positions"`` (displacements),
+        ``"recorded"`` (the input's ``speed`` variable) or ``"auto"`` (recorded for a
+        ``thermoswarm simulate`` recording, positions otherwise).
     """
 
     mass: float | None = None
     min_speed: float = 0.0
     gap_factor: float = 1.5
     regular_tolerance: float = 0.1
+    speed_source: Literal["auto", "positions", "recorded"] = "auto"
 
     def __post_init__(self) -> None:
         _floats(self, "mass", "min_speed", "gap_factor", "regular_tolerance")
@@ -238,6 +247,8 @@ class StepOptions:
         check(self.gap_factor >= 1, "gap_factor", "at least 1", self.gap_factor)
         check(self.regular_tolerance < 1, "regular_tolerance", "below 1",
               self.regular_tolerance)  # fmt: skip
+        check(self.speed_source in ("auto", "positions", "recorded"), "speed_source",
+              "one of auto, positions, recorded", self.speed_source)  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -92,6 +92,124 @@ def _clusters(valid: np.ndarray) -> tuple[np.ndarray, int, str]:
     return ids, n_i * n_blocks, f"{n_blocks} contiguous time blocks of each of {used.size} tracks"
 
 
+def _levels(energy: np.ndarray, valid: np.ndarray, codes: np.ndarray,
+            regions: Sequence[Region]) -> dict[str, Any]:  # fmt: skip
+    """Per region: step and track counts, mean energy (the one-phase temperature)."""
+    levels: dict[str, Any] = {}
+    for k, reg in enumerate(regions):
+        m = valid & (codes == k)
+        x = energy[m]
+        levels[reg.name] = {
+            "n": int(x.size),
+            "n_tracks": int(m.any(axis=0).sum()),
+            "mean_energy": float(x.mean()) if x.size else None,
+            "kT_one_phase": float(x.mean()) if x.size else None,
+        }
+    return levels
+
+
+def _fractions(
+    energy: np.ndarray,
+    valid: np.ndarray,
+    codes: np.ndarray,
+    names: list[str],
+    levels: dict[str, Any],
+    k1: float,
+    k2: float,
+    cl: np.ndarray,
+    n_cl: int,
+) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
+    """Each region's hot-phase fraction (into ``levels``) and its per-cluster score sums."""
+    est: dict[str, float] = {}
+    sums1 = np.zeros((n_cl, len(names)))
+    sums2 = np.zeros((n_cl, len(names)))
+    for k, name in enumerate(names):
+        m = valid & (codes == k)
+        lev = levels[name]
+        if lev["n"] < MIN_SAMPLES:
+            lev.update(high_T_fraction=None, se_naive=None, se=None, ci_low=None, ci_high=None)
+            lev["skipped"] = f"fewer than {MIN_SAMPLES} samples"
+            continue
+        w, se_naive = high_T_fraction(energy[m], k1, k2)
+        est[name] = w
+        s = _score(energy[m], w, k1, k2)
+        sums1[:, k] = np.bincount(cl[m], weights=s, minlength=n_cl)
+        sums2[:, k] = np.bincount(cl[m], weights=s * s, minlength=n_cl)
+        lev.update(high_T_fraction=w, se_naive=se_naive, se=None, ci_low=None, ci_high=None)
+    return est, sums1, sums2
+
+
+def _replicates(
+    est: dict[str, float],
+    names: list[str],
+    levels: dict[str, Any],
+    sums: tuple[np.ndarray, np.ndarray],
+    n_cl: int,
+    *,
+    n_bootstrap: int,
+    alpha: float,
+    seed: np.random.SeedSequence,
+) -> np.ndarray | None:
+    """One-step cluster-bootstrap replicates of every region's fraction (``None``
+    without bootstrap); each region's standard error and interval go into ``levels``."""
+    if not (n_bootstrap > 0 and est):
+        return None
+    sums1, sums2 = sums
+    rng = np.random.default_rng(seed)
+    reps = np.full((n_bootstrap, len(names)), np.nan)
+    counts = rng.multinomial(n_cl, np.full(n_cl, 1.0 / n_cl), size=n_bootstrap).astype(float)
+    u = counts @ sums1
+    info = counts @ sums2
+    for k, name in enumerate(names):
+        if name not in est:
+            continue
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.where(info[:, k] > 0, u[:, k] / info[:, k], np.nan)
+        reps[:, k] = np.clip(est[name] + step, 0.0, 1.0)
+        r = reps[:, k][np.isfinite(reps[:, k])]
+        if r.size > 1:
+            lev = levels[name]
+            lev["se"] = float(r.std(ddof=1))
+            lev["ci_low"], lev["ci_high"] = (
+                float(v) for v in np.quantile(r, [alpha / 2, 1 - alpha / 2])
+            )
+    return reps
+
+
+def _difference(
+    a: int, b: int, names: list[str], est: dict[str, float], levels: dict[str, Any],
+    reps: np.ndarray | None, alpha: float,
+) -> dict[str, Any]:  # fmt: skip
+    """The difference of two regions' fractions: estimate, naive Wald and bootstrap test."""
+    na, nb = names[a], names[b]
+    diff = est[na] - est[nb]
+    se_n = math.hypot(levels[na]["se_naive"], levels[nb]["se_naive"])
+    entry: dict[str, Any] = {
+        "a": na,
+        "b": nb,
+        "difference": diff,
+        "se": None,
+        "ci_low": None,
+        "ci_high": None,
+        "p_value": None,
+        "se_naive": se_n,
+        "p_value_naive": float(2 * stats.norm.sf(abs(diff) / se_n)) if se_n > 0 else None,
+    }
+    if reps is not None:
+        d = reps[:, a] - reps[:, b]
+        d = d[np.isfinite(d)]
+        if d.size > 1:
+            se = float(d.std(ddof=1))
+            entry["se"] = se
+            entry["ci_low"], entry["ci_high"] = (
+                float(v) for v in np.quantile(d, [alpha / 2, 1 - alpha / 2])
+            )
+            entry["p_value"] = (
+                float(2 * stats.norm.sf(abs(diff) / se)) if se > 0 else (0.0 if diff != 0 else 1.0)
+            )
+    return entry
+
+
 def regions_block(
     kin: xr.Dataset,
     codes: np.ndarray,
@@ -103,6 +221,12 @@ def regions_block(
     seed: np.random.SeedSequence,
     source: str | None,
 ) -> dict[str, Any]:
+    """``fits.json["regions"]``: per region the counts, mean energy and hot-phase
+    fraction (with its cluster-bootstrap interval), and each pair's difference.
+
+    Energies in the kinematics' unit; ``codes`` is each step's region index
+    (:data:`OUTSIDE` for none); ``alpha`` the level of the intervals.
+    """
     energy = kin["energy"].values
     valid = kin["valid"].values & np.isfinite(energy) & (energy > 0)
     out: dict[str, Any] = {
@@ -110,19 +234,10 @@ def regions_block(
         "assignment": "step midpoint (x_mid, y_mid); first region in file order",
         "polygons": {r.name: r.to_dict() for r in regions},
         "n_outside": int((valid & (codes == OUTSIDE)).sum()),
-        "levels": {},
+        "levels": _levels(energy, valid, codes, regions),
         "differences": [],
     }
     levels = out["levels"]
-    for k, reg in enumerate(regions):
-        m = valid & (codes == k)
-        x = energy[m]
-        levels[reg.name] = {
-            "n": int(x.size),
-            "n_tracks": int(m.any(axis=0).sum()),
-            "mean_energy": float(x.mean()) if x.size else None,
-            "kT_one_phase": float(x.mean()) if x.size else None,
-        }
     mix = None if two_phase is None else two_phase.two
     if mix is None or mix.degenerate_:
         out["high_T_fraction_note"] = (
@@ -143,74 +258,11 @@ def regions_block(
         ),
     }
     names = [r.name for r in regions]
-    est: dict[str, float] = {}
-    sums1 = np.zeros((n_cl, len(regions)))
-    sums2 = np.zeros((n_cl, len(regions)))
-    for k, name in enumerate(names):
-        m = valid & (codes == k)
-        lev = levels[name]
-        if lev["n"] < MIN_SAMPLES:
-            lev.update(high_T_fraction=None, se_naive=None, se=None, ci_low=None, ci_high=None)
-            lev["skipped"] = f"fewer than {MIN_SAMPLES} samples"
-            continue
-        w, se_naive = high_T_fraction(energy[m], k1, k2)
-        est[name] = w
-        s = _score(energy[m], w, k1, k2)
-        sums1[:, k] = np.bincount(cl[m], weights=s, minlength=n_cl)
-        sums2[:, k] = np.bincount(cl[m], weights=s * s, minlength=n_cl)
-        lev.update(high_T_fraction=w, se_naive=se_naive, se=None, ci_low=None, ci_high=None)
-    if n_bootstrap > 0 and est:
-        rng = np.random.default_rng(seed)
-        reps = np.full((n_bootstrap, len(regions)), np.nan)
-        counts = rng.multinomial(n_cl, np.full(n_cl, 1.0 / n_cl), size=n_bootstrap).astype(float)
-        u = counts @ sums1
-        info = counts @ sums2
-        for k, name in enumerate(names):
-            if name not in est:
-                continue
-            with np.errstate(divide="ignore", invalid="ignore"):
-                step = np.where(info[:, k] > 0, u[:, k] / info[:, k], np.nan)
-            reps[:, k] = np.clip(est[name] + step, 0.0, 1.0)
-            r = reps[:, k][np.isfinite(reps[:, k])]
-            if r.size > 1:
-                lev = levels[name]
-                lev["se"] = float(r.std(ddof=1))
-                lev["ci_low"], lev["ci_high"] = (
-                    float(v) for v in np.quantile(r, [alpha / 2, 1 - alpha / 2])
-                )
-    else:
-        reps = None
+    est, sums1, sums2 = _fractions(energy, valid, codes, names, levels, k1, k2, cl, n_cl)
+    reps = _replicates(est, names, levels, (sums1, sums2), n_cl, n_bootstrap=n_bootstrap,
+                       alpha=alpha, seed=seed)  # fmt: skip
     for a in range(len(names)):
         for b in range(a + 1, len(names)):
-            na, nb = names[a], names[b]
-            if na not in est or nb not in est:
-                continue
-            diff = est[na] - est[nb]
-            se_n = math.hypot(levels[na]["se_naive"], levels[nb]["se_naive"])
-            entry: dict[str, Any] = {
-                "a": na,
-                "b": nb,
-                "difference": diff,
-                "se": None,
-                "ci_low": None,
-                "ci_high": None,
-                "p_value": None,
-                "se_naive": se_n,
-                "p_value_naive": float(2 * stats.norm.sf(abs(diff) / se_n)) if se_n > 0 else None,
-            }
-            if reps is not None:
-                d = reps[:, a] - reps[:, b]
-                d = d[np.isfinite(d)]
-                if d.size > 1:
-                    se = float(d.std(ddof=1))
-                    entry["se"] = se
-                    entry["ci_low"], entry["ci_high"] = (
-                        float(v) for v in np.quantile(d, [alpha / 2, 1 - alpha / 2])
-                    )
-                    entry["p_value"] = (
-                        float(2 * stats.norm.sf(abs(diff) / se))
-                        if se > 0
-                        else (0.0 if diff != 0 else 1.0)
-                    )
-            out["differences"].append(entry)
+            if names[a] in est and names[b] in est:
+                out["differences"].append(_difference(a, b, names, est, levels, reps, alpha))
     return out

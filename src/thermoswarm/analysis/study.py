@@ -38,6 +38,7 @@ regions
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -51,6 +52,13 @@ from thermoswarm.analysis.kinematics import compute_kinematics, data_quality, ex
 from thermoswarm.analysis.options import KEYWORD_SECTIONS, AnalysisOptions, parse_energy_bins
 from thermoswarm.analysis.phase_tests import PhaseComparison
 from thermoswarm.analysis.phases import dependence, phase_block, plausibility
+from thermoswarm.analysis.recording import (
+    apply_speed_source,
+    kT_interval,
+    mask_shared_positions,
+    recording_block,
+    recording_facts,
+)
 from thermoswarm.analysis.region_stats import regions_block
 from thermoswarm.analysis.regions import OUTSIDE, Region, assign_regions, load_regions
 from thermoswarm.analysis.steering import steering_block
@@ -75,6 +83,8 @@ __all__ = [
 #: The kinematics options written to ``fits.json["settings"]``, in order.
 KINEMATICS_KEYS = (
     "keypoint",
+    "mask_shared_positions",
+    "speed_source",
     "smooth",
     "polyorder",
     "min_speed",
@@ -288,6 +298,23 @@ def fit_groups(
         result.groups[spec.text] = {"codes": codes, "labels": labels, "fits": kept}
 
 
+def note_recording(
+    result: StudyResult,
+    facts: dict[str, Any],
+    source: str,
+    opts: AnalysisOptions,
+    n_shared: int | None,
+) -> None:
+    """``fits.json["recording"]`` and the masked-sample count; the recording's warning
+    (sampling coarser than the control period) as a :class:`UserWarning`."""
+    rec = recording_block(result.kinematics, facts, source, opts.steps.speed_source)
+    result.fits["recording"] = rec
+    if n_shared is not None:
+        result.fits["data_quality"]["n_shared_positions_masked"] = n_shared
+    if rec["warning"]:
+        warnings.warn(rec["warning"], stacklevel=3)
+
+
 def run_study(
     ds: xr.Dataset,
     options: AnalysisOptions | None = None,
@@ -324,9 +351,13 @@ def run_study(
     opts = AnalysisOptions.from_keywords(options, **keywords)
     plan = plan_study(opts, regions)
     say = progress or (lambda msg: None)
-    s_energy, s_steer, s_regions, s_groups = np.random.SeedSequence(opts.test.seed).spawn(4)
+    seeds = np.random.SeedSequence(opts.test.seed).spawn(5)  # the first 4 as before
+    s_energy, s_steer, s_regions, s_groups, s_ci = seeds
+    facts = recording_facts(ds)
+    ds, n_shared = mask_shared_positions(ds) if opts.clean.mask_shared_positions else (ds, None)
     say("kinematics")
     kin = compute_kinematics(ds, opts)
+    source = apply_speed_source(kin, ds, opts.steps.speed_source, facts, opts.steps.mass)
     energy = kin["energy"].values
     valid = fittable_steps(kin, ds.attrs.get("source_file", "the input"))
     region_codes = None
@@ -342,9 +373,15 @@ def run_study(
         spec.text: group_codes(spec, ds, kin, region_codes, plan.regions) for spec in plan.specs
     }
     result = StudyResult(fits_header(ds, kin, valid, opts, plan), kin, regions=plan.regions)
+    note_recording(result, facts, source, opts, n_shared)
     say("energy: one vs two phases")
     dep_e = dependence(energy, valid)
     fit_energy(result, energy, valid, dep_e, opts, s_energy)
+    one = result.fits["energy"].get("one_phase")
+    ci = kT_interval(energy, valid, n_bootstrap=opts.test.n_bootstrap, alpha=opts.test.alpha,
+                     seed=s_ci)  # fmt: skip
+    if one is not None and ci is not None:
+        one.update(ci)
     say("steering")
     fit_steering(result, opts, s_steer)
     fit_groups(result, energy, valid, dep_e, codes_by_spec, plan, opts, s_groups, say)

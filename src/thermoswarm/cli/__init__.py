@@ -39,6 +39,7 @@ _COMMANDS: dict[str, str] = {
     "formats": "thermoswarm.cli.convert:formats",
     "cache": "thermoswarm.cli.cache:cache",
     "view": "thermoswarm.cli.view:view",
+    "robot": "thermoswarm.cli.robot:robot",
 }
 
 
@@ -56,6 +57,7 @@ EXTRA_OF_MODULE: dict[str, str] = {
     "pymunk": "bench",
     "trackers": "bench",
     "numba_cuda": "gpu",
+    "mpremote": "robot",
 }
 
 

@@ -26,6 +26,7 @@ _KEYWORD = {"fmt": "format", "read_option": "read_options", "no_report": "report
 
 #: Data-quality counters worth a line on the terminal when they are not zero.
 _NOTABLE = (
+    ("n_shared_positions_masked", "samples at another individual's position masked"),
     ("n_missing_timestamps", "samples without a timestamp dropped"),
     ("n_decreasing_timestamps", "backward time steps (rows sorted)"),
     ("n_duplicate_rows", "exact duplicate rows dropped"),
@@ -62,6 +63,14 @@ def _thin(value: str) -> str | int:
 
 def _fmt(v: Any, spec: str = ".4g") -> str:
     return "-" if v is None else format(v, spec)
+
+
+def _ci(one: dict[str, Any]) -> str:
+    """`` (95 % interval A-B over individuals)`` where the study gave one."""
+    ci = one.get("kT_ci")
+    if not ci:
+        return ""
+    return f" ({one['kT_ci_level']:.0%} interval {ci[0]:.4g}-{ci[1]:.4g} over individuals)"
 
 
 def _p(p: float | None, n_boot: int | None) -> str:
@@ -189,6 +198,19 @@ def _p(p: float | None, n_boot: int | None) -> str:
     default=1.5,
     show_default=True,
     help="Steps longer than this many of the individual's median steps are gaps.",
+)
+@click.option(
+    "--speed-source",
+    type=click.Choice(["auto", "positions", "recorded"]),
+    default="auto",
+    show_default=True,
+    help="Speeds of the energies: displacements, the input's speed variable, or auto "
+    "(recorded for a thermoswarm simulation).",
+)
+@click.option(
+    "--mask-shared-positions",
+    is_flag=True,
+    help="Make missing the samples whose position another individual has in that frame.",
 )
 @click.option("--keypoint", default=None, help="Keypoint to follow (default: the centroid).")
 @click.option(
@@ -342,13 +364,15 @@ def summary_lines(fits: dict[str, Any]) -> list[str]:
     if notes:
         lines.append("data quality: " + "; ".join(notes))
     lines.append(f"left out of the fits: {fits['excluded']['statement']}")
+    lines.extend(recording_lines(fits.get("recording")))
     e = fits["energy"]
     if "one_phase" in e:
         two = e["two_phase"]
         lines.append(
             f"energy: {e['preferred']} preferred ({e['preferred_by']}; LR p "
             f"{_p(e['lr_p_value'], e.get('n_bootstrap'))}, n = {e['lr_n']}); one phase kT = "
-            f"{_fmt(e['one_phase']['kT'])}; two phases phi = {_fmt(two['phi'], '.3f')}, "
+            f"{_fmt(e['one_phase']['kT'])}{_ci(e['one_phase'])}; two phases phi = "
+            f"{_fmt(two['phi'], '.3f')}, "
             f"kT1 = {_fmt(two['kT1'])}, kT2 = {_fmt(two['kT2'])}"
         )
         why = explain_phases(e)
@@ -368,3 +392,22 @@ def summary_lines(fits: dict[str, Any]) -> list[str]:
             f"(p {_p(d['p_value'], None)})"
         )
     return lines
+
+
+def recording_lines(rec: dict[str, Any] | None) -> list[str]:
+    """What ``analyze`` prints of ``fits.json["recording"]`` (nothing for plain tracks)."""
+    if not rec or not (rec.get("simulated") or rec.get("speed_source") == "recorded"):
+        return []
+    dt, tau = rec.get("sampling_interval_s"), rec.get("control_period_s")
+    text = f"recording: sampled every {_fmt(dt, '.3g')} s"
+    if tau is not None:
+        text += f", control period {tau:g} s ({rec['mixed_step_fraction']:.0%} of steps mix two)"
+    if rec["speed_source"] == "recorded":
+        text += f"; energies and turns from the recorded {rec['speed_kind']} speeds and headings"
+        ratio, slowed = rec.get("realized_to_recorded_energy"), rec.get("slowed_fraction")
+        if ratio is not None:
+            text += (f" (from positions: {ratio:.3g} of their mean energy, "
+                     f"{slowed:.1%} of steps slowed by contacts)")  # fmt: skip
+    else:
+        text += "; energies from positions"
+    return [text]

@@ -51,6 +51,28 @@ from thermoswarm.errors import InputError
 @click.option(
     "--max-frames", type=click.IntRange(min=1), help="Detect at most this many frames per input."
 )
+@click.option(
+    "--camera",
+    type=click.Choice(["auto", "still", "moving"]),
+    default="auto",
+    show_default=True,
+    help="auto: register video frames to the first when the camera moves (folders and "
+    "images: still unless 'moving'); detections then in the first frame's px.",
+)
+@click.option(
+    "--regions",
+    type=click.Path(path_type=Path),
+    help="Regions TOML (as `analyze --regions`; px, or mm with --px-per-mm): writes "
+    "NAME_regions.csv (detections per frame and region) and, for photos, a picture each.",
+)
+@click.option(
+    "--series",
+    type=click.Choice(["auto", "yes", "no"]),
+    default="auto",
+    show_default=True,
+    help="Photo series (EXIF clocks a minute or more apart, or 'yes'): detect in windows "
+    "of 12 photos, each with its own background, with the options tuned on such photos.",
+)
 def detect(
     inputs: tuple[Path, ...],
     out_dir: Path,
@@ -61,6 +83,9 @@ def detect(
     config: str | None,
     overrides: tuple[str, ...],
     max_frames: int | None,
+    camera: str,
+    regions: Path | None,
+    series: str,
 ) -> None:
     """Detect the animals in INPUTS (videos, folders of frames, images) into OUT.
 
@@ -73,7 +98,7 @@ def detect(
     """
     from thermoswarm.fsutil import require_input
 
-    require_input(*inputs)  # before the heavy imports
+    require_input(*inputs, regions)  # before the heavy imports
     try:
         import cv2  # noqa: F401
     except ImportError:
@@ -102,6 +127,9 @@ def detect(
         fps=fps,
         max_frames=max_frames,
         width_bl=width_bl,
+        camera=camera,
+        regions=regions,
+        series=series,
     )
     for r in summary["inputs"]:
         click.echo(

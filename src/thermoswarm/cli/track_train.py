@@ -8,10 +8,14 @@ video file literally named ``train`` is tracked as ``thermoswarm track ./train``
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from thermoswarm.errors import InputError
+
+if TYPE_CHECKING:
+    from thermoswarm.tracking.train.fit import TrainConfig
 
 
 @click.command("track-train")
@@ -129,30 +133,17 @@ def track_train(
         raise InputError("--real-crops DIR and --background PNG go together")
     if roi is not None and background is None:
         raise InputError("--roi is the mask of --background: give --background too")
-    from thermoswarm.config import apply_overrides, from_mapping, load_toml, parse_overrides
     from thermoswarm.io import resolve_px_per_mm
-    from thermoswarm.tracking.train.fit import TrainConfig, train_from_sources
+    from thermoswarm.tracking.train.fit import train_from_sources
 
-    data = load_toml(config) if config else {}
-    data = apply_overrides(data, parse_overrides(overrides))
-    if seed is not None:
-        data["seed"] = seed
-    if threads is not None:
-        data["threads"] = threads
-    cfg = from_mapping(TrainConfig, data, source=config or "--set")
+    cfg = _train_config(config, overrides, seed, threads)
     if labels and px_per_mm is None:
         raise InputError(
             "pass --px-per-mm for --labels (the scale of the labelled images; the paper's "
             "is --px-per-mm paper = 3.04)"
         )
     scale = resolve_px_per_mm(px_per_mm) if px_per_mm is not None else None
-    node_names = None
-    if nodes is not None:
-        node_names = [n.strip() for n in nodes.split(",")]
-        if len(node_names) != 3 or not all(node_names):
-            raise InputError(
-                f"--nodes must be three names HEAD,BODY,TAIL (a name may be A+B), got {nodes!r}"
-            )
+    node_names = _node_names(nodes)
 
     def log(line: str) -> None:
         if not quiet:
@@ -174,13 +165,47 @@ def track_train(
         progress=not quiet,
         log=log,
     )
+    click.echo(_summary(report, out))
+
+
+def _train_config(
+    config: str | None, overrides: tuple[str, ...], seed: int | None, threads: int | None
+) -> TrainConfig:
+    """The training options: the TOML file, the ``--set`` overrides, then ``--seed`` and
+    ``--threads``."""
+    from thermoswarm.config import apply_overrides, from_mapping, load_toml, parse_overrides
+    from thermoswarm.tracking.train.fit import TrainConfig
+
+    data = load_toml(config) if config else {}
+    data = apply_overrides(data, parse_overrides(overrides))
+    if seed is not None:
+        data["seed"] = seed
+    if threads is not None:
+        data["threads"] = threads
+    return from_mapping(TrainConfig, data, source=config or "--set")
+
+
+def _node_names(nodes: str | None) -> list[str] | None:
+    """``--nodes HEAD,BODY,TAIL`` as three names (``None`` without it)."""
+    if nodes is None:
+        return None
+    node_names = [n.strip() for n in nodes.split(",")]
+    if len(node_names) != 3 or not all(node_names):
+        raise InputError(
+            f"--nodes must be three names HEAD,BODY,TAIL (a name may be A+B), got {nodes!r}"
+        )
+    return node_names
+
+
+def _summary(report: dict[str, Any], out: Path) -> str:
+    """The line printed after training: steps, time, why it stopped, the best score."""
     best = report["best"] or {}
     score = (
         f"validation MOTA {best['mota']:.4f}, ID switches {100 * best['idsw_rate']:.2f} %"
         if "mota" in best
         else (f"validation F1 {best['f1']:.3f}" if "f1" in best else "no validation")
     )
-    click.echo(
+    return (
         f"{report['steps']} steps in {report['seconds']:.0f} s (stopped: {report['stopped']}), "
         f"{score} -> {out}"
     )

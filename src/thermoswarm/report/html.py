@@ -49,6 +49,7 @@ pre{background:#f6f6f6;padding:.6em;overflow-x:auto;font-size:.85em}
 table.paper td,table.paper th{text-align:left;max-width:26em}
 table.paper td.v{font-weight:600;white-space:nowrap}
 .reproduced{color:#11702a} .partly{color:#8a6100} .differs{color:#a11} .notmeasured{color:#666}
+.notresolvedatthisscale{color:#666}
 .empty{border:1px dashed #bbb;padding:.8em;color:#444;background:#fafafa}
 """
 

@@ -20,171 +20,23 @@ import statistics
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from thermoswarm.report.paper_common import (
+    DIFFERS,
+    NOT_MEASURED,
+    NOT_RESOLVED,
+    PARTLY,
+    REPRODUCED,
+    _get,
+    _p,
+    _row,
+    fmt,
+)
+from thermoswarm.report.paper_unified import compare_unified_law
+
 __all__ = ["COMPARISONS", "compare", "fmt", "NOTES_PAGE"]
 
 #: The page of the documentation that settles the paper's contradictions.
 NOTES_PAGE = "docs/paper_notes.md"
-
-REPRODUCED, PARTLY, DIFFERS, NOT_MEASURED = "reproduced", "partly", "differs", "not measured"
-
-
-def fmt(x: Any, nd: int = 3, unit: str = "") -> str:
-    """A number for a table cell: ``nd`` significant digits, its unit, or an en dash."""
-    if x is None or (isinstance(x, float) and not math.isfinite(x)):
-        return "\u2013"
-    if isinstance(x, bool):
-        return "yes" if x else "no"
-    if isinstance(x, int):
-        text = f"{x:,}"
-    elif abs(float(x)) >= 10**nd:  # 5,600 s, never 5.6e+03 s
-        text = f"{float(x):,.0f}"
-    else:
-        text = format(float(x), f",.{nd}g")
-    return f"{text} {unit}".strip()
-
-
-def _get(d: Any, *keys: str, default: Any = None) -> Any:
-    for k in keys:
-        if not isinstance(d, Mapping) or k not in d:
-            return default
-        d = d[k]
-    return d
-
-
-def _row(claim: str, paper: str, ours: str, verdict: str, why: str) -> dict[str, str]:
-    return {"claim": claim, "paper": paper, "ours": ours, "verdict": verdict, "why": why}
-
-
-def _p(p: Any, n_bootstrap: Any = None) -> str:
-    """``p = 0.03``, or ``p < 1/(B+1)`` at the resolution of a bootstrap of B replicates."""
-    if p is None:
-        return "p n/a"
-    if n_bootstrap and p <= 1.02 / (n_bootstrap + 1):  # results.json rounds p
-        floor = fmt(1 / (n_bootstrap + 1), 2)
-        return f"p <= {floor} (the smallest p of {n_bootstrap} bootstrap replicates)"
-    return f"p = {fmt(p, 2)}"
-
-
-# ----------------------------------------------------------------------- one law
-def _ant_row(ants: Mapping[str, Any], nb: Any, real: bool) -> dict[str, str]:
-    """The paper's two-phase claim checked on real ants, or on the synthetic control.
-
-    Rule for both: two phases preferred by the LR test and the two-phase fit not
-    rejected by its KS test (p > 0.05).
-    """
-    pref = ants.get("preferred")
-    tp = ants.get("two_phase") or {}
-    ok = pref == "two_phase" and (ants.get("ks_p_value_preferred") or 0) > 0.05
-    sm = ants.get("samples") or {}
-    if real:
-        what = (
-            f"real ants: {ants.get('source') or 'source n/a'}; {fmt(sm.get('single'))} of "
-            f"{fmt(sm.get('total'))} samples measured individually "
-            f"({fmt(sm.get('cluster_shared'))} in clusters, left out), "
-            f"{fmt(_get(ants, 'steps', 'resting'))} resting steps left out"
-        )
-        kt1 = tp.get("kT1")
-        if ok and kt1:  # a cold phase near zero may be standing ants' centroid jitter
-            what += (
-                f"; the cold phase's rms speed is {fmt(math.sqrt(2 * kt1), 2)} mm/s: at "
-                "this camera's 0.094 mm pixels and 10 frames/s, about one pixel per frame, "
-                "so it may be standing ants' jitter rather than a second gait"
-            )
-        claim = "ants (real): energy is a two-phase exponential mixture"
-    else:
-        what = (
-            "control: synthetic ants drawn from the paper's two-phase model, read back by "
-            "the same analysis: this checks the analysis, not the biology"
-        )
-        claim = "ants (synthetic control): the analysis recovers the two-phase mixture"
-    why = (
-        "rule: two phases preferred (LR p < 0.05) and the two-phase fit not rejected "
-        "(KS p > 0.05); "
-    )
-    if pref and not ok:
-        why += (
-            "here one phase was preferred; "
-            if pref != "two_phase"
-            else "here the KS test rejects the two-phase fit; "
-        )
-    return _row(
-        claim,
-        "Fig. 2 (a-h): p(v^2) = phi Exp(kT1) + (1 - phi) Exp(kT2) fits every energy level; "
-        "KS 0.024-0.052, p 0.99-1.00",
-        f"{pref or 'n/a'} preferred (LR {_p(ants.get('lr_p_value'), nb)}); "
-        f"one phase kT = {fmt(ants.get('one_phase_kT'))}; phi = {fmt(tp.get('phi'))}, "
-        f"kT1 = {fmt(tp.get('kT1'))}, kT2 = {fmt(tp.get('kT2'))} mm^2/s^2; KS "
-        f"{_p(ants.get('ks_p_value_preferred'), nb)}",
-        (REPRODUCED if ok else DIFFERS) if pref else NOT_MEASURED,
-        why + what,
-    )
-
-
-def compare_unified_law(res: Mapping[str, Any]) -> list[dict[str, str]]:
-    nb = next((s.get("n_bootstrap") for s in res.values() if isinstance(s, Mapping)), None)
-    rows = [
-        _ant_row(_get(res, "ants_real") or {}, nb, real=True),
-        _ant_row(_get(res, "ants") or {}, nb, real=False),
-    ]
-    gas = _get(res, "gas") or {}
-    pref = gas.get("preferred")
-    kt, mean = gas.get("one_phase_kT"), gas.get("mean_energy_per_particle")
-    rel = abs(kt / mean - 1) if kt and mean else None
-    ok = pref == "one_phase" and rel is not None and rel < 0.1
-    rows.append(
-        _row(
-            "physical particles: one exponential at kT",
-            "Discussion table: p(v^2) = exp(-v^2/E)/E with E = kT (the Boltzmann law)",
-            f"{pref or 'n/a'} preferred (LR {_p(gas.get('lr_p_value'), nb)}); "
-            f"kT = {fmt(kt)} mm^2/s^2 "
-            f"against the mean energy per particle {fmt(mean)} mm^2/s^2",
-            (REPRODUCED if ok else DIFFERS) if pref else NOT_MEASURED,
-            "rule: one phase preferred and kT within 10 % of the mean energy"
-            + (
-                ""
-                if ok or not pref
-                else "; a short record of a small gas is correlated across particles, so the "
-                "bootstrap p-values are too small (see the analysis docs)"
-            ),
-        )
-    )
-    rob = _get(res, "robots") or {}
-    pref = rob.get("preferred")
-    tp = rob.get("two_phase") or {}
-    ks = rob.get("ks_p_value_preferred")
-    fits = ks is not None and ks > 0.05
-    ok = pref == "two_phase" and fits
-    reasons = []
-    if pref != "two_phase":
-        reasons.append("the test could not tell two phases from one in this sample")
-    elif not fits:
-        reasons.append(
-            f"two phases preferred, but the KS test rejects two exponentials "
-            f"({_p(ks, nb)}): collisions and walls reshape the hot phase's speeds"
-        )
-    hot, kt2 = rob.get("kT_hot"), tp.get("kT2")
-    if ok and hot and kt2 and kt2 < hot:
-        reasons.append(
-            "the fitted hot temperature sits below the set one: robots stalled by "
-            "collisions and walls move slower than they command"
-        )
-    why_robots = "; ".join(reasons) or "two phases, as set"
-    rows.append(
-        _row(
-            "robots of Algorithm 5: two temperatures switched by light",
-            "Discussion table: p(v^2) = exp(-v^2/E(x))/E(x), E(x) set by the light; Fig. 5: "
-            "gas-like and liquid-like robots",
-            f"{pref or 'n/a'} preferred (LR {_p(rob.get('lr_p_value'), nb)}); fitted kT1 = "
-            f"{fmt(tp.get('kT1'))}, kT2 = {fmt(tp.get('kT2'))} mm^2/s^2; set "
-            f"{fmt(rob.get('kT_cold'))} and {fmt(rob.get('kT_hot'))} mm^2/s^2; KS "
-            f"{_p(ks, nb)}",
-            (REPRODUCED if ok else PARTLY if pref == "two_phase" else DIFFERS)
-            if pref
-            else NOT_MEASURED,
-            why_robots,
-        )
-    )
-    return rows
 
 
 # ----------------------------------------------------------------------- road
@@ -511,7 +363,12 @@ def _time_row(rows: Sequence[Mapping[str, Any]], label: str) -> dict[str, str]:
     where = f"fastest median at N = {fmt(n_best)}"
     if n_sat != n_best:
         where += f", within its 95 % interval from N = {fmt(n_sat)} on"
-    if falls and n_best == meds[-1][0]:
+    if hi is None:  # too few runs arrived for a bounded interval: no power to decide
+        verdict = NOT_RESOLVED
+        why = (f"the fastest median's 95 % interval is unbounded ({r_best.get('reached')} of "
+               f"{r_best.get('seeds')} runs at N = {fmt(n_best)} reached the target): more "
+               "seeds a size (reproduce --full) resolve it")  # fmt: skip
+    elif falls and n_best == meds[-1][0]:
         verdict, why = REPRODUCED, f"falls with N ({where})"
     elif falls:
         verdict, why = PARTLY, f"falls, then saturates or rises: {where}"
@@ -553,7 +410,9 @@ def compare_regime(res: Mapping[str, Any]) -> list[dict[str, str]]:
         return [_row(claim, paper, "n/a", NOT_MEASURED, "")]
     toward = [r for r in rows if r.get("verdict") == "toward target"]
     away = [r for r in rows if r.get("verdict") == "away from target"]
-    best = max(rows, key=lambda r: r.get("drift_mean") or -math.inf)
+    # the fastest cell among those whose own verdict is a detectable motion toward the
+    # light: a larger mean whose interval holds 0 is no evidence of speed
+    best = max(toward, key=lambda r: r.get("drift_mean") or -math.inf) if toward else None
 
     def cell(r: Mapping[str, Any]) -> str:
         return (
@@ -565,7 +424,12 @@ def compare_regime(res: Mapping[str, Any]) -> list[dict[str, str]]:
     ours = (
         f"toward the light in {len(toward)} of {len(rows)} cells, away in {len(away)} "
         f"({fmt(res.get('seeds'))} seeds, {fmt(res.get('n'))} robots, "
-        f"{fmt(res.get('duration_s'), unit='s')}); fastest {cell(best)}"
+        f"{fmt(res.get('duration_s'), unit='s')}); "
+        + (
+            f"fastest detectable {cell(best)}"
+            if best
+            else "no cell with detectable motion toward the light"
+        )  # fmt: skip
     )
     default = next((r for r in rows if r.get("default")), None)
     if default is not None:
@@ -579,6 +443,10 @@ def compare_regime(res: Mapping[str, Any]) -> list[dict[str, str]]:
     elif toward:
         verdict = PARTLY
         why = "the transport depends on the numbers the paper leaves open"
+    elif not away:  # every interval holds 0: the test had no power with these seeds
+        verdict = NOT_RESOLVED
+        why = (f"no cell's 95 % interval excludes 0 with {fmt(res.get('seeds'))} seeds: not "
+               "resolved at this scale (reproduce --full runs more seeds, longer)")  # fmt: skip
     else:
         verdict, why = DIFFERS, "no cell moves the object toward the light"
     return [_row(claim, paper, ours, verdict, why + "; rule: a cell moves toward the light "
@@ -611,6 +479,8 @@ def summary_verdict(rows: Sequence[Mapping[str, str]]) -> str:
         return NOT_MEASURED
     if all(v == REPRODUCED for v in verdicts):
         return REPRODUCED
+    if all(v in (NOT_MEASURED, NOT_RESOLVED) for v in verdicts):
+        return NOT_RESOLVED
     if any(v in (REPRODUCED, PARTLY) for v in verdicts):
         return PARTLY
     return DIFFERS

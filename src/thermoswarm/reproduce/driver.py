@@ -114,6 +114,7 @@ def reproduce(
         ("scaling", lambda b: _scaling(out, plan, rep, workers, b, pool)),
     ]
     log = _Log(verbose, plan, [name for name, _ in steps])
+    log.start_up()
     overview: list[dict[str, str]] = []
     pool = _Pool(workers)
     try:

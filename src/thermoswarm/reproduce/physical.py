@@ -90,6 +90,29 @@ def _narrow_road(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None =
 
 
 # ------------------------------------------------------------------------ compression
+def _r2(r2: float | None) -> str:
+    """R^2 as text that never rounds a 0.99977 up to 1: four digits after the last 9."""
+    if r2 is None:
+        return "\u2013"
+    if r2 >= 1.0:
+        return "1 (exact)"
+    return f"{r2:.{max(4, 2 - math.floor(math.log10(1.0 - r2)))}f}"
+
+
+def _picture_run(m: dict[str, Any], pic: dict[str, Any]) -> str:
+    """The drawn run's own figures, for its captions."""
+    z, se, ok = m.get("Z"), m.get("Z_se"), m.get("se_reliable")
+    text = (f"{pic['n']} robots, {pic['width'] / 1000:g} m wide, packing "
+            f"{_text(m.get('packing_fraction'))}, {pic['duration']:g} s")  # fmt: skip
+    if z is not None:
+        text += f", Z = {_text(z)}"
+        if se is not None:
+            text += f" +- {_text(se)}"
+        if ok is False:
+            text += " (its standard error is not reliable at this length)"
+    return text
+
+
 def _compression_results(iso: Any, temp: Any, dens: Any, n: int) -> dict[str, Any]:
     """The numbers of ``results.json``: the isotherm's points and mean Z, the linear fits
     of pressure against temperature and of the temperature that holds the density."""
@@ -161,12 +184,12 @@ def _compression(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None =
         rep.table(
             {
                 "mean Z on the isotherm": res["dilute_Z_mean"],
-                "P against kT_eff at fixed area: R^2": res["pressure_vs_temperature"]["r2"],
+                "P against kT_eff at fixed area: R^2": _r2(res["pressure_vs_temperature"]["r2"]),
                 "P against kT_eff: slope (per mm^2)": res["pressure_vs_temperature"]["slope"],
                 "ideal-gas slope n / A_free (per mm^2)": (
                     res["pressure_vs_temperature"]["ideal_slope"]
                 ),
-                "kT holding the density against the force: R^2": (
+                "kT holding the density against the force: R^2": _r2(
                     res["temperature_for_density"]["r2"]
                 ),
             },
@@ -180,13 +203,12 @@ def _compression(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None =
             "area (held walls). Right: the temperature that holds the density fixed "
             "rises with the force (the paper's panel w).",
         )
-        _fig(
-            rep,
-            snapshot_strip(tracks, C.plot_frame, geo),
-            "Snapshots of a compression run (robots coloured by speed).",
-        )
+        own = _picture_run(m, pic)
+        _fig(rep, snapshot_strip(tracks, C.plot_frame, geo), "Snapshots of a separate, squarer "
+             f"run drawn for the eye, not the isotherm's {n} robots at packing {phi}: {own} "
+             "(robots coloured by speed).")  # fmt: skip
         path = animate(
             tracks, C.plot_frame, geo, out / "animations" / "compression", title="compression"
         )
-        rep.animation(path, caption="Compression: walls pushed by a constant force.")
+        rep.animation(path, caption=f"The same separate run as the snapshots: {own}.")
     return res

@@ -35,8 +35,8 @@ class Plan:
     ant_frames: int = 600
     n_bootstrap: int = 200
     #: seconds per step on a 2-core machine (warm Numba cache; quick: the wall seconds of
-    #: one run at a load of 2-3), for the estimate of what is left; only their
-    #: proportions matter (rescaled as steps finish)
+    #: the warm-cache run in docs/reproduce.md), for the estimate of what is left; only
+    #: their proportions matter (rescaled by the pace of the finished steps)
     expected: dict[str, float] = field(default_factory=dict)
 
 
@@ -47,9 +47,9 @@ class Plan:
 QUICK = Plan("quick", compression_duration=1600.0, connected_seeds=3, free_seeds=3,
              study="quick", mechanism_seeds=5, regime_maps=("cold", "hot"),
              scaling_settings=("quick",), unified_duration=60.0,
-             expected={"unified_law": 12, "narrow_road": 6, "compression": 20,
-                       "transport_connected": 4, "transport_free": 49, "regime": 81,
-                       "mechanism": 300, "scaling": 18})  # fmt: skip
+             expected={"unified_law": 12, "narrow_road": 7, "compression": 21,
+                       "transport_connected": 5, "transport_free": 58, "regime": 54,
+                       "mechanism": 146, "scaling": 19})  # fmt: skip
 FULL = Plan("full", expected={"unified_law": 60, "narrow_road": 25, "compression": 90,
                               "transport_connected": 30, "transport_free": 200,
                               "regime": 1000, "mechanism": 3000, "scaling": 2800})  # fmt: skip

@@ -83,12 +83,34 @@ class _Log:
         step lines are the log) or when quiet."""
         return None if self.tty else False
 
-    def left(self) -> float:
+    def start_up(self) -> None:
+        """Import what every step needs before the first step starts, so that the first
+        step's pace (the first measure of this machine's speed) is its own work."""
+        start = time.perf_counter()
+        import matplotlib.pyplot  # noqa: F401
+        import scipy.stats  # noqa: F401
+        import xarray  # noqa: F401
+
+        import thermoswarm.analysis.study  # noqa: F401
+        import thermoswarm.report.analysis_figures  # noqa: F401
+        import thermoswarm.scenarios.runner  # noqa: F401
+
+        self.start_up_s = round(time.perf_counter() - start, 1)
+
+    def speed(self) -> float:
+        """This machine's pace now: wall seconds per expected second, measured on the
+        finished steps, each older step at half the weight of the next (a shared
+        machine's load changes during a run); 1 before any step has finished."""
         done = [s for s in self.steps if s in self.times]
+        w = [0.5 ** (len(done) - 1 - i) for i in range(len(done))]
+        exp_done = sum(wi * self.expected[s] for wi, s in zip(w, done, strict=True))
+        took = sum(wi * self.times[s] for wi, s in zip(w, done, strict=True))
+        return took / exp_done if exp_done > 0 else 1.0
+
+    def left(self) -> float:
+        """Seconds left: the expected seconds of the steps to run at :meth:`speed`."""
         todo = [s for s in self.steps if s not in self.times]
-        exp_done = sum(self.expected[s] for s in done)
-        scale = sum(self.times[s] for s in done) / exp_done if exp_done > 0 else 1.0
-        return scale * sum(self.expected[s] for s in todo)
+        return self.speed() * sum(self.expected[s] for s in todo)
 
     def step(self, name: str) -> Callable[[], None]:
         start = time.perf_counter()

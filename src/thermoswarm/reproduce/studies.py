@@ -41,8 +41,12 @@ def _regime(out: Path, plan: Plan, rep: Any, workers: int | None,
             f"{len(r.setting['seeds'])} seeds per cell). A cell's verdict: toward or "
             "away from the target when its whole 95 % interval is on one side of 0."
         )
-        _fig(rep, plot_maps(r), "Drift speed toward the light (mm/s); in brackets, runs that "
-                                "reached the target within the run.")  # fmt: skip
+        n_reached = sum(1 for row in rows if row["reached"])
+        _fig(rep, plot_maps(r), "Drift speed toward the light (mm/s, mean ± standard error)"
+             + (f"; in brackets, where any did, the runs that reached the target within the "
+                f"run ({n_reached} of {len(rows)} cells)." if n_reached else
+                f"; no run of any cell reached the target within its "
+                f"{_text(r.setting['base'].get('duration'), 's')}."))  # fmt: skip
         for name in r.setting["maps"]:
             mp = MAPS[name]
             rep.table(

@@ -16,9 +16,12 @@ from typing import Any
 
 import numpy as np
 
+from thermoswarm.analysis.recording import mask_shared_positions
 from thermoswarm.reproduce.plans import Plan
 from thermoswarm.reproduce.runs import _run
 from thermoswarm.reproduce.text import _fig, _num
+
+__all__ = ["ANTRAX_JS16", "REAL_ANTS_COMMAND", "mask_shared_positions", "real_ants"]
 
 #: The real ant excerpt: in a source checkout only (tests/data is not package data).
 ANTRAX_JS16 = (
@@ -26,43 +29,18 @@ ANTRAX_JS16 = (
 )
 #: The systems' names in the fits table.
 _SYSTEM_NAMES = {"ants_real": "ants, real (anTraX JS16)", "ants": "ants, synthetic (control)"}
+#: The ``analyze`` command that gives the real-ant row's numbers (``{path}``, ``{seed}``,
+#: ``{n_bootstrap}`` filled in; OUT is any new directory).
+REAL_ANTS_COMMAND = ("thermoswarm analyze {path} --mask-shared-positions --seed {seed} "
+                     "--bootstrap {n_bootstrap} --out OUT")  # fmt: skip
+#: The ``analyze`` command of a simulated (or synthetic) system's row.
+SYSTEM_COMMAND = "thermoswarm analyze {path} --seed {seed} --bootstrap {n_bootstrap} --out OUT"
 #: Where the excerpt comes from (tests/data/antrax_js16/README.md has the details).
 ANTRAX_SOURCE = (
     "anTraX-data (github.com/Social-Evolution-and-Behavior/anTraX-data, commit 37ed5e9a, "
     "GPL-3.0), JS16/antrax_demo/antdata/xy_1_1.csv: 16 tagged Ooceraea biroi tracked by "
     "anTraX, first 2,400 frames (240 s at 10 frames/s), in mm"
 )
-
-
-def mask_shared_positions(ds: Any) -> tuple[Any, int]:
-    """Make missing every sample whose position another individual has in the same frame.
-
-    Parameters
-    ----------
-    ds : xarray.Dataset
-        Trajectories, ``position(time, space, keypoints, individuals)`` in mm.
-
-    Returns
-    -------
-    masked : xarray.Dataset
-        A copy with those samples set to NaN (every keypoint of the individual).
-    n_shared : int
-        How many (frame, individual) samples were shared, hence masked.
-    """
-    pos = ds["position"].values.copy()
-    x, y = pos[:, 0, 0, :], pos[:, 1, 0, :]
-    ok = np.isfinite(x) & np.isfinite(y)
-    shared = np.zeros(x.shape, dtype=bool)
-    n = x.shape[1]
-    for i in range(n - 1):
-        same = (x[:, i, None] == x[:, i + 1 :]) & (y[:, i, None] == y[:, i + 1 :])
-        same &= ok[:, i, None] & ok[:, i + 1 :]
-        shared[:, i] |= same.any(axis=1)
-        shared[:, i + 1 :] |= same
-    pos[np.broadcast_to(shared[:, None, None, :], pos.shape)] = np.nan
-    out = ds.copy()
-    out["position"] = (ds["position"].dims, pos, ds["position"].attrs)
-    return out, int(shared.sum())
 
 
 def real_ants(path: Path = ANTRAX_JS16, *, seed: int = 0, n_bootstrap: int = 200
@@ -94,11 +72,15 @@ def real_ants(path: Path = ANTRAX_JS16, *, seed: int = 0, n_bootstrap: int = 200
     xy = ds["position"].values[:, :2, 0, :]
     total = int(xy.shape[0] * xy.shape[2])
     missing = int((~np.isfinite(xy).all(axis=1)).sum())
-    masked, n_shared = mask_shared_positions(ds)
-    study = run_study(masked, seed=seed, n_bootstrap=n_bootstrap)
+    # the analysis's own option (``analyze --mask-shared-positions``), not a step of ours
+    study = run_study(ds, seed=seed, n_bootstrap=n_bootstrap, mask_shared_positions=True)
+    n_shared = int(study.fits["data_quality"]["n_shared_positions_masked"])
     dq = data_quality(study.kinematics)
     ex = study.fits["excluded"]
+    rel = path.relative_to(ANTRAX_JS16.parents[3]) if path.is_relative_to(
+        ANTRAX_JS16.parents[3]) else path  # fmt: skip
     counts = {
+        "command": REAL_ANTS_COMMAND.format(path=rel, seed=seed, n_bootstrap=n_bootstrap),
         "fps": float(ds.attrs["fps"]),
         "n_individuals": int(xy.shape[2]),
         "n_frames": int(xy.shape[0]),
@@ -111,24 +93,24 @@ def real_ants(path: Path = ANTRAX_JS16, *, seed: int = 0, n_bootstrap: int = 200
     return study, counts
 
 
-def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = False
-             ) -> dict[str, Any]:  # fmt: skip
-    import matplotlib.pyplot as plt
-    import xarray as xr
-
-    from thermoswarm.analysis.study import run_study
+def _simulate(
+    out: Path, plan: Plan, seed: int, bars: bool | None
+) -> tuple[list[tuple[str, str, Any]], dict[str, Any], dict[str, float]]:
+    """The synthetic ants, the elastic gas and the light-switched robots: ``(key, label,
+    tracks)`` per system, the gas's metrics and the robots' two temperatures."""
+    from thermoswarm.io import read_tracks, write_tracks
     from thermoswarm.maxent import kT_for_mean_speed
-    from thermoswarm.report.analysis_figures import plot_density_fit
     from thermoswarm.tracking.synth.clip import SynthConfig, generate
 
-    ants = generate(SynthConfig(n_frames=plan.ant_frames), np.random.default_rng(seed)).tracks
     work = out / "unified"
+    (work / "ants").mkdir(parents=True, exist_ok=True)
+    ants = generate(SynthConfig(n_frames=plan.ant_frames), np.random.default_rng(seed)).tracks
+    write_tracks(ants, work / "ants" / "tracks.nc")
     gas_m, _, _ = _run("box", work / "gas", {"mode": "inertial", "n": 300,
                                             "packing_fraction": 0.1,
                                             "duration": plan.gas_duration,
                                             "engine": {"dt": 0.05},
                                             "record": {"interval": 0.05}}, seed, bars)  # fmt: skip
-    gas = xr.open_dataset(work / "gas" / "tracks.nc").load()
     # The scenario's defaults (hot 22, cold 18 mm/s mean, speeds cut at 33 mm/s) move the
     # object fastest, but their two speed laws are close and the cut truncates both, so
     # the energy histogram would hardly show two phases.  This panel is about the law
@@ -139,12 +121,64 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
     _run("transport-free", work / "robots",
          {"n": plan.unified_robots, "duration": plan.unified_duration, **robot_kT,
           "v_max": None, "record": {"interval": 0.1}}, seed, bars)  # fmt: skip
-    robots = xr.open_dataset(work / "robots" / "tracks.nc").load()
-    systems = [
-        ("ants", "ants, synthetic (the paper's two-phase model): the control", ants),
-        ("gas", "elastic gas (physical particles)", gas),
-        ("robots", "robots, Algorithm 5 (temperature switched by light)", robots),
-    ]
+    labels = {
+        "ants": "ants, synthetic (the paper's two-phase model): the control",
+        "gas": "elastic gas (physical particles)",
+        "robots": "robots, Algorithm 5 (temperature switched by light)",
+    }
+    # each system is analysed as read from its file, exactly as `analyze FILE` reads it
+    systems = [(k, label, read_tracks(work / k / "tracks.nc")) for k, label in labels.items()]
+    return systems, gas_m, robot_kT
+
+
+def _panel(ax: Any, study: Any, label: str, n_bootstrap: int) -> dict[str, Any]:
+    """Draw one system's energy density with the preferred fit; its row of the table."""
+    from thermoswarm.report.analysis_figures import plot_density_fit
+
+    kin = study.kinematics
+    e = kin["energy"].values[kin["valid"].values.astype(bool)]
+    e = e[np.isfinite(e) & (e > 0)]
+    en = study.fits["energy"]
+    # only the model the analysis kept: a rejected (or degenerate) fit is not drawn
+    kept = study.energy.two if en["preferred"] == "two_phase" else study.energy.one
+    plot_density_fit(ax, kept, e)
+    ax.set_xlabel("energy v^2/2 (mm^2/s^2)")
+    ax.set_ylabel("probability density")
+    ax.set_title(label, fontsize=9)
+    ax.legend(fontsize=7)
+    return {
+        "preferred": en["preferred"],
+        "lr_p_value": _num(en["lr_p_value"], 4),
+        "one_phase_kT": _num(en["one_phase"]["kT"]),
+        "two_phase": {k: _num(en["two_phase"][k]) for k in ("phi", "kT1", "kT2")},
+        "ks_p_value_preferred": _num(en[en["preferred"]]["p_value"], 4),
+        "n_bootstrap": n_bootstrap,
+        "steering": _steering(study.fits["steering"]),
+    }
+
+
+def _steering(st: dict[str, Any]) -> dict[str, Any]:
+    """The steering-rate law per bin and the temperature's trend, for the paper's rows."""
+    tr = st.get("trend") or {}
+    bins = [b for b in st.get("bins", []) if b.get("p_value") is not None]
+    return {
+        "by": st.get("by"),
+        "bins": len(bins),
+        "bins_exponential": sum(1 for b in bins if b["p_value"] > 0.05),
+        "slope": _num(tr.get("slope")),
+        "p_value": _num(tr.get("p_value"), 4),
+        "spearman_rho": _num(tr.get("spearman_rho"), 3),
+        "direction": tr.get("direction"),
+    }
+
+
+def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = False
+             ) -> dict[str, Any]:  # fmt: skip
+    import matplotlib.pyplot as plt
+
+    from thermoswarm.analysis.study import run_study
+
+    systems, gas_m, robot_kT = _simulate(out, plan, seed, bars)
     real = None
     if ANTRAX_JS16.is_file():  # a source checkout: the excerpt is test data, not packaged
         real = real_ants(ANTRAX_JS16, seed=seed, n_bootstrap=plan.n_bootstrap)
@@ -152,29 +186,13 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
     fig, axes = plt.subplots(2, 2, figsize=(12, 8), layout="constrained")
     res: dict[str, Any] = {}
     for ax, (key, label, ds) in zip(axes.flat, systems, strict=False):
-        if key == "ants_real":
-            study = real[0]
-        else:
-            study = run_study(ds, seed=seed, n_bootstrap=plan.n_bootstrap)
-        kin = study.kinematics
-        e = kin["energy"].values[kin["valid"].values.astype(bool)]
-        e = e[np.isfinite(e) & (e > 0)]
-        en = study.fits["energy"]
-        # only the model the analysis kept: a rejected (or degenerate) fit is not drawn
-        kept = study.energy.two if en["preferred"] == "two_phase" else study.energy.one
-        plot_density_fit(ax, kept, e)
-        ax.set_xlabel("energy v^2/2 (mm^2/s^2)")
-        ax.set_ylabel("probability density")
-        ax.set_title(label, fontsize=9)
-        ax.legend(fontsize=7)
-        res[key] = {
-            "preferred": en["preferred"],
-            "lr_p_value": _num(en["lr_p_value"], 4),
-            "one_phase_kT": _num(en["one_phase"]["kT"]),
-            "two_phase": {k: _num(en["two_phase"][k]) for k in ("phi", "kT1", "kT2")},
-            "ks_p_value_preferred": _num(en[en["preferred"]]["p_value"], 4),
-            "n_bootstrap": plan.n_bootstrap,
-        }
+        study = real[0] if key == "ants_real" else run_study(
+            ds, seed=seed, n_bootstrap=plan.n_bootstrap)  # fmt: skip
+        res[key] = _panel(ax, study, label, plan.n_bootstrap)
+        if key != "ants_real":
+            res[key]["command"] = SYSTEM_COMMAND.format(
+                path=out / "unified" / key / "tracks.nc", seed=seed, n_bootstrap=plan.n_bootstrap
+            )
     if real is not None:
         res["ants_real"].update(source=ANTRAX_SOURCE, **real[1])
     else:
@@ -182,6 +200,16 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
     res["gas"]["mean_energy_per_particle"] = _num(gas_m["energy_final"] / 300)
     res["robots"]["kT_hot"] = _num(robot_kT["kT_hot"])
     res["robots"]["kT_cold"] = _num(robot_kT["kT_cold"])
+    _section(rep, plan, fig, res, real)
+    return res
+
+
+def _p_cell(p: float | None, floor: float) -> Any:
+    return f"< {floor:.2g} (the bootstrap's floor)" if p is not None and p <= 1.02 * floor else p
+
+
+def _section(rep: Any, plan: Plan, fig: Any, res: dict[str, Any], real: Any) -> None:
+    """The report's section "One law, three systems"."""
     with rep.section("One law, three systems"):
         rep.paragraph(
             "The paper's thesis in one panel: the same analysis (thermoswarm analyze) reads "
@@ -200,34 +228,32 @@ def _unified(out: Path, plan: Plan, rep: Any, seed: int, bars: bool | None = Fal
             "cluster's position: those samples are left out (no step into or out of "
             "them), and so are the zero-length steps of resting ants; the counts are "
             "below. Verdict rule for both ant rows (paper comparison): two phases "
-            "preferred and the two-phase fit not rejected by its KS test (p > 0.05)."
+            "preferred and the two-phase fit not rejected by its KS test (p > 0.05). "
+            "The simulated systems' energies are their recorded speeds (analyze's default "
+            "for a thermoswarm recording: the robots' commanded speeds, the particles' "
+            "instantaneous ones; --speed-source)."
         )
         _fig(rep, fig, "Energy distributions (log density) with the preferred fit.")
         floor = 1 / (plan.n_bootstrap + 1)
         rep.table(
             [{"system": _SYSTEM_NAMES.get(k, k), "preferred": v["preferred"].replace("_", " "),
-              "LR p-value": (f"< {floor:.2g} (the bootstrap's floor)"
-                             if v["lr_p_value"] is not None and v["lr_p_value"] <= 1.02 * floor
-                             else v["lr_p_value"]),
+              "LR p-value": _p_cell(v["lr_p_value"], floor),
               "one phase: kT (mm^2/s^2)": v["one_phase_kT"],
               "two phases: phi": v["two_phase"]["phi"],
               "kT1 (mm^2/s^2)": v["two_phase"]["kT1"], "kT2 (mm^2/s^2)": v["two_phase"]["kT2"],
-              "KS p-value of the preferred fit": (
-                  f"< {floor:.2g} (the bootstrap's floor)"
-                  if v["ks_p_value_preferred"] is not None
-                  and v["ks_p_value_preferred"] <= 1.02 * floor
-                  else v["ks_p_value_preferred"])}
+              "KS p-value of the preferred fit": _p_cell(v["ks_p_value_preferred"], floor)}
              for k, v in res.items()],
             caption=f"Fits ({plan.n_bootstrap} bootstrap replicates per test)",
         )  # fmt: skip
         if real is not None:
+            rep.paragraph(f"The real-ant row from the command line: {real[1]['command']} "
+                          "(OUT/fits.json holds the same numbers).")  # fmt: skip
             rep.table(_real_counts(real[1]), header=("real ants", "count"), caption=(
                 "Real ants: what the fit uses and what it leaves out (samples = frames x "
                 "ants; steps between consecutive frames of one ant)"))  # fmt: skip
         else:
             rep.paragraph("Real ants: not measured (tests/data/antrax_js16 is in the source "
                           "checkout only, not in the installed package).", note=True)  # fmt: skip
-    return res
 
 
 def _real_counts(c: dict[str, Any]) -> dict[str, int]:

@@ -26,6 +26,7 @@ DEFAULTS = {
     "mapping": "lit_cold",  # or "lit_hot" (PAPER_NOTES 6.3)
     "heading_law": "persistent",  # or "uniform" (Algorithm 5 as written)
     "kT_theta": 0.8,  # rad/s, steering temperature of the persistent law
+    "kT_theta_cold": None,  # rad/s, of cold robots (None: kT_theta in both phases)
     # Algorithm 2
     "group": 0,  # 0: goal at 0 deg (toward the light), 1: at 180 deg
     "sigma": 0.7854,  # rad (45 deg), the spread the paper does not give
@@ -121,6 +122,8 @@ class Config:
             raise ValueError("heading_law must be 'uniform' or 'persistent'")
         if self.group not in (0, 1):
             raise ValueError("group must be 0 or 1")
+        if self.kT_theta_cold is not None and not self.kT_theta_cold > 0:
+            raise ValueError("kT_theta_cold must be positive (or None)")
         if self.v_max is not None and not self.v_max > 0:
             raise ValueError("v_max must be positive (or None)")
 
@@ -157,6 +160,8 @@ class Controller:
         self.rng = Rng(seed)
         self.phase = 0  # 1: hot ("gas"), 0: cold ("liquid"); Algorithm 5 only
         self.theta = self.rng.uniform(-math.pi, math.pi)  # last heading vs the light
+        self.net = 0.0  # Algorithm 1's net turn in this period (rad)
+        self.previous = 0.0  # the heading the persistent law turned from (rad)
 
     def temperature(self, light):
         """``kT`` of this period: constant, or switched by the light (Algorithm 5)."""
@@ -188,7 +193,8 @@ class Controller:
             theta = wrap(goal + c.sigma * self.rng.normal())
         elif a == "transport-free" and c.heading_law == "persistent":
             # keep the heading; turn by omega * tau, |omega| ~ Exponential(kT_theta)
-            turn = self.rng.exponential(c.kT_theta * c.tau)
+            k = c.kT_theta if c.kT_theta_cold is None or self.phase else c.kT_theta_cold
+            turn = self.rng.exponential(k * c.tau)
             if self.rng.random() < 0.5:
                 turn = -turn
             theta = wrap((self.theta if previous is None else previous) + turn)
@@ -203,6 +209,7 @@ class Controller:
         sees no light at all stops at once (``(False, 0)``)."""
         c = self.config
         steps = 0
+        self.net = 0.0  # rad turned so far (counter-clockwise > 0)
         while True:
             l1, l2, l3 = self.hal.light()
             m = l1 if l1 > l2 else l2
@@ -214,7 +221,9 @@ class Controller:
                 return False, steps
             # counter-clockwise toward l1 when it is brighter, and to search when the
             # light is behind (both front sensors dark)
-            self.hal.turn(c.step if (l1 >= l2 or m <= c.dark) else -c.step)
+            a = c.step if (l1 >= l2 or m <= c.dark) else -c.step
+            self.hal.turn(a)
+            self.net += a
             steps += 1
 
     def light_level(self):
@@ -222,9 +231,15 @@ class Controller:
         return max(l1, l2, l3)
 
     def period(self):
-        """One control period on the hardware; returns ``(theta, v, converged)``."""
+        """One control period on the hardware; returns ``(theta, v, converged)``.
+
+        The persistent law turns from the heading the robot had before Algorithm 1,
+        relative to where Algorithm 1 left it: ``-net`` (the light's direction when it
+        converged; in the dark, where it stops at once, its own facing, as the
+        simulator's heading 0 there), kept in :attr:`previous`."""
         converged, _ = self.turn_to_light()
-        theta, v = self.decide(self.light_level())
+        self.previous = -self.net
+        theta, v = self.decide(self.light_level(), self.previous)
         self.hal.turn(theta)
         self.hal.drive(v, self.config.tau)
         return theta, v, converged

@@ -69,7 +69,8 @@ class BoxParams:
     speed_law: Literal["boltzmann", "half-normal"] = "boltzmann"
     mode: Literal["overdamped", "inertial"] = "overdamped"
     engine: Numerics = Numerics()
-    record: Recording = Recording()
+    #: every engine step (0.1 s): the displacements resolve the 1 s control period
+    record: Recording = Recording(interval=0.1)
 
     def __post_init__(self) -> None:
         check(self.n >= 1, "n", "a positive integer (number of robots)", self.n)

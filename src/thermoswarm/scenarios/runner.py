@@ -258,7 +258,12 @@ def _loop(
         "dt": sim.params.dt,
         "tau": sim.params.tau,
         "radius": sim.params.radius,
+        # what the analysis reads (thermoswarm.analysis.recording): the period of the
+        # robots' re-draws and what the recorded ``speed`` variable holds
+        "speed_kind": "instantaneous" if sim.params.mode == "inertial" else "commanded",
     }
+    if sim.params.mode != "inertial":
+        attrs["control_period"] = sim.params.tau
     rec = ZarrRecorder(
         store,
         n=state.n,
@@ -302,6 +307,13 @@ def _loop(
     tracks = open_run_tracks(store)
     metrics = scen.metrics(setup, acc, tracks, sim, state)
     metrics.update(overlap_metrics(sim, state))  # every scenario, one definition
+    if sim.params.mode == "overdamped" and "speed" in tracks and "heading" in tracks:
+        from thermoswarm.sim.robot_model import limit_report, paper_robot, warn_limits
+
+        lim = limit_report(tracks["speed"], tracks["heading"], scen.recording.interval,
+                           sim.params.tau, paper_robot)  # fmt: skip
+        metrics["robot_limits"] = {"robot": "paper_robot", **lim}
+        warn_limits(lim)
     steps_run = state.step - start_step
     metrics["performance"] = {
         "wall_seconds": wall,

@@ -220,6 +220,44 @@ def _counts(records: list[VideoRecord], tracked: int) -> dict[str, int]:
     return {"videos": len(records), **c, "tracked": tracked}
 
 
+def _executor(executor: Executor | Any | None, n_todo: int, max_workers: int | None
+              ) -> tuple[Any, bool]:  # fmt: skip
+    """The executor that tracks the videos and whether it is the batch's own (a local
+    pool, made when none is given and there is work; shut down at the end)."""
+    from thermoswarm.sweep import local_pool
+
+    if hasattr(executor, "get_executor"):  # a dask.distributed.Client
+        executor = executor.get_executor()
+    own = executor is None and bool(n_todo)
+    n = max_workers or min(os.cpu_count() or 1, max(1, n_todo))
+    return (local_pool(n) if own else executor), own
+
+
+def _settle(
+    fut: Future,
+    rec: VideoRecord,
+    retries: int,
+    on_failure: Callable[[VideoRecord], None] | None,
+) -> bool:
+    """Record a finished video's result in ``rec``; true when it is to be tried again
+    (its worker died and it has attempts left)."""
+    try:
+        res = fut.result()
+    except Exception as exc:
+        from thermoswarm.sweep.run import _worker_lost
+
+        rec.error = _error_line(exc)
+        if _worker_lost(exc) and rec.attempts <= retries:
+            return True
+        rec.status = "failed"
+        if on_failure is not None:
+            on_failure(rec)
+    else:
+        rec.status, rec.error = "done", None
+        rec.n_frames, rec.n_tracks = res["n_frames"], res["n_tracks"]
+    return False
+
+
 def track_batch(
     videos: Sequence[str | os.PathLike],
     out: str | os.PathLike,
@@ -252,8 +290,6 @@ def track_batch(
     on_failure : callable, optional
         Called with each failed record as it fails (the CLI prints it).
     """
-    from thermoswarm.sweep import local_pool
-
     out = check_output_dir(out)
     options = dict(options or {})
     records = _plan(find_videos(videos), out, options, retry_failed)
@@ -262,11 +298,7 @@ def track_batch(
     for r in records:
         if r.status == "failed" and on_failure is not None:
             on_failure(r)
-    if hasattr(executor, "get_executor"):  # a dask.distributed.Client
-        executor = executor.get_executor()
-    own = executor is None and bool(todo)
-    n = max_workers or min(os.cpu_count() or 1, max(1, len(todo)))
-    ex = local_pool(n) if own else executor
+    ex, own = _executor(executor, len(todo), max_workers)
     finished: queue.SimpleQueue[Future] = queue.SimpleQueue()
     futures: dict[Future, VideoRecord] = {}
 
@@ -290,21 +322,10 @@ def track_batch(
             except queue.Empty:
                 continue
             rec = futures.pop(fut)
-            try:
-                res = fut.result()
-            except Exception as exc:
-                from thermoswarm.sweep.run import _worker_lost
-
-                rec.error = _error_line(exc)
-                if _worker_lost(exc) and rec.attempts <= retries:
-                    submit(rec)
-                    continue
-                rec.status = "failed"
-                if on_failure is not None:
-                    on_failure(rec)
-            else:
-                rec.status, rec.error, tracked = "done", None, tracked + 1
-                rec.n_frames, rec.n_tracks = res["n_frames"], res["n_tracks"]
+            if _settle(fut, rec, retries, on_failure):
+                submit(rec)
+                continue
+            tracked += rec.status == "done"
             _write_summary(out, records, _counts(records, tracked))
         clean = True
     finally:

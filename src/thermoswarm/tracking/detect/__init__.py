@@ -1,8 +1,10 @@
 """Finding the animals in frames (the room ``tracking.detect``).
 
-Owns the detector interface and registry and the classical detector (background
-subtraction and blob moments, no training: :mod:`.classical`), the trained U-Net + pose
-detector (:mod:`.unet`, needs PyTorch) and the detection files other tools write (MOT,
+Owns the detector registry (:mod:`.registry`) and the classical detector (background
+subtraction and blob moments, no training: :mod:`.classical`, its options in
+:mod:`.config`, its blob measurement in :mod:`.blobs`), camera registration for moving
+cameras (:mod:`.register`), the trained U-Net + pose detector (:mod:`.unet`, its networks
+in :mod:`.unet_model`; needs PyTorch) and the detection files other tools write (MOT,
 COCO, YOLO: :mod:`.files`). May import the floor (``tracking.anatomy``,
 ``tracking.detection``, ``tracking.video``) and the configuration helpers; never
 ``synth``, ``track``, ``train`` or the pipeline.

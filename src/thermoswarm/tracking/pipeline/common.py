@@ -16,6 +16,9 @@ from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detect.classical import estimate_length_px, make_detector
 from thermoswarm.tracking.track.tracker import TrackerConfig, TrackResult
 
+#: Smallest share of its length squared that a single animal's blob fills (lines below).
+MIN_FILL = 0.1
+
 
 def pixel_dataset(result: TrackResult, *, fps: float, source: str, attrs: dict[str, Any]) -> Any:
     """The trajectory Dataset of ``result`` with positions in px (no scale known).
@@ -64,6 +67,12 @@ def build_detector(
             options if classical else None,
             source=str(src.path),
         )
+        if est.fill < MIN_FILL:
+            raise InputError(
+                f"{src.path}: the moving things are thin lines, not animals: their blobs "
+                f"fill {est.fill:.2f} of their length squared (an animal's 0.25-0.5); a "
+                "plot or a drawing has nothing to track; give --px-per-mm to track anyway"
+            )
         px_per_mm = est.length_px / anatomy.ANT_LENGTH_MM
         info.update(scale_source="measured", n_blobs=est.n_blobs)
     elif not (px_per_mm > 0 and np.isfinite(px_per_mm)):

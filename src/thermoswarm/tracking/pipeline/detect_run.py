@@ -11,8 +11,17 @@ from typing import Any
 import numpy as np
 
 from thermoswarm.errors import InputError
-from thermoswarm.fsutil import atomic_write_json, prepare_output_dir
+from thermoswarm.fsutil import atomic_write_json, atomic_write_text, prepare_output_dir
+from thermoswarm.tracking.detect.register import (
+    RegisteredSource,
+    camera_summary,
+    register_source,
+    shift_detections,
+)
 from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector
+from thermoswarm.tracking.pipeline.flood import flood_reasons, refuse_flood
+from thermoswarm.tracking.pipeline.region_counts import count_regions, counts_csv, draw_counts
+from thermoswarm.tracking.pipeline.series import detect_series, is_photo_series
 from thermoswarm.tracking.track.tracker import TrackerConfig
 
 
@@ -51,6 +60,9 @@ def detect_inputs(
     max_frames: int | None = None,
     prepare_s: float = 3.0,
     width_bl: float | None = None,
+    camera: str = "auto",
+    regions: str | os.PathLike | None = None,
+    series: str = "auto",
 ) -> dict[str, Any]:
     """Detect the animals of videos, folders of frames or images; write COCO and MOT.
 
@@ -81,37 +93,54 @@ def detect_inputs(
     width_bl
         Object width in body lengths, half of which pads the boxes of poses (default
         the tracker's ``width_bl``, so the boxes are those the tracker draws).
+    camera
+        As for :func:`track_video`, for video files; folders and images are taken as
+        from a still camera unless ``"moving"``.  ``NAME_camera.csv``: the path.
+    regions
+        A regions TOML (:mod:`~thermoswarm.tracking.pipeline.region_counts`):
+        ``NAME_regions.csv``, and for photos a picture each in ``NAME_regions/``.
+    series
+        ``"auto"``: photos whose EXIF clocks are a minute or more apart are a series
+        (:mod:`~thermoswarm.tracking.pipeline.series`); ``"yes"``/``"no"`` force it.
     """
+    _check_args(inputs, max_frames, fps, series)
+    wbl = TrackerConfig().width_bl if width_bl is None else float(width_bl)
+    regs = _load_regions(regions)
+    sources = _detect_sources([Path(p) for p in inputs])
+    out = prepare_output_dir(out_dir)
+    opts = dict(
+        px_per_mm=px_per_mm, detector=detector, model=model, detector_options=detector_options,
+        fps=fps, max_frames=max_frames, prepare_s=prepare_s, width_bl=wbl, camera=camera,
+        regions=regs, series=series,
+    )  # fmt: skip
+    results = [_detect_source(name, src, is_video, out, **opts) for name, src, is_video in sources]
+    summary = {"inputs": results, "outputs": [f for r in results for f in r["outputs"]]}
+    summary["outputs"].append("summary.json")
+    atomic_write_json(out / "summary.json", summary)
+    return summary
+
+
+def _check_args(inputs: list, max_frames: int | None, fps: float | None, series: str) -> None:
     if not inputs:
         raise InputError("give at least one video, folder of frames or image")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
     if fps is not None and not (fps > 0 and np.isfinite(fps)):
         raise InputError(f"fps must be a positive number, got {fps!r}")
-    wbl = TrackerConfig().width_bl if width_bl is None else float(width_bl)
-    sources = _detect_sources([Path(p) for p in inputs])
-    out = prepare_output_dir(out_dir)
-    results = [
-        _detect_source(
-            name,
-            src,
-            is_video,
-            out,
-            px_per_mm=px_per_mm,
-            detector=detector,
-            model=model,
-            detector_options=detector_options,
-            fps=fps,
-            max_frames=max_frames,
-            prepare_s=prepare_s,
-            width_bl=wbl,
-        )
-        for name, src, is_video in sources
-    ]
-    summary = {"inputs": results, "outputs": [f for r in results for f in r["outputs"]]}
-    summary["outputs"].append("summary.json")
-    atomic_write_json(out / "summary.json", summary)
-    return summary
+    if series not in ("auto", "yes", "no"):
+        raise InputError(f"series must be auto, yes or no; got {series!r}")
+
+
+def _load_regions(regions: str | os.PathLike | None) -> list | None:
+    if regions is None:
+        return None
+    from thermoswarm.analysis.regions import load_regions
+    from thermoswarm.errors import ConfigError
+
+    try:
+        return load_regions(regions)
+    except ConfigError as exc:
+        raise InputError(str(exc)) from None
 
 
 def _detect_source(
@@ -128,6 +157,9 @@ def _detect_source(
     max_frames: int | None,
     prepare_s: float,
     width_bl: float,
+    camera: str = "auto",
+    regions: list | None = None,
+    series: str = "auto",
 ) -> dict[str, Any]:
     """Detect one source of :func:`detect_inputs`; write its COCO (and MOT) file.
 
@@ -138,16 +170,20 @@ def _detect_source(
 
     t0 = time.perf_counter()
     rate = fps or src.fps or 30.0  # images: the background from up to 90 of them
-    det, scale = build_detector(
-        src,
-        _prep_frames(prepare_s, rate, max_frames),
-        px_per_mm=px_per_mm,
-        detector=detector,
-        model=model,
-        options=detector_options,
-    )
-    dets = [det.detect(frame) for frame in src.frames(max_frames, prefetch=4)]
+    if src.files is not None and camera == "auto":
+        camera = "still"
+    src, path = register_source(src, camera, max_frames=max_frames)
+    offset = src.camera.offset if isinstance(src, RegisteredSource) else (0.0, 0.0)
     files = src.files
+    as_series = series == "yes" or (series == "auto" and is_photo_series(files))
+    build = dict(px_per_mm=px_per_mm, detector=detector, model=model)
+    if as_series and files is not None:
+        dets, scale, det = detect_series(files[:max_frames], options=detector_options, **build)
+    else:
+        n_prep = _prep_frames(prepare_s, rate, max_frames)
+        det, scale = build_detector(src, n_prep, options=detector_options, **build)
+        frames = src.frames(max_frames, prefetch=4)
+        dets = [shift_detections(det.detect(f), offset) for f in frames]
     images = []
     for k in range(len(dets)):
         img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
@@ -166,7 +202,11 @@ def _detect_source(
     if is_video:
         write_mot_table(out / f"{name}_det.txt", mot_rows(dets, pad=pad))
         written.append(f"{name}_det.txt")
+    written += _camera_and_counts(name, out, src, path, dets, images, regions, px_per_mm)
     n_det = sum(len(d) for d in dets)
+    reasons = flood_reasons(np.array([len(d) for d in dets]), src.size, scale["length_px"])
+    if reasons:
+        refuse_flood(str(src.path), out, reasons)
     return {
         "input": str(src.path),
         "n_frames": len(dets),
@@ -178,4 +218,51 @@ def _detect_source(
         "scale_source": scale["scale_source"],
         "seconds": time.perf_counter() - t0,
         "outputs": written,
+        "camera": camera_summary(path, isinstance(src, RegisteredSource)),
+        "photo_series": {k: scale[k] for k in ("series_window", "series_options") if k in scale}
+        or None,
     }
+
+
+def _write_picture(
+    path: Path, frame: np.ndarray, regions: list, d: Any, px_per_mm: float | None
+) -> None:
+    import cv2
+
+    from thermoswarm.fsutil import atomic_write_bytes
+
+    counts = count_regions(regions, [d], px_per_mm)[0]
+    img = draw_counts(frame, regions, d, counts, px_per_mm)
+    ok, buf = cv2.imencode(".jpg", cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+    atomic_write_bytes(path, buf.tobytes())
+
+
+def _camera_and_counts(
+    name: str,
+    out: Path,
+    src: Any,
+    path: Any,
+    dets: list,
+    images: list[dict],
+    regions: list | None,
+    px_per_mm: float | None,
+) -> list[str]:
+    """Write ``NAME_camera.csv`` (a registered source), ``NAME_regions.csv`` and, for
+    photos, ``NAME_regions/`` (regions given); return the names written."""
+    written = []
+    if isinstance(src, RegisteredSource):
+        atomic_write_text(out / f"{name}_camera.csv", path.table())
+        written.append(f"{name}_camera.csv")
+    if regions is not None:
+        counts = count_regions(regions, dets, px_per_mm)
+        names = [img["file_name"] for img in images]
+        atomic_write_text(out / f"{name}_regions.csv", counts_csv(names, regions, counts))
+        written.append(f"{name}_regions.csv")
+        files = src.files
+        if files is not None:
+            pics = out / f"{name}_regions"
+            pics.mkdir(exist_ok=True)
+            for k, frame in enumerate(src.frames(len(dets), prefetch=4)):
+                _write_picture(pics / f"{files[k].stem}.jpg", frame, regions, dets[k], px_per_mm)
+            written.append(f"{name}_regions/")
+    return written

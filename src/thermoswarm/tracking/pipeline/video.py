@@ -4,6 +4,7 @@ track VIDEO`` runs (see the package's docstring for the stages)."""
 from __future__ import annotations
 
 import collections
+import dataclasses
 import os
 import time
 from pathlib import Path
@@ -12,8 +13,13 @@ from typing import Any
 import numpy as np
 
 from thermoswarm.errors import InputError
-from thermoswarm.fsutil import atomic_write_json, prepare_output_dir
+from thermoswarm.fsutil import atomic_write_json, atomic_write_text, prepare_output_dir
 from thermoswarm.tracking.detect.classical import NOTHING_FOUND_HINT, FrameDetections
+from thermoswarm.tracking.detect.register import (
+    RegisteredSource,
+    camera_summary,
+    register_source,
+)
 from thermoswarm.tracking.pipeline.common import (
     _detector_info,
     _prep_frames,
@@ -21,6 +27,7 @@ from thermoswarm.tracking.pipeline.common import (
     build_detector,
     pixel_dataset,
 )
+from thermoswarm.tracking.pipeline.flood import flood_reasons, refuse_flood
 from thermoswarm.tracking.track.tracker import Tracker, TrackerConfig, TrackResult
 
 
@@ -94,11 +101,39 @@ def _frame_stream(src: Any, max_frames: int | None, progress: bool) -> Any:
     return frames
 
 
+def _with_cuts(frames: Any, cuts: set[int], look: int) -> Any:
+    """``(k, frame, ahead)``: ``ahead`` is the frame and up to ``look`` frames after
+    it where frame ``k`` starts a new scene, else ``None``."""
+    it = iter(frames)
+    buf: collections.deque[np.ndarray] = collections.deque()
+    k = 0
+    while True:
+        frame = buf.popleft() if buf else next(it, None)
+        if frame is None:
+            return
+        ahead = None
+        if k in cuts:
+            while len(buf) < look and (f := next(it, None)) is not None:
+                buf.append(f)
+            ahead = [frame, *buf]
+        yield k, frame, ahead
+        k += 1
+
+
 def _detect_and_associate(
-    video: Any, frames: Any, det: Any, tracker: Tracker, writer: Any, takes_hints: bool
+    video: Any,
+    frames: Any,
+    det: Any,
+    tracker: Tracker,
+    writer: Any,
+    takes_hints: bool,
+    cuts: tuple[set[int], int] = (set(), 0),
 ) -> tuple[int, np.ndarray]:
     """Detect each frame, associate its detections with the tracks, draw final frames.
 
+    At a scene cut (``cuts``: the 0-based frames that start a new scene, and how many
+    frames the detector's new background is learned from) every track ends and the
+    detector learns the new scene's background (its ``rebase``, where it has one).
     Returns the number of detections and their MOT rows; :class:`InputError` when no
     frame is decoded or nothing is detected.  The overlay is closed here (aborted on
     any error), as the tracker's lag means the last frames are drawn after the loop.
@@ -107,8 +142,13 @@ def _detect_and_associate(
     det_rows = []
     n_det = 0
     k = -1
+    rebase = getattr(det, "rebase", None)
     try:
-        for k, frame in enumerate(frames):
+        for k, frame, ahead in _with_cuts(frames, *cuts):
+            if ahead is not None:
+                tracker.cut()
+                if rebase is not None:
+                    rebase(ahead)
             hints = tracker.predict()
             d = det.detect(frame, hints=hints) if takes_hints else det.detect(frame)
             tracker.update(d)
@@ -135,6 +175,32 @@ def _detect_and_associate(
     return n_det, dets
 
 
+def _register(
+    src: Any, camera: str, max_frames: int | None, prepare_s: float, rate: float
+) -> tuple[Any, Any, int, tuple[set[int], int]]:
+    """The source (registered when the camera moves), its path, the frames the detector
+    is prepared on (the first scene's only) and the scene cuts with that count."""
+    src, path = register_source(src, camera, max_frames=max_frames)
+    n_prep = _prep_frames(prepare_s, rate, max_frames)
+    cuts = set(path.cuts) if path is not None else set()
+    if cuts:
+        n_prep = min(n_prep, min(cuts))
+    return src, path, n_prep, (cuts, n_prep)
+
+
+def _to_first_frame(src: Any, result: TrackResult, dets: np.ndarray, out: Path) -> TrackResult:
+    """For a registered source: tracks and detection rows (in place) moved from the
+    canvas's px to the first frame's, and ``camera_path.csv`` written."""
+    if not isinstance(src, RegisteredSource):
+        return result
+    off = np.asarray(src.camera.offset)
+    pts = result.points - off
+    boxes = result.boxes - np.array([*off, 0.0, 0.0])
+    dets[:, 2:4] -= off
+    atomic_write_text(out / "camera_path.csv", src.camera.table())
+    return dataclasses.replace(result, points=pts, boxes=boxes)
+
+
 def track_video(
     video: str | os.PathLike,
     out_dir: str | os.PathLike,
@@ -151,12 +217,11 @@ def track_video(
     prepare_s: float = 3.0,
     progress: bool = False,
     hints: bool = True,
+    camera: str = "auto",
 ) -> dict[str, Any]:
-    """Track the ants of a video; write the outputs; return the summary.
-
-    The stages: read frames (:func:`_frame_stream`), detect and associate
-    (:func:`_detect_and_associate`), smooth and gap-fill (the tracker's ``finish``),
-    write (:func:`_write_video_outputs`).
+    """Track the ants of a video; write the outputs; return the summary.  The stages:
+    read frames (:func:`_frame_stream`), detect and associate (:func:`_detect_and_associate`),
+    smooth and gap-fill (the tracker's ``finish``), write (:func:`_write_video_outputs`).
 
     Parameters
     ----------
@@ -172,29 +237,30 @@ def track_video(
         Frame rate (frames/s); default the video's own (required for folders of frames).
     detector, model, detector_options
         See :func:`thermoswarm.tracking.detect.classical.make_detector` (default: classical).
-    tracker_config
-        :class:`~thermoswarm.tracking.track.tracker.TrackerConfig`.
-    overlay, overlay_scale
-        Write ``overlay.mp4`` at this fraction of the video's size (1: full size).
+    tracker_config, overlay, overlay_scale
+        :class:`~thermoswarm.tracking.track.tracker.TrackerConfig`; write
+        ``overlay.mp4`` at this fraction of the video's size (1: full size).
     max_frames, prepare_s
         Stop after this many frames; seconds of video shown to the detector's ``prepare``.
-    progress
-        Show a progress bar (tqdm; silent when not on a terminal).
-    hints
-        Give the tracker's predicted poses to detectors that take them (splitting of
-        touching ants); ``False`` tracks exactly what ``thermoswarm detect`` writes.
+    progress, hints
+        Show a progress bar (tqdm); give the tracker's predicted poses to detectors
+        that take them (``False``: track exactly what ``thermoswarm detect`` writes).
+    camera
+        ``"auto"``, ``"moving"`` or ``"still"`` (:mod:`~.detect.register`): registered
+        tracks are in the first frame's px (``camera_path.csv``); cuts end every track.
 
     Raises
     ------
     InputError
-        Bad input, or a video in which nothing is detected (nothing is written then).
+        Bad input, nothing detected (nothing written), a camera that cannot be
+        followed, or detections that are not animals (:mod:`~.flood`).
     """
     from thermoswarm.tracking.video import OverlayWriter, open_video
 
     src = open_video(video)
     rate = _check_video_args(video, src, fps, max_frames, overlay, overlay_scale)
     t0 = time.perf_counter()
-    n_prep = _prep_frames(prepare_s, rate, max_frames)
+    src, path, n_prep, cuts = _register(src, camera, max_frames, prepare_s, rate)
     det, scale = build_detector(
         src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model, options=detector_options
     )
@@ -205,10 +271,11 @@ def track_video(
     takes_hints = hints and bool(getattr(det, "accepts_hints", False))
     writer = OverlayWriter(out / "overlay.mp4", rate, scale=overlay_scale) if overlay else None
     frames = _frame_stream(src, max_frames, progress)
-    n_det, dets = _detect_and_associate(video, frames, det, tracker, writer, takes_hints)
-    result = tracker.finish()
+    n_det, dets = _detect_and_associate(video, frames, det, tracker, writer, takes_hints, cuts)
+    result = _to_first_frame(src, tracker.finish(), dets, out)
     elapsed = time.perf_counter() - t0
     run = dict(video=video, src=src, det=det, scale=scale, dets=dets, n_det=n_det, rate=rate)
+    run["camera"] = camera_summary(path, isinstance(src, RegisteredSource))
     return _write_video_outputs(
         result, out, run, px_per_mm=px_per_mm, fps_source="user" if fps is not None else "video",
         tracker=tcfg, detector=detector, model=model, detector_options=detector_options,
@@ -277,6 +344,15 @@ def _write_video_outputs(
         length_px=scale["length_px"],
         scale_source=scale["scale_source"],
         space_unit="mm" if px_per_mm is not None else "px",
+        camera=run["camera"],
     )
+    summary["outputs"][-1:-1] = run["camera"]["outputs"]
+    dets = run["dets"]
+    per_frame = np.bincount(dets[:, 0].astype(np.int64) - 1, minlength=result.n_frames)
+    still_bg = det_name == "classical"  # finds what moves: tracks that never move are not
+    reasons = flood_reasons(per_frame, src.size, scale["length_px"], result if still_bg else None)
+    summary["warnings"] = reasons
     atomic_write_json(out / "summary.json", summary)
+    if reasons:
+        refuse_flood(str(video), out, reasons)
     return summary

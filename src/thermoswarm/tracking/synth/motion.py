@@ -222,35 +222,235 @@ def _place(rng: np.random.Generator, road: Road, n: int, margin: float) -> np.nd
     return out[:n]
 
 
+@dataclass(frozen=True)
+class _Rates:
+    """The simulation's constants per step (mm, s)."""
+
+    dt: float  # s per frame
+    margin: float  # mm: the body point keeps half an ant's width from the walls
+    kT: np.ndarray  # (2,) energy per unit mass of phases 1 and 2, mm^2/s^2
+    p_speed: float  # probability per step of a new speed
+    p_phase: float  # probability per step of a new phase draw
+    gait_len: float  # mm per gait cycle
+
+    @classmethod
+    def of(cls, cfg: SynthConfig) -> _Rates:
+        dt = 1.0 / cfg.fps
+        return cls(
+            dt=dt,
+            margin=cfg.ant_width_mm / 2,
+            kT=np.array([cfg.kT1, cfg.kT2]),
+            p_speed=-math.expm1(-dt / cfg.speed_tau_s),
+            p_phase=-math.expm1(-dt / cfg.phase_tau_s),
+            gait_len=0.35 * cfg.ant_length_mm,
+        )
+
+
+@dataclass
+class _Slots:
+    """The state of the ``n`` slots (one ant per slot at a time; an ant that leaves is
+    replaced by a new one in its slot)."""
+
+    pos: np.ndarray  # (n, 2) road (s, u), mm
+    goal: np.ndarray  # (n,) travel direction along the road, rad
+    heading: np.ndarray  # (n,) rad
+    phase: np.ndarray  # (n,) int8, 1 or 2
+    v: np.ndarray  # (n,) mm/s
+    head_a: np.ndarray  # (n,) head articulation, rad
+    tail_a: np.ndarray  # (n,) gaster articulation, rad
+    gait: np.ndarray  # (n,) rad
+    ident: np.ndarray  # (n,) the individual in each slot
+    n_ids: int  # individuals so far
+    sizes: list[float]  # per individual
+    shades: list[float]  # per individual
+
+    @classmethod
+    def start(cls, cfg: SynthConfig, road: Road, rng: np.random.Generator, r: _Rates) -> _Slots:
+        n = cfg.n_ants
+        pos = _place(rng, road, n, r.margin)
+        goal = np.where(rng.random(n) < 0.5, 0.0, np.pi)  # travel direction along the road
+        heading = goal + 0.3 * rng.standard_normal(n)
+        phase = np.where(rng.random(n) < cfg.phi, 1, 2).astype(np.int8)
+        v = np.sqrt(2 * r.kT[phase - 1] * rng.standard_exponential(n))
+        head_a = 0.1 * rng.standard_normal(n)
+        tail_a = 0.06 * rng.standard_normal(n)
+        gait = rng.uniform(0, 2 * np.pi, n)
+        sizes = list(1 + cfg.size_sd * rng.standard_normal(n))
+        shades = list(rng.uniform(0.85, 1.15, n))
+        return cls(pos, goal, heading, phase, v, head_a, tail_a, gait, np.arange(n), n,
+                   sizes, shades)  # fmt: skip
+
+
+class _Record:
+    """What each slot was at each frame, turned into individuals at the end."""
+
+    def __init__(self, T: int, n: int) -> None:
+        self.pos = np.empty((T, n, 2))
+        self.val = {k: np.empty((T, n)) for k in ("heading", "head", "tail", "gait", "v", "w")}
+        self.phase = np.empty((T, n), np.int8)
+        self.wall = np.zeros((T, n), bool)
+        self.id = np.empty((T, n), np.int64)
+
+    def store(self, k: int, sl: _Slots, w: np.ndarray) -> None:
+        self.pos[k] = sl.pos
+        self.val["heading"][k] = sl.heading
+        self.val["head"][k] = sl.head_a
+        self.val["tail"][k] = sl.tail_a
+        self.val["gait"][k] = sl.gait
+        self.val["v"][k] = sl.v
+        self.val["w"][k] = w
+        self.phase[k] = sl.phase
+        self.id[k] = sl.ident
+
+    def individuals(self, sl: _Slots) -> _Motion:
+        """Slots -> individuals (NaN, phase 0 and not alive where one is absent)."""
+        T, n = self.id.shape
+        N = sl.n_ids
+        out = _Motion(
+            body=np.full((T, N, 2), np.nan),
+            heading=np.full((T, N), np.nan),
+            head_angle=np.full((T, N), np.nan),
+            tail_angle=np.full((T, N), np.nan),
+            gait=np.full((T, N), np.nan),
+            speed=np.full((T, N), np.nan),
+            rate=np.full((T, N), np.nan),
+            phase=np.zeros((T, N), np.int8),
+            wall=np.zeros((T, N), bool),
+            alive=np.zeros((T, N), bool),
+            size=np.asarray(sl.sizes),
+            shade=np.asarray(sl.shades),
+        )
+        tt = np.repeat(np.arange(T), n)
+        ii = self.id.ravel()
+        out.body[tt, ii] = self.pos.reshape(-1, 2)
+        out.heading[tt, ii] = self.val["heading"].ravel()
+        out.head_angle[tt, ii] = self.val["head"].ravel()
+        out.tail_angle[tt, ii] = self.val["tail"].ravel()
+        out.gait[tt, ii] = self.val["gait"].ravel()
+        out.speed[tt, ii] = self.val["v"].ravel()
+        out.rate[tt, ii] = self.val["w"].ravel()
+        out.phase[tt, ii] = self.phase.ravel()
+        out.wall[tt, ii] = self.wall.ravel()
+        out.alive[tt, ii] = True
+        # The last step of an ant that leaves has no next frame: its speed and rate are
+        # still the true ones of that step, kept.
+        return out
+
+
+def _redraw(cfg: SynthConfig, sl: _Slots, u: np.ndarray, e_speed: np.ndarray, r: _Rates) -> None:
+    """New phases (probability ``p_phase``) and speeds (``p_speed``, or a changed
+    phase); ``u``: the step's uniforms for the phase, the new phase and the speed."""
+    u_phase, u_newphase, u_speed = u
+    redraw = u_phase < r.p_phase
+    new_phase = np.where(u_newphase < cfg.phi, 1, 2).astype(np.int8)
+    changed = redraw & (new_phase != sl.phase)
+    sl.phase = np.where(redraw, new_phase, sl.phase)
+    resample = (u_speed < r.p_speed) | changed
+    sl.v = np.where(resample, np.sqrt(2 * r.kT[sl.phase - 1] * e_speed), sl.v)
+
+
+def _turn_rate(
+    cfg: SynthConfig, steer: SteeringLaw, sl: _Slots, u_sign: np.ndarray, e_steer: np.ndarray
+) -> np.ndarray:
+    """Turning rates (rad/s): exponential magnitudes at the steering temperature of the
+    speed, towards the goal with probability ``0.5 + goal_bias * |error| / (pi / 2)``."""
+    T_theta = steer.temperature(sl.v)
+    err = wrap_angle(sl.goal - sl.heading)
+    p_toward = 0.5 + cfg.goal_bias * np.clip(np.abs(err) / (np.pi / 2), 0, 1)
+    toward = np.where(err >= 0, 1.0, -1.0)
+    return np.where(u_sign < p_toward, toward, -toward) * e_steer * T_theta
+
+
+def _reflect(
+    road: Road,
+    pos: np.ndarray,
+    heading: np.ndarray,
+    new: np.ndarray,
+    new_heading: np.ndarray,
+    margin: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Walls: reflect the step's ``new`` positions and headings (in place) across the
+    lateral walls, then along (the shoulder at ``narrow_start``); a slot still outside
+    (a corner) stays and turns around.  Returns the slots past an end of the road and
+    the slots a wall reflected."""
+    ends = (new[:, 0] < 0) | (new[:, 0] > road.length)
+    hw = road.half_width(np.clip(new[:, 0], 0, road.length)) - margin
+    bad = ~ends & (np.abs(new[:, 1]) > hw)
+    if bad.any():
+        lim = hw[bad]
+        u_ref = np.sign(new[bad, 1]) * (2 * lim - np.abs(new[bad, 1]))
+        cand = new[bad].copy()
+        cand[:, 1] = np.clip(u_ref, -lim, lim)
+        ok_lat = np.abs(pos[bad, 1]) <= lim + 1e-9
+        # Lateral wall: mirror u and the heading's u component.
+        cand_h = np.where(ok_lat, -new_heading[bad], np.pi - new_heading[bad])
+        # Shoulder: mirror s about the shoulder, keep u.
+        s_ref = 2 * road.narrow_start - new[bad, 0]
+        cand[:, 0] = np.where(ok_lat, cand[:, 0], s_ref)
+        cand[:, 1] = np.where(ok_lat, cand[:, 1], new[bad, 1])
+        new[bad] = cand
+        new_heading[bad] = cand_h
+        still = np.abs(new[bad, 1]) > road.half_width(new[bad, 0]) - margin + 1e-9
+        if still.any():  # corner: stay and turn around
+            idx = np.flatnonzero(bad)[still]
+            new[idx] = pos[idx]
+            new_heading[idx] = heading[idx] + np.pi
+    return ends, bad
+
+
+def _walk(
+    road: Road, sl: _Slots, w: np.ndarray, art: np.ndarray, r: _Rates
+) -> tuple[np.ndarray, np.ndarray]:
+    """One step of every slot (walls, gait, articulation); returns the slots past an
+    end of the road and the slots a wall reflected."""
+    step = sl.v * r.dt
+    new = sl.pos + step[:, None] * np.column_stack([np.cos(sl.heading), np.sin(sl.heading)])
+    new_heading = sl.heading + w * r.dt
+    ends, bad = _reflect(road, sl.pos, sl.heading, new, new_heading, r.margin)
+    sl.pos = new
+    sl.heading = wrap_angle(new_heading)
+    sl.gait = sl.gait + 2 * np.pi * step / r.gait_len
+    sl.head_a = 0.9 * sl.head_a + 0.1 * 0.1 * math.sqrt(1 / 0.19) * art[0]
+    sl.tail_a = 0.9 * sl.tail_a + 0.1 * 0.06 * math.sqrt(1 / 0.19) * art[1]
+    return ends, bad
+
+
+def _replace(
+    cfg: SynthConfig,
+    road: Road,
+    rng: np.random.Generator,
+    sl: _Slots,
+    ends: np.ndarray,
+    r: _Rates,
+) -> None:
+    """Ants that left the road at an end are replaced by new ants entering there."""
+    idx = np.flatnonzero(ends)
+    m = idx.size
+    at_start = sl.pos[idx, 0] < 0
+    s_new = np.where(at_start, 0.0, road.length)
+    hw_new = road.half_width(s_new) - r.margin
+    u_new = rng.uniform(-1, 1, m) * hw_new
+    sl.goal[idx] = np.where(at_start, 0.0, np.pi)
+    sl.heading[idx] = sl.goal[idx] + 0.3 * rng.standard_normal(m)
+    sl.pos[idx] = np.column_stack([s_new, u_new])
+    sl.phase[idx] = np.where(rng.random(m) < cfg.phi, 1, 2)
+    sl.v[idx] = np.sqrt(2 * r.kT[sl.phase[idx] - 1] * rng.standard_exponential(m))
+    sl.head_a[idx] = 0.0
+    sl.tail_a[idx] = 0.0
+    sl.ident[idx] = sl.n_ids + np.arange(m)
+    sl.n_ids += m
+    sl.sizes.extend(1 + cfg.size_sd * rng.standard_normal(m))
+    sl.shades.extend(rng.uniform(0.85, 1.15, m))
+
+
 def _simulate(cfg: SynthConfig, road: Road, rng: np.random.Generator) -> _Motion:
+    """The ants' motion over ``n_frames`` frames (the model of
+    :mod:`thermoswarm.tracking.synth.clip`)."""
     n, T = cfg.n_ants, cfg.n_frames
-    dt = 1.0 / cfg.fps
-    margin = cfg.ant_width_mm / 2
+    r = _Rates.of(cfg)
     steer = cfg.steering_law
-    kT = np.array([cfg.kT1, cfg.kT2])
-    p_speed = -math.expm1(-dt / cfg.speed_tau_s)
-    p_phase = -math.expm1(-dt / cfg.phase_tau_s)
-    gait_len = 0.35 * cfg.ant_length_mm
-
-    # Slot state (one ant per slot at a time).
-    pos = _place(rng, road, n, margin)
-    goal = np.where(rng.random(n) < 0.5, 0.0, np.pi)  # travel direction along the road
-    heading = goal + 0.3 * rng.standard_normal(n)
-    phase = np.where(rng.random(n) < cfg.phi, 1, 2).astype(np.int8)
-    v = np.sqrt(2 * kT[phase - 1] * rng.standard_exponential(n))
-    head_a = 0.1 * rng.standard_normal(n)
-    tail_a = 0.06 * rng.standard_normal(n)
-    gait = rng.uniform(0, 2 * np.pi, n)
-    ident = np.arange(n)
-    n_ids = n
-    sizes = list(1 + cfg.size_sd * rng.standard_normal(n))
-    shades = list(rng.uniform(0.85, 1.15, n))
-
-    rec_pos = np.empty((T, n, 2))
-    rec = {k: np.empty((T, n)) for k in ("heading", "head", "tail", "gait", "v", "w")}
-    rec_phase = np.empty((T, n), np.int8)
-    rec_wall = np.zeros((T, n), bool)
-    rec_id = np.empty((T, n), np.int64)
+    sl = _Slots.start(cfg, road, rng, r)
+    rec = _Record(T, n)
     for k in range(T):
         # Fixed number of draws per frame, whether used or not: reproducible streams.
         u_phase, u_newphase, u_speed, e_speed, u_sign, e_steer = rng.random((6, n))
@@ -258,113 +458,13 @@ def _simulate(cfg: SynthConfig, road: Road, rng: np.random.Generator) -> _Motion
         e_steer = -np.log1p(-e_steer)
         art = rng.standard_normal((2, n))
         if k > 0:
-            redraw = u_phase < p_phase
-            new_phase = np.where(u_newphase < cfg.phi, 1, 2).astype(np.int8)
-            changed = redraw & (new_phase != phase)
-            phase = np.where(redraw, new_phase, phase)
-            resample = (u_speed < p_speed) | changed
-            v = np.where(resample, np.sqrt(2 * kT[phase - 1] * e_speed), v)
-        T_theta = steer.temperature(v)
-        err = wrap_angle(goal - heading)
-        p_toward = 0.5 + cfg.goal_bias * np.clip(np.abs(err) / (np.pi / 2), 0, 1)
-        toward = np.where(err >= 0, 1.0, -1.0)
-        w = np.where(u_sign < p_toward, toward, -toward) * e_steer * T_theta
-
-        rec_pos[k] = pos
-        rec["heading"][k] = heading
-        rec["head"][k] = head_a
-        rec["tail"][k] = tail_a
-        rec["gait"][k] = gait
-        rec["v"][k] = v
-        rec["w"][k] = w
-        rec_phase[k] = phase
-        rec_id[k] = ident
-
-        # Step.
-        step = v * dt
-        new = pos + step[:, None] * np.column_stack([np.cos(heading), np.sin(heading)])
-        new_heading = heading + w * dt
-        # Walls: reflect across (lateral walls), then along (the shoulder at narrow_start).
-        ends = (new[:, 0] < 0) | (new[:, 0] > road.length)
-        hw = road.half_width(np.clip(new[:, 0], 0, road.length)) - margin
-        bad = ~ends & (np.abs(new[:, 1]) > hw)
-        if bad.any():
-            lim = hw[bad]
-            u_ref = np.sign(new[bad, 1]) * (2 * lim - np.abs(new[bad, 1]))
-            cand = new[bad].copy()
-            cand[:, 1] = np.clip(u_ref, -lim, lim)
-            ok_lat = np.abs(pos[bad, 1]) <= lim + 1e-9
-            # Lateral wall: mirror u and the heading's u component.
-            cand_h = np.where(ok_lat, -new_heading[bad], np.pi - new_heading[bad])
-            # Shoulder: mirror s about the shoulder, keep u.
-            s_ref = 2 * road.narrow_start - new[bad, 0]
-            cand[:, 0] = np.where(ok_lat, cand[:, 0], s_ref)
-            cand[:, 1] = np.where(ok_lat, cand[:, 1], new[bad, 1])
-            new[bad] = cand
-            new_heading[bad] = cand_h
-            still = np.abs(new[bad, 1]) > road.half_width(new[bad, 0]) - margin + 1e-9
-            if still.any():  # corner: stay and turn around
-                idx = np.flatnonzero(bad)[still]
-                new[idx] = pos[idx]
-                new_heading[idx] = heading[idx] + np.pi
-            rec_wall[k, bad] = True
-        pos = new
-        heading = wrap_angle(new_heading)
-        gait = gait + 2 * np.pi * step / gait_len
-        head_a = 0.9 * head_a + 0.1 * 0.1 * math.sqrt(1 / 0.19) * art[0]
-        tail_a = 0.9 * tail_a + 0.1 * 0.06 * math.sqrt(1 / 0.19) * art[1]
-
-        # Ants that left the road at an end are replaced by new ants entering there.
+            _redraw(cfg, sl, (u_phase, u_newphase, u_speed), e_speed, r)
+        w = _turn_rate(cfg, steer, sl, u_sign, e_steer)
+        rec.store(k, sl, w)
+        ends, rec.wall[k] = _walk(road, sl, w, art, r)
         if ends.any():
-            idx = np.flatnonzero(ends)
-            m = idx.size
-            at_start = pos[idx, 0] < 0
-            s_new = np.where(at_start, 0.0, road.length)
-            hw_new = road.half_width(s_new) - margin
-            u_new = rng.uniform(-1, 1, m) * hw_new
-            goal[idx] = np.where(at_start, 0.0, np.pi)
-            heading[idx] = goal[idx] + 0.3 * rng.standard_normal(m)
-            pos[idx] = np.column_stack([s_new, u_new])
-            phase[idx] = np.where(rng.random(m) < cfg.phi, 1, 2)
-            v[idx] = np.sqrt(2 * kT[phase[idx] - 1] * rng.standard_exponential(m))
-            head_a[idx] = 0.0
-            tail_a[idx] = 0.0
-            ident[idx] = n_ids + np.arange(m)
-            n_ids += m
-            sizes.extend(1 + cfg.size_sd * rng.standard_normal(m))
-            shades.extend(rng.uniform(0.85, 1.15, m))
-
-    # Slots -> individuals.
-    N = n_ids
-    out = _Motion(
-        body=np.full((T, N, 2), np.nan),
-        heading=np.full((T, N), np.nan),
-        head_angle=np.full((T, N), np.nan),
-        tail_angle=np.full((T, N), np.nan),
-        gait=np.full((T, N), np.nan),
-        speed=np.full((T, N), np.nan),
-        rate=np.full((T, N), np.nan),
-        phase=np.zeros((T, N), np.int8),
-        wall=np.zeros((T, N), bool),
-        alive=np.zeros((T, N), bool),
-        size=np.asarray(sizes),
-        shade=np.asarray(shades),
-    )
-    tt = np.repeat(np.arange(T), n)
-    ii = rec_id.ravel()
-    out.body[tt, ii] = rec_pos.reshape(-1, 2)
-    out.heading[tt, ii] = rec["heading"].ravel()
-    out.head_angle[tt, ii] = rec["head"].ravel()
-    out.tail_angle[tt, ii] = rec["tail"].ravel()
-    out.gait[tt, ii] = rec["gait"].ravel()
-    out.speed[tt, ii] = rec["v"].ravel()
-    out.rate[tt, ii] = rec["w"].ravel()
-    out.phase[tt, ii] = rec_phase.ravel()
-    out.wall[tt, ii] = rec_wall.ravel()
-    out.alive[tt, ii] = True
-    # The last step of an ant that leaves has no next frame: its speed and rate are
-    # still the true ones of that step, kept.
-    return out
+            _replace(cfg, road, rng, sl, ends, r)
+    return rec.individuals(sl)
 
 
 # ------------------------------------------------------------------------- geometry

@@ -287,6 +287,11 @@ class Tracker:
         self._predicted = True
         return poses
 
+    def cut(self) -> None:
+        """A scene cut before the next frame: every track ends here, so that no
+        identity carries over to another animal (tentative tracks are dropped)."""
+        self._bank.keep(np.zeros(self._bank.n, bool))
+
     # --------------------------------------------------------------------- update
     def update(self, dets: FrameDetections) -> None:
         """Associate the detections of the next frame and update the tracks."""

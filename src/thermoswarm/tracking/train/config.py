@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 from thermoswarm.config import check
 from thermoswarm.tracking.detect.unet import ModelConfig
-from thermoswarm.tracking.train.data import SynthDataConfig
 from thermoswarm.tracking.train.real import RealCropConfig
+from thermoswarm.tracking.train.synthetic import SynthDataConfig
 from thermoswarm.tracking.train.validate import ValidationConfig
 
 __all__ = ["AugmentConfig", "TrainConfig"]

@@ -1,12 +1,11 @@
-"""Labelled frames for training the U-Net + pose model: SLEAP ``.slp`` and COCO keypoint
-readers and synthetic training data.  Part of :mod:`thermoswarm.tracking.train.fit`."""
+"""Labelled frames for training the U-Net + pose model (:class:`LabeledFrames`) and the
+SLEAP ``.slp`` and COCO keypoint readers; synthetic training frames are in
+:mod:`thermoswarm.tracking.train.synthetic`.  Part of :mod:`thermoswarm.tracking.train.fit`."""
 
 from __future__ import annotations
 
 import json
-import math
 import os
-import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -14,9 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from thermoswarm.config import check
 from thermoswarm.errors import InputError
-from thermoswarm.tracking import anatomy
 
 #: Skeleton node names recognised as head, body and tail (lower case).
 NODE_ALIASES: tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]] = (
@@ -148,117 +145,6 @@ class LabeledFrames:
         if any(p.ignore is not None for p in parts):
             out.ignore = ignore
         return out
-
-
-@dataclass(frozen=True)
-class SynthDataConfig:
-    """Synthetic training data: ``n_videos`` videos, ``frames_per_video`` frames each
-    (``frame_step`` frames apart), of ``width`` x ``height`` px (the road along the
-    long side; each size varies by up to ``size_jitter`` of itself), with a density of
-    ants drawn uniformly between ``density_min`` and ``density_max`` ants per 100 mm of
-    road (the benchmark: 40 ants on 632 mm, 6.3), ant lengths drawn within
-    ``length_jitter`` of the paper's 7.14 mm, and, if ``vary_imaging``, noise, blur,
-    lighting and shadows varied around the generator's defaults.  ``codec``: pass the
-    frames through x264 (CRF 20) like the benchmark videos."""
-
-    n_videos: int = 40
-    frames_per_video: int = 12
-    frame_step: int = 5
-    width: int = 640
-    height: int = 224
-    size_jitter: float = 0.25
-    density_min: float = 4.0
-    density_max: float = 13.0
-    length_jitter: float = 0.1
-    vary_imaging: bool = True
-    codec: bool = True
-
-    def __post_init__(self) -> None:
-        check(self.n_videos >= 1, "n_videos", "a positive integer", self.n_videos)
-        check(
-            self.frames_per_video >= 1,
-            "frames_per_video",
-            "a positive integer",
-            self.frames_per_video,
-        )
-        check(self.frame_step >= 1, "frame_step", "a positive integer", self.frame_step)
-        check(self.width >= 64, "width", "at least 64 px", self.width)
-        check(self.height >= 64, "height", "at least 64 px", self.height)
-        check(0 <= self.size_jitter < 1, "size_jitter", "in [0, 1)", self.size_jitter)
-        check(
-            0 < self.density_min <= self.density_max,
-            "density_min",
-            "positive and <= density_max",
-            self.density_min,
-        )
-        check(0 <= self.length_jitter < 0.5, "length_jitter", "in [0, 0.5)", self.length_jitter)
-
-
-def _codec_roundtrip(frames: list[np.ndarray], fps: float) -> list[np.ndarray]:
-    """Encode frames with x264 (CRF 20, as the benchmark videos) and decode them."""
-    from thermoswarm.tracking.synth.clip import write_video
-    from thermoswarm.tracking.video import open_video
-
-    with tempfile.TemporaryDirectory(prefix="thermoswarm-train-") as tmp:
-        path = Path(tmp) / "v.mp4"
-        write_video(frames, path, fps)
-        out = list(open_video(path).frames())
-    if len(out) != len(frames):
-        raise RuntimeError(f"codec round trip returned {len(out)} of {len(frames)} frames")
-    return out
-
-
-def synthetic_data(
-    config: SynthDataConfig,
-    rng: np.random.Generator,
-    *,
-    px_per_mm: float = 3.04,
-    progress: Callable[[int, int], None] | None = None,
-) -> LabeledFrames:
-    """Render labelled frames from many synthetic videos (see :class:`SynthDataConfig`)."""
-    from thermoswarm.tracking.synth.clip import SynthConfig, generate
-
-    frames: list[np.ndarray] = []
-    points: list[np.ndarray] = []
-    c = config
-    for v in range(c.n_videos):
-        w = int(round(c.width * (1 + c.size_jitter * rng.uniform(-1, 1))))
-        h = int(round(c.height * (1 + c.size_jitter * rng.uniform(-1, 1))))
-        w, h = max(w, h), min(w, h)
-        h = max(h, int(math.ceil(44 * px_per_mm)))  # the 40 mm road must fit
-        w, h = w + w % 2, h + h % 2  # even sizes for the codec's 4:2:0 chroma
-        road_mm = w / px_per_mm
-        density = rng.uniform(c.density_min, c.density_max)
-        n_ants = max(1, int(round(density * road_mm / 100)))
-        kw: dict[str, Any] = dict(
-            width=w,
-            height=h,
-            n_ants=n_ants,
-            n_frames=c.frames_per_video * c.frame_step,
-            px_per_mm=px_per_mm,
-            ant_length_mm=anatomy.ANT_LENGTH_MM * (1 + c.length_jitter * rng.uniform(-1, 1)),
-        )
-        if c.vary_imaging:
-            kw.update(
-                noise_sigma=float(rng.uniform(2.0, 7.0)),
-                blur_sigma_px=float(rng.uniform(0.3, 1.0)),
-                lighting_drift=float(rng.uniform(0.0, 0.2)),
-                flicker=float(rng.uniform(0.0, 0.03)),
-                shadow_strength=float(rng.uniform(0.0, 0.4)),
-                exposure=float(rng.uniform(0.2, 0.8)),
-            )
-        video = generate(SynthConfig(**kw), rng)
-        ks = np.arange(c.frames_per_video) * c.frame_step + int(rng.integers(c.frame_step))
-        imgs = [video.render(int(k)) for k in ks]
-        if c.codec:
-            imgs = _codec_roundtrip(imgs, video.config.fps)
-        for k, img in zip(ks, imgs, strict=True):
-            kp = video.keypoints[k]
-            frames.append(img)
-            points.append(kp[np.isfinite(kp[:, 1, 0])].copy())
-        if progress is not None:
-            progress(v + 1, c.n_videos)
-    return LabeledFrames(frames, points, px_per_mm, f"synthetic ({c.n_videos} videos)")
 
 
 # --------------------------------------------------------------- labelled sources
@@ -399,6 +285,72 @@ def _find_videos(labels: Any, path: Path, search: Sequence[Path]) -> None:
                 break
 
 
+def _open_slp(path: Path, image_root: str | os.PathLike | None) -> Any:
+    """The SLEAP labels of ``path``, their missing videos looked for by name in
+    ``image_root`` and beside the file."""
+    try:
+        import sleap_io as sio
+    except ImportError:
+        raise InputError(
+            f"{path}: reading SLEAP files needs sleap-io (pip install 'thermoswarm[io]')"
+        ) from None
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    try:
+        labels = sio.load_slp(str(path))
+    except Exception as exc:
+        raise InputError(f"{path}: not a readable SLEAP file ({type(exc).__name__})") from None
+    search = ([Path(image_root)] if image_root is not None else []) + [path.parent]
+    _find_videos(labels, path, search)
+    return labels
+
+
+def _slp_instances(
+    users: list[Any],
+    preds: list[Any],
+    mapped: Callable[[Any], tuple[np.ndarray, np.ndarray]],
+    track_no: dict[int, int],
+) -> tuple[list[np.ndarray], list[int], list[np.ndarray]]:
+    """One frame's labelled ants (head, body, tail), their track numbers and the
+    centres of its ``ignore`` regions (see :func:`read_slp`)."""
+    pts, trk, ign = [], [], []
+    covers = []
+    for inst in users or preds:
+        p, every = mapped(inst)
+        covers.append((every, _extent(every)))
+        if np.all(np.isfinite(p[1])):
+            pts.append(p)
+            trk.append(track_no.get(id(inst.track), -1) if inst.track is not None else -1)
+        elif (c := _centre(p, every)) is not None:
+            ign.append(c)
+    if users:
+        for inst in preds:
+            p, every = mapped(inst)
+            c = _centre(p, every)
+            if c is None:
+                continue
+            dup = any(_same_ant(every, u, 0.15 * r) for u, r in covers)
+            if not dup:
+                ign.append(c)
+    return pts, trk, ign
+
+
+def _slp_image(lf: Any, path: Path) -> np.ndarray:
+    """The RGB image of a SLEAP labelled frame."""
+    try:
+        img = np.asarray(lf.image)
+    except Exception as exc:
+        raise InputError(
+            f"{path}: image of frame {lf.frame_idx} of {lf.video.filename} cannot be "
+            f"read ({type(exc).__name__}); embed the images (a .pkg.slp) or put the "
+            f"video {_video_name(str(lf.video.filename))!r} beside the labels "
+            "(or in --image-root)"
+        ) from None
+    if img is None or img.ndim not in (2, 3):
+        raise InputError(f"{path}: frame {lf.frame_idx} has no image")
+    return _rgb(img)
+
+
 def read_slp(
     path: str | os.PathLike,
     *,
@@ -419,20 +371,7 @@ def read_slp(
     an ``ignore`` region, not background.
     """
     path = Path(path)
-    try:
-        import sleap_io as sio
-    except ImportError:
-        raise InputError(
-            f"{path}: reading SLEAP files needs sleap-io (pip install 'thermoswarm[io]')"
-        ) from None
-    if not path.is_file():
-        raise InputError(f"{path}: no such file")
-    try:
-        labels = sio.load_slp(str(path))
-    except Exception as exc:
-        raise InputError(f"{path}: not a readable SLEAP file ({type(exc).__name__})") from None
-    search = ([Path(image_root)] if image_root is not None else []) + [path.parent]
-    _find_videos(labels, path, search)
+    labels = _open_slp(path, image_root)
     frames: list[np.ndarray] = []
     points: list[np.ndarray] = []
     ignore: list[np.ndarray] = []
@@ -458,40 +397,10 @@ def read_slp(
         if not users and preds and not include_predicted:
             n_pred_only += 1
             continue
-        labelled = users or preds
-        if not labelled:
+        if not (users or preds):
             continue
-        pts, trk, ign = [], [], []
-        covers = []
-        for inst in labelled:
-            p, every = mapped(inst)
-            covers.append((every, _extent(every)))
-            if np.all(np.isfinite(p[1])):
-                pts.append(p)
-                trk.append(track_no.get(id(inst.track), -1) if inst.track is not None else -1)
-            elif (c := _centre(p, every)) is not None:
-                ign.append(c)
-        if users:
-            for inst in preds:
-                p, every = mapped(inst)
-                c = _centre(p, every)
-                if c is None:
-                    continue
-                dup = any(_same_ant(every, u, 0.15 * r) for u, r in covers)
-                if not dup:
-                    ign.append(c)
-        try:
-            img = np.asarray(lf.image)
-        except Exception as exc:
-            raise InputError(
-                f"{path}: image of frame {lf.frame_idx} of {lf.video.filename} cannot be "
-                f"read ({type(exc).__name__}); embed the images (a .pkg.slp) or put the "
-                f"video {_video_name(str(lf.video.filename))!r} beside the labels "
-                "(or in --image-root)"
-            ) from None
-        if img is None or img.ndim not in (2, 3):
-            raise InputError(f"{path}: frame {lf.frame_idx} has no image")
-        frames.append(_rgb(img))
+        pts, trk, ign = _slp_instances(users, preds, mapped, track_no)
+        frames.append(_slp_image(lf, path))
         points.append(np.asarray(pts, dtype=np.float64).reshape(-1, 3, 2))
         ignore.append(np.asarray(ign, dtype=np.float64).reshape(-1, 2))
         keys.append((video_no.get(id(lf.video), 0), int(lf.frame_idx)))
@@ -525,24 +434,9 @@ def _rgb(img: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(img[:, :, :3])
 
 
-def read_coco(
-    path: str | os.PathLike,
-    *,
-    px_per_mm: float,
-    image_root: str | os.PathLike | None = None,
-    nodes: Sequence[str] | None = None,
-) -> LabeledFrames:
-    """Labelled frames of a COCO keypoint JSON file and its images.
-
-    ``image_root`` (default: the JSON file's folder) is where ``file_name`` paths
-    start.  Keypoints with visibility 0 are not labelled (NaN); 1 and 2 count.  Only
-    categories that define ``keypoints`` are used.  An annotation without its body
-    point (or with no keypoint at all, or ``iscrowd``) is an ``ignore`` region at its
-    known points, else at its box's centre.
-    """
-    import cv2
-
-    path = Path(path)
+def _coco_doc(path: Path) -> dict[str, Any]:
+    """The COCO document of ``path``: a JSON object with lists of images, annotations
+    and categories."""
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     try:
@@ -553,7 +447,13 @@ def read_coco(
         isinstance(doc.get(k), list) for k in ("images", "annotations", "categories")
     ):
         raise InputError(f"{path}: not COCO keypoints (needs images, annotations, categories)")
-    root = Path(image_root) if image_root is not None else path.parent
+    return doc
+
+
+def _coco_categories(
+    doc: dict[str, Any], nodes: Sequence[str] | None, path: Path
+) -> dict[int, NodeMap]:
+    """The :class:`NodeMap` of each category that defines keypoints, by category id."""
     cats: dict[int, NodeMap] = {}
     for cat in doc["categories"]:
         try:
@@ -564,6 +464,14 @@ def read_coco(
             raise InputError(f"{path}: malformed category {cat!r:.80}") from None
     if not cats:
         raise InputError(f"{path}: no category defines keypoints")
+    return cats
+
+
+def _coco_annotations(
+    doc: dict[str, Any], cats: dict[int, NodeMap], path: Path
+) -> tuple[dict[int, list[np.ndarray]], dict[int, list[np.ndarray]]]:
+    """Per image id, the labelled ants (head, body, tail) and the centres of the
+    ``ignore`` regions (see :func:`read_coco`)."""
     by_image: dict[int, list[np.ndarray]] = {}
     ign_image: dict[int, list[np.ndarray]] = {}
     for i, ann in enumerate(doc["annotations"]):
@@ -592,6 +500,31 @@ def read_coco(
             c = box[:2] + box[2:] / 2
         if c is not None:
             ign_image.setdefault(img_id, []).append(c)
+    return by_image, ign_image
+
+
+def read_coco(
+    path: str | os.PathLike,
+    *,
+    px_per_mm: float,
+    image_root: str | os.PathLike | None = None,
+    nodes: Sequence[str] | None = None,
+) -> LabeledFrames:
+    """Labelled frames of a COCO keypoint JSON file and its images.
+
+    ``image_root`` (default: the JSON file's folder) is where ``file_name`` paths
+    start.  Keypoints with visibility 0 are not labelled (NaN); 1 and 2 count.  Only
+    categories that define ``keypoints`` are used.  An annotation without its body
+    point (or with no keypoint at all, or ``iscrowd``) is an ``ignore`` region at its
+    known points, else at its box's centre.
+    """
+    import cv2
+
+    path = Path(path)
+    doc = _coco_doc(path)
+    root = Path(image_root) if image_root is not None else path.parent
+    cats = _coco_categories(doc, nodes, path)
+    by_image, ign_image = _coco_annotations(doc, cats, path)
     frames: list[np.ndarray] = []
     points: list[np.ndarray] = []
     ignore: list[np.ndarray] = []
