@@ -50,7 +50,7 @@ def synthetic(n: int, frames: int, rng: np.random.Generator):
 def measure(browser: Chromium, n: int, frames: int, seconds: float, seed: int) -> dict:
     rng = np.random.default_rng(seed)
     data = from_dataset(synthetic(n, frames, rng), f"synthetic {n}")
-    server = start_server(data, ".")
+    server = start_server(data)
     serve_in_thread(server)
     try:
         browser.goto(server.url)

@@ -45,6 +45,9 @@ T = TypeVar("T")
 
 __all__ = [
     "check",
+    "check_magnitudes",
+    "loads_value",
+    "shown",
     "from_mapping",
     "load_toml",
     "apply_overrides",
@@ -59,10 +62,57 @@ __all__ = [
 ]
 
 
+def shown(value: Any, limit: int = 60) -> str:
+    """``repr(value)`` for a message: NumPy scalars as plain numbers, at most ``limit``
+    characters (an integer of thousands of digits is cut, not printed)."""
+    if hasattr(value, "item") and getattr(value, "ndim", None) == 0:
+        value = value.item()
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**limit:
+        return f"an integer of about {int(value.bit_length() * 0.30103)} digits"
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def check(condition: bool, field: str, expectation: str, value: Any = None) -> None:
     """Raise :class:`ConfigError` ``"<field> must be <expectation>, got <value>"`` if false."""
     if not condition:
-        raise ConfigError(f"{field} must be {expectation}, got {value!r}")
+        raise ConfigError(f"{field} must be {expectation}, got {shown(value)}")
+
+
+def check_magnitudes(
+    obj: Any,
+    source: str,
+    *,
+    smallest: float,
+    largest: float,
+    what: str,
+    prefix: str = "",
+    unbounded: tuple[str, ...] = (),
+) -> None:
+    """Refuse a finite, non-zero float field of config ``obj`` (nested sections and
+    tuples included) whose magnitude is outside ``[smallest, largest]``, naming its key;
+    the keys in ``unbounded`` (dotted) are checked against ``smallest`` only.
+
+    Raises
+    ------
+    ConfigError
+        ``"<source>: <key> = <value> is outside <what> (magnitude A to B, or 0)"``.
+    """
+    for f in dataclasses.fields(obj):
+        v = getattr(obj, f.name)
+        key = prefix + f.name
+        if dataclasses.is_dataclass(v):
+            check_magnitudes(v, source, smallest=smallest, largest=largest, what=what,
+                             prefix=key + ".", unbounded=unbounded)  # fmt: skip
+            continue
+        top = math.inf if key in unbounded else largest
+        for x in v if isinstance(v, tuple) else (v,):
+            if isinstance(x, float) and math.isfinite(x) and x != 0.0:
+                if not smallest <= abs(x) <= top:
+                    raise ConfigError(
+                        f"{source}: {key} = {x!r} is outside {what} "
+                        f"(magnitude {smallest:g} to {largest:g}, or 0)"
+                    )
 
 
 def check_positive(field: str, value: float, expectation: str = "a positive number") -> None:
@@ -95,7 +145,7 @@ def _type_name(tp: Any) -> str:
 def _convert(value: Any, tp: Any, key: str) -> Any:
     """Convert ``value`` to type ``tp`` or raise a ConfigError naming ``key``."""
     origin = get_origin(tp)
-    bad = ConfigError(f"{key} must be {_type_name(tp)}, got {value!r}")
+    bad = ConfigError(f"{key} must be {_type_name(tp)}, got {shown(value)}")
     if tp is Any:
         return value
     if origin in (types.UnionType, typing.Union):
@@ -120,6 +170,8 @@ def _convert(value: Any, tp: Any, key: str) -> Any:
         raise bad
     if tp is int:
         if isinstance(value, int) and not isinstance(value, bool):
+            if not -(2**63) <= value < 2**63:
+                raise ConfigError(f"{key} must be a 64-bit integer, got {shown(value)}")
             return value
         if isinstance(value, float) and value.is_integer() and abs(value) < 2**53:
             return int(value)
@@ -220,6 +272,32 @@ def load_toml(path: str | Path) -> dict[str, Any]:
         raise ConfigError(f"{path}: not valid TOML ({exc})") from None
     except UnicodeDecodeError:
         raise ConfigError(f"{path}: not a UTF-8 text file") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: arrays or tables nested too deeply") from None
+    except ValueError as exc:  # an integer of more than 4,300 digits
+        raise ConfigError(f"{path}: a number too long to read ({_first(exc)})") from None
+    except OSError as exc:
+        raise ConfigError(f"config file {str(path)!r} cannot be read ({exc.strerror})") from None
+
+
+def _first(exc: BaseException) -> str:
+    return (str(exc).splitlines() or [type(exc).__name__])[0][:120]
+
+
+def loads_value(text: str, what: str) -> Any:
+    """Parse ``text`` as one TOML value (``what`` names it in errors).
+
+    Bare words that are not TOML (``obstacle``, ``mm``) are taken as strings; values
+    nested too deeply or integers too long to read are a one-line :class:`ConfigError`.
+    """
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+    except RecursionError:
+        raise ConfigError(f"{what}: the value is nested too deeply") from None
+    except ValueError as exc:
+        raise ConfigError(f"{what}: a number too long to read ({_first(exc)})") from None
 
 
 def parse_value(text: str) -> Any:
@@ -227,10 +305,7 @@ def parse_value(text: str) -> Any:
 
     Bare words that are not TOML (``--set variant=obstacle``) are taken as strings.
     """
-    try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        return text
+    return loads_value(text, f"value {text[:40]!r}")
 
 
 def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
@@ -247,7 +322,9 @@ def parse_overrides(items: Iterable[str]) -> dict[str, Any]:
             node = node.setdefault(part, {})
             if not isinstance(node, dict):
                 raise ConfigError(f"--set {item!r}: {part!r} is set twice")
-        node[parts[-1]] = parse_value(text.strip())
+        if parts[-1] in node:
+            raise ConfigError(f"--set {key!r} is given twice (give each key once)")
+        node[parts[-1]] = loads_value(text.strip(), f"--set {key}")
     return out
 
 

@@ -11,6 +11,7 @@ import contextlib
 import json
 import os
 import shutil
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -18,21 +19,52 @@ from typing import Any
 
 from thermoswarm.errors import InputError, OutputError
 
+_KINDS = {
+    stat.S_IFIFO: "a FIFO",
+    stat.S_IFCHR: "a character device",
+    stat.S_IFBLK: "a block device",
+    stat.S_IFSOCK: "a socket",
+}
+
+
+def check_replaceable(path: str | os.PathLike) -> Path:
+    """Check that writing ``path`` atomically replaces nothing but a file or a folder.
+
+    A FIFO, a device or a socket (or a link to one) at ``path`` would be replaced by
+    the rename of :func:`atomic_path`: that is refused with a one-line
+    :class:`OutputError`.  A missing ``path`` is fine.
+    """
+    path = Path(path)
+    try:
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return path
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot be written ({exc.strerror or exc})") from None
+    if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        kind = _KINDS.get(stat.S_IFMT(mode), "not a regular file")
+        raise OutputError(
+            f"{path} is {kind}, not a regular file: refusing to replace it (write to a file)"
+        )
+    return path
+
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike, *, suffix: str = "") -> Iterator[Path]:
     """Yield a temporary path next to ``path``; move it onto ``path`` on success.
 
     The temporary may be a file or a directory (for Zarr stores).  On error it is
-    removed and ``path`` is left untouched.
+    removed and ``path`` is left untouched.  A FIFO, device or socket at ``path`` is
+    never replaced (:func:`check_replaceable`), neither before nor at the rename.
     """
-    path = Path(path)
+    path = check_replaceable(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix + ".tmp", dir=path.parent)
     os.close(fd)
     os.unlink(tmp)
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        check_replaceable(path)  # it may have appeared while the output was written
         if path.is_dir() and not path.is_symlink():
             shutil.rmtree(path)
         os.replace(tmp_path, path)

@@ -97,6 +97,9 @@ def console(block: Block) -> list[tuple[str, list[str], list[str]]]:
 NOT_OURS = [
     (lambda a: a[0] == "make", "a make target: installs, or runs the whole suite"),
     (lambda a: a[:2] == ["pip", "install"], "installs from the package index"),
+    (lambda a: a[0] == "source" or a[:3] == ["python3", "-m", "venv"],
+     "creates or activates the environment"),
+    (lambda a: a[:3] == ["python", "-m", "build"], "builds the wheel"),
     (lambda a: a[:2] == ["git", "clone"], "fetches a dataset from its source"),
     (lambda a: a[0] == "cd", "moves into the reader's data"),
     (lambda a: a[:3] == ["python", "-m", "pytest"], "the test suite itself"),
@@ -111,26 +114,37 @@ SLOW_VERBS = {"sweep", "study", "reproduce", "bench", "track", "track-train"}
 INPUT_OPTIONS = {"--config", "--regions", "--detections", "--model", "--labels", "--init"}
 
 
+def _set(argv: list[str], key: str, value: str) -> list[str]:
+    """``argv`` with ``--set key=value``: in place of the example's own ``--set key=...``
+    (a key given twice is refused), else appended."""
+    a = list(argv)
+    for i in range(len(a) - 1):
+        if a[i] == "--set" and a[i + 1].split("=", 1)[0].strip() == key:
+            a[i + 1] = f"{key}={value}"
+            return a
+    return [*a, "--set", f"{key}={value}"]
+
+
 def tiny(argv: list[str]) -> list[str]:
     """The example's thermoswarm arguments at a toy scale."""
     a = list(argv)
     verb = a[0] if a else ""
     if verb == "simulate" and "--resume" not in a:
         if any("backend" in x and "gpu" in x for x in a):  # numba-cuda's simulator: tiny
-            a = [*a, "--set", "n=50"]
-        return [*a, "--set", "duration=2", "--no-progress"]
+            a = _set(a, "n", "50")
+        return [*_set(a, "duration", "2"), "--no-progress"]
     if verb == "sweep":
         a = _replace(a, "--seeds", "0")
         if "--cluster" in a:
             a = _replace(a, "--cluster", "local:1")
         elif "--scheduler" not in a:
             a = _replace(a, "--workers", "1")
-        return [*a, "--set", "duration=2"]
+        return _set(a, "duration", "2")
     if verb == "study":
         a = _replace(a, "--setting", "quick")
         a = _replace(a, "--workers", "1")
         a = _replace(a, "--seeds", "1")
-        return [*a, "--set", "duration=6", "--set", "warmup=2", "--set", "n=40"]
+        return _set(_set(_set(a, "duration", "6"), "warmup", "2"), "n", "40")
     if verb == "reproduce":
         a = [x for x in a if x not in ("--quick", "--full")]
         return [*_replace(a, "--workers", "1"), "--smoke"]

@@ -140,3 +140,44 @@ def test_two_videos_in_one_folder_use_full_stems(tmp_path, truth):
     paths[1].rename(tmp_path / "other_fish0.npz")
     ds = read_tracks(tmp_path)
     assert list(ds.individuals.values) == ["other_fish0", "video_fish0"]
+
+
+def _eight(folder, rng) -> list:
+    """Eight individuals' exports, frames 0..29."""
+    paths = []
+    for i in range(8):
+        frames = np.arange(30)
+        data = {"X#wcentroid": rng.normal(0, 5, 30), "Y#wcentroid": rng.normal(0, 5, 30),
+                "frame": frames, "time": frames / FRAME_RATE, "missing": np.zeros(30)}  # fmt: skip
+        np.savez(folder / f"video_fish{i}.npz", **data)
+        paths.append(folder / f"video_fish{i}.npz")
+    return paths
+
+
+@pytest.mark.parametrize("damage", ["truncated", "empty", "garbage"])
+def test_a_damaged_npz_among_eight_is_named(tmp_path, rng, damage):
+    """The reader once skipped zip errors silently: 7 individuals, no word of the 8th."""
+    paths = _eight(tmp_path, rng)
+    whole = paths[5].read_bytes()
+    paths[5].write_bytes({"truncated": whole[: len(whole) // 2], "empty": b"",
+                          "garbage": b"PK\x03\x04" + bytes(200)}[damage])  # fmt: skip
+    with pytest.raises(InputError, match=r"1 of 8 TRex \.npz files are damaged.*video_fish5\.npz"):
+        read_tracks(tmp_path, format="trex")
+    ds = read_tracks(tmp_path, format="trex", pattern="video_fish[0-4].npz")
+    assert ds.sizes["individuals"] == 5
+
+
+def test_a_mislabelled_npz_among_eight_is_a_warning(tmp_path, rng):
+    paths = _eight(tmp_path, rng)
+    np.savez(paths[2], weights=np.zeros(3))  # a readable .npz, not a TRex export
+    with pytest.warns(UserWarning, match=r"1 \.npz file\(s\) without TRex's arrays.*video_fish2"):
+        ds = read_tracks(tmp_path, format="trex")
+    assert ds.sizes["individuals"] == 7
+
+
+def test_read_is_at_most_80_lines():
+    import inspect
+
+    from thermoswarm.io import trex
+
+    assert len(inspect.getsource(trex.read).splitlines()) <= 80

@@ -19,8 +19,8 @@ from thermoswarm.view.source import open_source
 def serve():
     servers = []
 
-    def _serve(data: ViewData, root):
-        server = start_server(data, root)
+    def _serve(data: ViewData):
+        server = start_server(data)
         serve_in_thread(server)
         servers.append(server)
         return server
@@ -60,7 +60,7 @@ def _pixel(chromium, x: float, y: float) -> list[int]:
 
 def test_loads_plays_slides_and_selects(chromium, serve, small_run):
     data = open_source(small_run)
-    server = serve(data, small_run)
+    server = serve(data)
     _open(chromium, server.url)
     assert "error" not in _notes(chromium)
     title = chromium.evaluate("document.getElementById('title').innerText")
@@ -114,7 +114,7 @@ def test_loads_plays_slides_and_selects(chromium, serve, small_run):
 
 
 def test_colour_by_changes_legend_with_units(chromium, serve, small_run):
-    server = serve(open_source(small_run), small_run)
+    server = serve(open_source(small_run))
     _open(chromium, server.url)
     chromium.evaluate(
         "(() => { const s = document.getElementById('colorby'); s.value = 'energy';"
@@ -127,7 +127,7 @@ def test_colour_by_changes_legend_with_units(chromium, serve, small_run):
 
 def test_track_output_drawn_over_its_video(chromium, serve, track_output):
     data = open_source(track_output["out"])
-    server = serve(data, track_output["out"])
+    server = serve(data)
     _open(chromium, server.url)
     chromium.evaluate("window.viewer.setFrame(7)")
     chromium.wait_for("window.viewer.ready() && window.viewer.videoReady(7)")
@@ -149,7 +149,7 @@ def test_error_is_shown_in_the_page(chromium, serve, small_run):
         raise OSError("disk unplugged")
 
     data.frame_bytes = broken  # type: ignore[method-assign]
-    server = serve(data, small_run)
+    server = serve(data)
     chromium.goto(server.url)
     chromium.wait_for("document.getElementById('notes').innerText.includes('error')", timeout=30)
     assert "OSError: disk unplugged" in _notes(chromium)
@@ -163,7 +163,7 @@ def test_run_being_written_is_said_in_the_page(chromium, serve, tmp_path):
         rec.add(float(f), np.c_[np.arange(3.0), np.zeros(3) + f],
                 {"heading": np.zeros(3), "speed": np.ones(3)})  # fmt: skip
     rec.flush()
-    server = serve(open_source(tmp_path / "tracks.zarr"), tmp_path)
+    server = serve(open_source(tmp_path / "tracks.zarr"))
     _open(chromium, server.url)
     notes = _notes(chromium)
     assert "still being written (or was stopped): showing its 2 committed frames" in notes
@@ -177,7 +177,7 @@ def test_names_from_files_are_shown_as_text(chromium, serve, tmp_path):
     pos = np.zeros((3, 2, 2))
     pos[:, 0, 1] = 100.0
     data = from_dataset(make_tracks(pos, fps=1.0, individuals=[evil, "b"]), "names")
-    server = serve(data, tmp_path)
+    server = serve(data)
     _open(chromium, server.url)
     chromium.evaluate("window.viewer.select(0)")
     chromium.wait_for("document.getElementById('sel-id') !== null")
@@ -204,7 +204,7 @@ def test_self_contained_file_works_from_disk(chromium, small_run, tmp_path):
 
 def test_wheel_zooms_about_the_cursor_and_drag_pans(chromium, serve, small_run):
     data = open_source(small_run)
-    server = serve(data, small_run)
+    server = serve(data)
     _open(chromium, server.url)
     z0 = chromium.evaluate("window.viewer.S.zoom")
     cx, cy = _canvas_point(chromium, 600.0, 700.0)  # world point under the cursor

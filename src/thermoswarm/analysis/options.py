@@ -68,6 +68,52 @@ def _required(name: str, value: Any, *, positive: bool = False) -> None:
     _number(name, value, positive=positive)
 
 
+#: Largest time window or smoothing span (s, about 30 years): beyond it the sample
+#: counts overflow an int64 long before any data is that long.
+MAX_SECONDS = 1e9
+#: Shortest ``time:SECONDS`` window (s): one microsecond.
+MIN_WINDOW = 1e-6
+#: Largest ``mass`` (kg): energies stay finite in float32 at any speed up to 1e13 mm/s.
+MAX_MASS = 1e6
+#: Most steering bins, and most bootstrap replicates.
+MAX_BINS = 10_000
+MAX_BOOTSTRAP = 1_000_000
+
+
+def _at_most(name: str, value: Any, limit: float, unit: str) -> None:
+    check(value is None or value <= limit, name, f"at most {limit:g} {unit}".rstrip(), value)
+
+
+def _check_group(spec: Any) -> None:
+    """A ``time:SECONDS`` window between :data:`MIN_WINDOW` and :data:`MAX_SECONDS`."""
+    text = str(spec).strip()
+    if not text.startswith("time:"):
+        return
+    try:
+        w = float(text[5:])
+    except ValueError:
+        w = float("nan")
+    if not (math.isfinite(w) and MIN_WINDOW <= w <= MAX_SECONDS):
+        raise ConfigError(
+            f"group_by {text!r}: the window must be a number of seconds from "
+            f"{MIN_WINDOW:g} to {MAX_SECONDS:g}, e.g. time:60"
+        )
+
+
+def _check_bootstrap_memory(n_bootstrap: int, test_size: int | None) -> None:
+    """Refuse replicates whose draws (``n_bootstrap x test_size`` float64) cannot fit."""
+    from thermoswarm.sim.memory import available_memory
+
+    have = available_memory()
+    need = 16.0 * n_bootstrap * (test_size or MIN_SAMPLES)
+    if have is not None and need > have:
+        raise ConfigError(
+            f"n_bootstrap = {n_bootstrap} with test_size = {test_size}: the bootstrap draws "
+            f"need about {need / 2**30:.3g} GiB, more than the {have / 2**30:.3g} GiB of "
+            "memory available here"
+        )
+
+
 def _set(obj: Any, name: str, value: Any) -> None:
     object.__setattr__(obj, name, value)  # normalising a frozen dataclass's field
 
@@ -154,6 +200,7 @@ class CleanOptions:
         _number("min_confidence", self.min_confidence)
         _required("max_gap", self.max_gap)
         _number("smooth", self.smooth, positive=True)
+        _at_most("smooth", self.smooth, MAX_SECONDS, "s")
         p = self.polyorder
         check(p is None or (isinstance(p, int | np.integer) and not isinstance(p, bool) and p >= 1)
               or (isinstance(p, float) and p.is_integer() and p >= 1),
@@ -193,6 +240,7 @@ class StepOptions:
     def __post_init__(self) -> None:
         _floats(self, "mass", "min_speed", "gap_factor", "regular_tolerance")
         _number("mass", self.mass, positive=True)
+        _at_most("mass", self.mass, MAX_MASS, "kg")
         _required("min_speed", self.min_speed)
         _required("gap_factor", self.gap_factor, positive=True)
         _required("regular_tolerance", self.regular_tolerance, positive=True)
@@ -282,7 +330,7 @@ def parse_energy_bins(value: Any) -> int | tuple[float, ...]:
     if isinstance(value, bool):
         raise ConfigError(f"energy_bins must be a count or a list of edges, got {value!r}")
     if isinstance(value, int | np.integer):
-        check(value >= 1, "energy_bins", "at least 1", int(value))
+        check(1 <= value <= MAX_BINS, "energy_bins", f"from 1 to {MAX_BINS}", int(value))
         return int(value)
     try:
         edges = tuple(float(v) for v in value)
@@ -290,7 +338,7 @@ def parse_energy_bins(value: Any) -> int | tuple[float, ...]:
         raise ConfigError(
             f"energy_bins must be a count or a list of edges, got {value!r}"
         ) from None
-    if len(edges) < 2 or not all(math.isfinite(e) for e in edges):
+    if not 2 <= len(edges) <= MAX_BINS + 1 or not all(math.isfinite(e) for e in edges):
         raise ConfigError(f"energy_bins edges must be at least 2 finite numbers, got {edges}")
     if any(b <= a for a, b in zip(edges[:-1], edges[1:], strict=True)):
         raise ConfigError(f"energy_bins edges must increase, got {edges}")
@@ -326,6 +374,8 @@ class FitOptions:
     def __post_init__(self) -> None:
         _set(self, "group_by", (self.group_by,) if isinstance(self.group_by, str)
              else tuple(self.group_by))  # fmt: skip
+        for spec in self.group_by:
+            _check_group(spec)
         if isinstance(self.regions, Path):
             _set(self, "regions", str(self.regions))
         _set(self, "energy_bins", parse_energy_bins(self.energy_bins))
@@ -371,7 +421,8 @@ class TestOptions:
             return isinstance(v, int | np.integer) and not isinstance(v, bool)
 
         nb, ts, thin = self.n_bootstrap, self.test_size, self.thin
-        check(whole(nb) and nb >= 0, "n_bootstrap", "an integer >= 0", nb)
+        check(whole(nb) and 0 <= nb <= MAX_BOOTSTRAP, "n_bootstrap",
+              f"an integer from 0 to {MAX_BOOTSTRAP}", nb)  # fmt: skip
         check(ts is None or (whole(ts) and ts >= MIN_SAMPLES), "test_size",
               "an integer >= 20 or None", ts)  # fmt: skip
         check(thin == "auto" or (whole(thin) and thin >= 1), "thin", "'auto' or an integer >= 1",
@@ -382,7 +433,10 @@ class TestOptions:
         _set(self, "alpha", float(a))
         _set(self, "n_bootstrap", int(nb))
         _set(self, "test_size", None if ts is None else int(ts))
-        check(self.seed is None or whole(self.seed), "seed", "an integer", self.seed)
+        seed = self.seed
+        check(seed is None or (whole(seed) and 0 <= seed < 2**63), "seed",
+              "an integer from 0 to 2**63 - 1", seed)  # fmt: skip
+        _check_bootstrap_memory(int(nb), None if ts is None else int(ts))
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import os
+import shutil
 import sys
+from pathlib import Path
 
 import click
 
@@ -67,6 +70,47 @@ def missing_extra(exc: ImportError) -> tuple[str, str] | None:
     return None
 
 
+#: Verbs whose output folder, created by a run that then fails on its input, is removed
+#: whole; for the others (batches and sweeps whose finished parts a re-run skips) it is
+#: removed only when nothing was written into it.
+_REMOVED_WHOLE = {"analyze", "simulate", "detect", "evaluate", "convert", "view"}
+
+
+def _out_arg(argv: list[str]) -> str | None:
+    """The value of ``--out`` in ``argv`` (``--out X`` or ``--out=X``), if any."""
+    for i, arg in enumerate(argv):
+        if arg == "--":
+            break
+        if arg == "--out" and i + 1 < len(argv):
+            return argv[i + 1]
+        if arg.startswith("--out="):
+            return arg[len("--out=") :]
+    return None
+
+
+def _new_output_dir(argv: list[str]) -> Path | None:
+    """``--out``'s folder when it does not exist yet (this run would create it)."""
+    out = _out_arg(argv)
+    if not out:
+        return None
+    path = Path(out)
+    return None if os.path.lexists(path) else path
+
+
+def _remove_new_output(path: Path | None, argv: list[str]) -> None:
+    """After an input error: remove the output folder this run created (see
+    :data:`_REMOVED_WHOLE`), so that a failed run leaves nothing behind."""
+    if path is None or path.is_symlink() or not path.is_dir():
+        return
+    verb = next((a for a in argv if not a.startswith("-")), "")
+    if verb in _REMOVED_WHOLE:
+        shutil.rmtree(path, ignore_errors=True)
+        return
+    if any(sub.is_symlink() or not sub.is_dir() for sub in path.rglob("*")):
+        return  # something was written: a batch's finished part is kept
+    shutil.rmtree(path, ignore_errors=True)
+
+
 class LazyGroup(click.Group):
     """A group whose sub-commands are imported on first use."""
 
@@ -95,10 +139,16 @@ class LazyGroup(click.Group):
                 return "track train", cmd, args[2:]
         return super().resolve_command(ctx, args)
 
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        ctx.meta["thermoswarm.argv"] = list(args)
+        return super().parse_args(ctx, args)
+
     def invoke(self, ctx: click.Context):  # type: ignore[override]
+        new_out = _new_output_dir(ctx.meta.get("thermoswarm.argv", []))
         try:
             return super().invoke(ctx)
         except ThermoswarmError as exc:
+            _remove_new_output(new_out, ctx.meta.get("thermoswarm.argv", []))
             click.echo(f"error: {exc}", err=True)
             ctx.exit(exc.exit_code)
         except ImportError as exc:  # an optional library of an extra is not installed
@@ -121,8 +171,17 @@ def cli() -> None:
     """Maximum-entropy swarms: simulate robots, analyse trajectories, track ants."""
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings reach the user as ``warning: <first line>``, never with a source line."""
+    text = str(message).splitlines()[0] if str(message) else category.__name__
+    click.echo(f"warning: {text}", err=True)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point."""
+    import warnings
+
+    warnings.showwarning = _one_line_warning
     try:
         cli.main(args=argv, prog_name="thermoswarm", standalone_mode=True)
     except KeyboardInterrupt:  # pragma: no cover - interactive

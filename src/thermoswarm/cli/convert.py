@@ -48,9 +48,10 @@ def convert(
     write_option: tuple[str, ...],
 ) -> None:
     """Convert trajectories SOURCE (any readable format) to DEST (.nc, .csv, .txt)."""
-    from thermoswarm.fsutil import require_input
+    from thermoswarm.fsutil import check_replaceable, require_input
 
     require_input(source)  # before the heavy imports
+    check_replaceable(dest)
     from thermoswarm.io import convert_tracks, parse_read_options
 
     ds = convert_tracks(

@@ -48,7 +48,9 @@ from thermoswarm.errors import InputError
     metavar="KEY=VALUE",
     help="Override an option, e.g. --set detector.polarity=light.",
 )
-@click.option("--max-frames", type=int, help="Detect at most this many frames per input.")
+@click.option(
+    "--max-frames", type=click.IntRange(min=1), help="Detect at most this many frames per input."
+)
 @click.option(
     "--camera",
     type=click.Choice(["auto", "still", "moving"]),
@@ -101,11 +103,15 @@ def detect(
         import cv2  # noqa: F401
     except ImportError:
         raise InputError("detection needs OpenCV: pip install 'thermoswarm[track]'") from None
-    from thermoswarm.cli.track import _load_settings
+    from thermoswarm.cli.track import _load_settings, check_body_px, check_rate
     from thermoswarm.io import resolve_px_per_mm
     from thermoswarm.tracking.detect.classical import NOTHING_FOUND_HINT
     from thermoswarm.tracking.pipeline import detect_inputs
 
+    check_rate(fps, "--fps")
+    scale = resolve_px_per_mm(px_per_mm) if px_per_mm is not None else None
+    if scale is not None:
+        check_body_px(scale)
     settings = _load_settings(config, overrides)
     width_bl = settings.get("tracker", {}).get("width_bl")
     unknown = set(settings.get("tracker", {})) - {"width_bl"}
@@ -114,7 +120,7 @@ def detect(
     summary = detect_inputs(
         list(inputs),
         out_dir,
-        px_per_mm=resolve_px_per_mm(px_per_mm) if px_per_mm is not None else None,
+        px_per_mm=scale,
         detector=detector,
         model=model,
         detector_options=settings.get("detector"),

@@ -9,6 +9,9 @@ import click
 
 from thermoswarm.errors import ConfigError
 
+#: Most runs in one sweep (grid points times seeds).
+MAX_RUNS = 100_000
+
 
 def _parse_grid(items: tuple[str, ...]) -> dict[str, list]:
     from thermoswarm.config import parse_value
@@ -16,20 +19,37 @@ def _parse_grid(items: tuple[str, ...]) -> dict[str, list]:
     grid: dict[str, list] = {}
     for item in items:
         key, sep, text = item.partition("=")
-        if not sep or not key.strip() or not text.strip():
-            raise ConfigError(f"--grid {item!r}: expected key=v1,v2,...")
-        grid[key.strip()] = [parse_value(v.strip()) for v in text.split(",")]
+        key = key.strip()
+        if not sep or not key or not text.strip():
+            raise ConfigError(f"--grid {item[:60]!r}: expected key=v1,v2,...")
+        if key in grid:
+            raise ConfigError(
+                f"--grid {key!r} is given twice; give its values once: --grid {key}=v1,v2,..."
+            )
+        grid[key] = [parse_value(v.strip()) for v in text.split(",")]
     return grid
 
 
 def _parse_seeds(text: str) -> list[int]:
+    """``0-9``, ``1,4,7`` or both: at most :data:`MAX_RUNS` seeds, each 0 to 2**63 - 1."""
+    bad = ConfigError(f"--seeds {text[:60]!r}: expected e.g. 0-9 or 1,2,5 (integers from 0 "
+                      "to 2**63 - 1)")  # fmt: skip
     seeds: list[int] = []
     for part in text.split(","):
-        a, sep, b = part.partition("-")
-        try:
-            seeds += list(range(int(a), int(b) + 1)) if sep else [int(a)]
-        except ValueError:
-            raise ConfigError(f"--seeds {text!r}: expected e.g. 0-9 or 1,2,5") from None
+        a, sep, b = part.strip().partition("-")
+        if not a.strip().isascii() or not a.strip().isdigit() or len(a.strip()) > 19:
+            raise bad
+        if sep and (not b.strip().isascii() or not b.strip().isdigit() or len(b.strip()) > 19):
+            raise bad
+        lo = int(a)
+        hi = int(b) if sep else lo
+        if hi >= 2**63 or hi < lo:
+            raise bad
+        if len(seeds) + hi - lo + 1 > MAX_RUNS:
+            raise ConfigError(f"--seeds {text[:60]!r}: more than {MAX_RUNS:,} seeds in one sweep")
+        seeds += range(lo, hi + 1)
+    if len(set(seeds)) != len(seeds):
+        raise ConfigError(f"--seeds {text[:60]!r}: a seed is given twice")
     return seeds
 
 
@@ -90,6 +110,11 @@ def sweep(scenario, out, grid, seeds, overrides, workers, scheduler, cluster, re
     from thermoswarm.scenarios.schema import precheck
 
     grid_values, seed_list = _parse_grid(grid), _parse_seeds(seeds)
+    n_runs = len(seed_list)
+    for values in grid_values.values():
+        n_runs *= len(values)
+    if n_runs > MAX_RUNS:
+        raise ConfigError(f"--grid and --seeds make {n_runs:,} runs; at most {MAX_RUNS:,}")
     precheck(scenario, overrides=overrides, grid=grid_values)  # before the heavy imports
     from thermoswarm.sweep import SweepSpec, run_sweep
 

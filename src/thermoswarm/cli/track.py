@@ -60,8 +60,8 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
 @click.option(
     "--first-frame",
     type=click.IntRange(0, 1),
-    help="Number of the first frame of --detections (default: 0 if the file has a "
-    "frame 0, else 1); the tracks keep this numbering.",
+    help="Number of the first frame of --detections, 0 or 1 (default: the file's first "
+    "frame number); the tracks keep the file's numbering.",
 )
 @click.option(
     "--object-size-px",
@@ -114,7 +114,7 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     show_default=True,
     help="Size of the overlay relative to the video (1: the video's resolution).",
 )
-@click.option("--max-frames", type=int, help="Stop after this many frames.")
+@click.option("--max-frames", type=click.IntRange(min=1), help="Stop after this many frames.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @click.option(
     "--workers",
@@ -156,7 +156,10 @@ def track(**opts: Any) -> None:
         _check_video_options(
             o["det_format"], o["image_size"], o["first_frame"], o["object_size_px"]
         )
+    check_rate(o["fps"], "--fps")
     scale, settings, tcfg = _options(o["px_per_mm"], o["config"], o["overrides"], o["preset"])
+    if videos and scale is not None:
+        check_body_px(scale)
     video_opts = dict(
         px_per_mm=scale, fps=o["fps"], detector=o["detector"],
         detector_options=settings.get("detector"), overlay=o["overlay"],
@@ -189,6 +192,34 @@ def track(**opts: Any) -> None:
             **video_opts,
         )  # fmt: skip
     _echo_summary(summary, out_dir)
+
+
+#: The tracked objects' length in px: shorter, nothing can be detected or told apart.
+MIN_BODY_PX, MAX_BODY_PX = 2.0, 1e5
+
+
+def check_rate(fps: float | None, flag: str) -> float | None:
+    """``None`` or a frame rate within the readers' range (``--fps 0``, ``1e308``,
+    ``nan``: one-line errors naming ``flag``)."""
+    from thermoswarm.io import check_fps
+
+    try:
+        return check_fps(Path(flag), fps, flag)
+    except InputError as exc:  # "PATH: MESSAGE" without the path, which is the flag
+        raise InputError(str(exc).split(": ", 1)[-1]) from None
+
+
+def check_body_px(px_per_mm: float) -> None:
+    """Refuse a scale at which an ant (:data:`~thermoswarm.tracking.anatomy.ANT_LENGTH_MM`)
+    would be shorter than :data:`MIN_BODY_PX` or longer than :data:`MAX_BODY_PX`."""
+    from thermoswarm.tracking.anatomy import ANT_LENGTH_MM
+
+    length = ANT_LENGTH_MM * px_per_mm
+    if not MIN_BODY_PX <= length <= MAX_BODY_PX:
+        raise InputError(
+            f"--px-per-mm {px_per_mm:g}: an ant ({ANT_LENGTH_MM:g} mm) would be {length:.3g} px "
+            f"long; expected {MIN_BODY_PX:g} to {MAX_BODY_PX:g} px"
+        )
 
 
 def _check_inputs(
@@ -284,8 +315,10 @@ def _track_detections(
         raise InputError("[detector] options apply to videos, not to --detections")
     if fps is None:
         raise InputError(f"{detections}: detections have frame numbers only; pass --fps")
-    if object_size_px is not None and not (0 < object_size_px < float("inf")):
-        raise InputError(f"--object-size-px must be positive, got {object_size_px!r}")
+    lo, hi = MIN_BODY_PX, MAX_BODY_PX
+    if object_size_px is not None and not lo <= object_size_px <= hi:
+        raise InputError(f"--object-size-px must be a number from {lo:g} to {hi:g} (px), "
+                         f"got {object_size_px!r}")  # fmt: skip
     return track_detection_file(
         detections,
         out_dir,

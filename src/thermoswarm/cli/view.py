@@ -70,24 +70,38 @@ def view(path: Path, out: Path | None, host: str, port: int, video: Path | None,
         write_html(data, out)
         click.echo(f"{data.n_frames} frames, {data.n} individuals -> {out}")
         return
-    root = path if path.is_dir() else path.parent
     if screenshot is not None:
         from thermoswarm.view.snapshot import screenshot as render
 
-        render(data, root, screenshot, frame=frame, select=select, color_by=color_by,
+        render(data, screenshot, frame=frame, select=select, color_by=color_by,
                trail=trail)  # fmt: skip
         click.echo(f"frame {frame} of {data.n_frames} -> {screenshot}")
         return
-    from thermoswarm.view.server import start_server, warn_public
+    _serve(data, host, port, no_browser)
 
-    server = start_server(data, root, host=host, port=port)
+
+def _serve(data, host: str, port: int, no_browser: bool) -> None:
+    """Serve ``data`` until Ctrl+C; the browser opens a private file that redirects to
+    the URL, so that the token is on no command line."""
+    import shutil
+    import signal
+
+    from thermoswarm.view.server import redirect_file, start_server, warn_public
+
+    server = start_server(data, host=host, port=port)
     warn_public(host)
     click.echo(f"thermoswarm view: {server.url}  (Ctrl+C stops)")
-    if not no_browser:
-        webbrowser.open(server.url)
+    opener = None
+    # SIGTERM stops the server as Ctrl+C does (the redirect file is removed)
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
+        if not no_browser:
+            opener = redirect_file(server.url)
+            webbrowser.open(opener.as_uri())
         server.serve_forever()
     except KeyboardInterrupt:
         click.echo("stopped", err=True)
     finally:
         server.server_close()
+        if opener is not None:
+            shutil.rmtree(opener.parent, ignore_errors=True)

@@ -23,7 +23,6 @@ from __future__ import annotations
 import importlib
 import inspect
 import os
-import tomllib
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,7 +31,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from thermoswarm.config import loads_value, shown
 from thermoswarm.errors import InputError, OutputError, ThermoswarmError
+from thermoswarm.fsutil import check_replaceable
 from thermoswarm.io._common import MAX_ABS_MM, check_fps, check_tracks
 from thermoswarm.tracks import per_individual, validate_tracks
 
@@ -77,8 +78,13 @@ def formats() -> dict[str, Format]:
     return dict(_FORMATS)
 
 
+#: Range of a scale (px/mm): one pixel per kilometre to a million per millimetre.
+MIN_PX_PER_MM, MAX_PX_PER_MM = 1e-6, 1e6
+
+
 def resolve_px_per_mm(value: float | str | None) -> float | None:
-    """``None``, a positive number, or a preset name (``"paper"`` = 3.04 px/mm)."""
+    """``None``, a number from :data:`MIN_PX_PER_MM` to :data:`MAX_PX_PER_MM`, or a
+    preset name (``"paper"`` = 3.04 px/mm); anything else is a one-line InputError."""
     if value is None:
         return None
     if isinstance(value, str):
@@ -92,9 +98,15 @@ def resolve_px_per_mm(value: float | str | None) -> float | None:
             raise InputError(
                 f"px_per_mm must be a positive number or a preset ({presets}), got {value!r}"
             ) from None
-    value = float(value)
-    if not (value > 0 and value < float("inf")):
-        raise InputError(f"px_per_mm must be a positive number, got {value!r}")
+    try:
+        value = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"px_per_mm must be a positive number, got {shown(value)}") from None
+    if not MIN_PX_PER_MM <= value <= MAX_PX_PER_MM:
+        raise InputError(
+            f"px_per_mm must be a number from {MIN_PX_PER_MM:g} to {MAX_PX_PER_MM:g} (or a "
+            f"preset: {', '.join(SCALE_PRESETS)}), got {shown(value)}"
+        )
     return value
 
 
@@ -238,11 +250,7 @@ def parse_read_options(items: Iterable[str], *, flag: str = "--read-option") -> 
             raise InputError(f"{flag} {item!r}: expected key=value")
         if key in out:
             raise InputError(f"{flag} {key!r} is given twice")
-        text = text.strip()
-        try:
-            out[key] = tomllib.loads(f"v = {text}")["v"]
-        except tomllib.TOMLDecodeError:
-            out[key] = text
+        out[key] = loads_value(text.strip(), f"{flag} {key}")
     return out
 
 
@@ -300,6 +308,9 @@ def write_tracks(
             f"{path}: unknown write option(s) {', '.join(unknown)} for {format!r}; "
             f"it accepts: {', '.join(accepted) or 'none'}"
         )
+    if "px_per_mm" in options:
+        options = {**options, "px_per_mm": resolve_px_per_mm(options["px_per_mm"])}
+    check_replaceable(path)
     validate_tracks(ds)
     if per_individual(ds) and format not in _OWN_CLOCK_WRITERS:
         raise InputError(

@@ -214,9 +214,15 @@ def table_from_tracks(
     ds: xr.Dataset, *, px_per_mm: float | None = None, box_size_px: float = 20.0
 ) -> np.ndarray:
     """Rows of a MOT table with a square box of ``box_size_px`` around each centroid."""
+    from thermoswarm.io import resolve_px_per_mm
+
     scale = px_per_mm if px_per_mm is not None else ds.attrs.get("px_per_mm")
     if scale is None:
         raise InputError("writing MOTChallenge needs px_per_mm (boxes are in pixels)")
+    scale = resolve_px_per_mm(scale)
+    size = box_size_px
+    if isinstance(size, bool) or not isinstance(size, int | float) or not 0 < size <= 1e6:
+        raise InputError(f"box_size_px must be a number above 0 and at most 1e6, got {size!r}")
     c = centroid(ds).transpose("time", "space", "individuals").values * float(scale)
     fps = ds.attrs.get("fps")
     if fps is not None and ds.attrs.get("time_unit") == "seconds":

@@ -28,6 +28,7 @@ from __future__ import annotations
 import fnmatch
 import math
 import re
+import warnings
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -97,37 +98,128 @@ def _looks_like_trex(keys: set[str]) -> bool:
     )
 
 
-def _files(folder: Path, pattern: str) -> list[Path]:
-    out = []
+def _zip_keys(path: Path) -> set[str] | None:
+    """The array names of an ``.npz`` (a zip), or None when it is not a readable zip."""
+    try:
+        with zipfile.ZipFile(path) as zf:
+            return {n.removesuffix(".npy") for n in zf.namelist()}
+    except (OSError, zipfile.BadZipFile, ValueError, EOFError):
+        return None
+
+
+def _scan(folder: Path, pattern: str) -> tuple[list[Path], list[Path], list[Path]]:
+    """The folder's ``.npz`` files matching ``pattern`` (TRex's posture, visual-field,
+    tracklet-image and heatmap files left out): TRex exports, damaged files (not a
+    readable zip: empty, truncated) and readable ones without TRex's arrays."""
+    good, damaged, foreign = [], [], []
     for p in folder.iterdir():
         if not p.is_file() or not fnmatch.fnmatch(p.name.lower(), pattern.lower()):
             continue
         if any(tag in p.stem for tag in _SKIP):
             continue
-        try:
-            with zipfile.ZipFile(p) as zf:
-                keys = {n.removesuffix(".npy") for n in zf.namelist()}
-        except (OSError, zipfile.BadZipFile):
-            continue
-        if _looks_like_trex(keys):
-            out.append(p)
-    return sorted(out, key=lambda p: natural_key(p.stem))
+        keys = _zip_keys(p)
+        (damaged if keys is None else good if _looks_like_trex(keys) else foreign).append(p)
+    return tuple(sorted(x, key=lambda p: natural_key(p.stem)) for x in (good, damaged, foreign))
+
+
+def _files(folder: Path, pattern: str) -> list[Path]:
+    """The TRex exports of a folder; a damaged one is an error and a ``.npz`` without
+    TRex's arrays a warning, each naming the files (never dropped in silence)."""
+    good, damaged, foreign = _scan(folder, pattern)
+    if not good:
+        raise InputError(f"{folder}: no TRex .npz exports matching {pattern!r}")
+    if damaged:
+        names = ", ".join(p.name for p in damaged[:5]) + (" ..." if len(damaged) > 5 else "")
+        raise InputError(
+            f"{folder}: {len(damaged)} of {len(good) + len(damaged)} TRex .npz files are "
+            f"damaged (not a readable .npz): {names}; repair or move them, or pass "
+            '--read-option pattern="..." to read the others'
+        )
+    if foreign:
+        names = ", ".join(p.name for p in foreign[:5]) + (" ..." if len(foreign) > 5 else "")
+        warnings.warn(
+            f"{folder}: {len(foreign)} .npz file(s) without TRex's arrays (frame, X#..., "
+            f"time or missing) left out: {names}",
+            stacklevel=3,
+        )
+    return good
 
 
 def sniff(path: Path) -> bool:
     if path.is_dir():
-        return bool(_files(path, "*.npz"))
-    try:
-        with zipfile.ZipFile(path) as zf:
-            keys = {n.removesuffix(".npy") for n in zf.namelist()}
-    except (OSError, zipfile.BadZipFile):
-        return False
-    return _looks_like_trex(keys)
+        return bool(_scan(path, "*.npz")[0])
+    keys = _zip_keys(path)
+    return keys is not None and _looks_like_trex(keys)
 
 
 def _name(path: Path) -> str:
     m = _NAME.search(path.stem)
     return m.group(1) if m else path.stem
+
+
+def _one(f: Path, xk: str, yk: str) -> dict[str, Any]:
+    """One export's arrays: frame, x, y (NaN where missing), time or None, scale, rate."""
+    data = _load(f)
+    for key in ("frame", xk, yk):
+        if key not in data:
+            avail = ", ".join(sorted(k for k in data if k.startswith(("X", "Y"))))
+            raise InputError(
+                f"{f}: no {key!r} array (position fields here: {avail or 'none'}); "
+                'choose another with --read-option source="..."'
+            )
+    frame = np.asarray(data["frame"]).ravel()
+    x = np.asarray(data[xk], dtype=np.float64).ravel()
+    y = np.asarray(data[yk], dtype=np.float64).ravel()
+    lengths = {"frame": frame.size, xk: x.size, yk: y.size}
+    for key in ("time", "missing"):
+        if key in data:
+            lengths[key] = np.asarray(data[key]).size
+    if len(set(lengths.values())) != 1:
+        raise InputError(f"{f}: arrays of different lengths {lengths}")
+    if frame.dtype.kind not in "fiu" or not np.all(np.isfinite(frame)):
+        raise InputError(f"{f}: 'frame' must be finite numbers")
+    bad = ~(np.isfinite(x) & np.isfinite(y))
+    if "missing" in data:
+        bad |= np.asarray(data["missing"]).ravel().astype(bool)
+    x[bad] = np.nan
+    y[bad] = np.nan
+    time = None
+    if "time" in data:
+        t = np.asarray(data["time"], dtype=np.float64).ravel()
+        time = np.where(np.isfinite(t), t, np.nan)
+    return {"frame": frame.astype(np.float64), "x": x, "y": y, "time": time,
+            "cpp": _scalar(data.get("cm_per_pixel")),
+            "rate": _scalar(data.get("frame_rate"))}  # fmt: skip
+
+
+def _names(files: list[Path]) -> list[str]:
+    """Individual names (``fish3``); the whole file stems when two files share one."""
+    names = [_name(f) for f in files]
+    return names if len(set(names)) == len(names) else [f.stem for f in files]
+
+
+def _one_value(path: Path, values: list[float | None], what: str) -> float | None:
+    found = {v for v in values if v is not None}
+    if len(found) > 1:
+        raise InputError(f"{path}: files disagree on {what} ({sorted(found)})")
+    return next(iter(found), None)
+
+
+def _scale(path: Path, cpp: float | None, px_per_mm: float | None) -> tuple[float, dict]:
+    """Factor from TRex's cm to mm, and the attrs recording it."""
+    if px_per_mm is None:
+        return 10.0, {"source_space_unit": "cm", "unit_conversion": "mm = cm * 10"}
+    if cpp is None:
+        raise InputError(
+            f"{path}: to apply --px-per-mm the cm/px factor TRex used is needed, and the "
+            "file does not record it; pass --read-option cm_per_pixel=... (or drop "
+            "--px-per-mm to keep TRex's cm)"
+        )
+    return 1.0 / (cpp * px_per_mm), {
+        "px_per_mm": px_per_mm,
+        "source_space_unit": "cm",
+        "unit_conversion": "mm = cm / trex_cm_per_pixel / px_per_mm",
+    }
 
 
 def read(
@@ -142,75 +234,11 @@ def read(
         if "cm_per_pixel" in options
         else None
     )
-    if path.is_dir():
-        files = _files(path, pattern)
-        if not files:
-            raise InputError(f"{path}: no TRex .npz exports matching {pattern!r}")
-    else:
-        files = [path]
-    xk, yk = _keys(source)
-    rows: dict[str, list[np.ndarray]] = {"ind": [], "frame": [], "time": [], "x": [], "y": []}
-    cpps: set[float] = set()
-    rates: set[float] = set()
-    have_time = True
-    names = []
-    for f in files:
-        data = _load(f)
-        for key in ("frame", xk, yk):
-            if key not in data:
-                avail = ", ".join(sorted(k for k in data if k.startswith(("X", "Y"))))
-                raise InputError(
-                    f"{f}: no {key!r} array (position fields here: {avail or 'none'}); "
-                    'choose another with --read-option source="..."'
-                )
-        frame = np.asarray(data["frame"]).ravel()
-        n = frame.size
-        x = np.asarray(data[xk], dtype=np.float64).ravel()
-        y = np.asarray(data[yk], dtype=np.float64).ravel()
-        lengths = {"frame": n, xk: x.size, yk: y.size}
-        if "time" in data:
-            lengths["time"] = np.asarray(data["time"]).size
-        if "missing" in data:
-            lengths["missing"] = np.asarray(data["missing"]).size
-        if len(set(lengths.values())) != 1:
-            raise InputError(f"{f}: arrays of different lengths {lengths}")
-        if frame.dtype.kind not in "fiu" or not np.all(np.isfinite(frame)):
-            raise InputError(f"{f}: 'frame' must be finite numbers")
-        bad = ~(np.isfinite(x) & np.isfinite(y))
-        if "missing" in data:
-            bad |= np.asarray(data["missing"]).ravel().astype(bool)
-        x[bad] = np.nan
-        y[bad] = np.nan
-        if "time" in data:
-            t = np.asarray(data["time"], dtype=np.float64).ravel()
-            t = np.where(np.isfinite(t), t, np.nan)
-            rows["time"].append(t)
-        else:
-            have_time = False
-        name = _name(f)
-        names.append(name)
-        rows["ind"].append(np.full(n, name, dtype=object))
-        rows["frame"].append(frame.astype(np.float64))
-        rows["x"].append(x)
-        rows["y"].append(y)
-        cpp = _scalar(data.get("cm_per_pixel"))
-        if cpp is not None:
-            cpps.add(cpp)
-        rate = _scalar(data.get("frame_rate"))
-        if rate is not None:
-            rates.add(rate)
-    if len(set(names)) != len(names):
-        # e.g. exports of two videos in one folder: fall back to the whole file stems
-        full = [f.stem for f in files]
-        for old_name, new_name, ind in zip(names, full, rows["ind"], strict=True):
-            ind[ind == old_name] = new_name
-        names = full
-    if len(cpps) > 1:
-        raise InputError(f"{path}: files disagree on cm_per_pixel ({sorted(cpps)})")
-    if len(rates) > 1:
-        raise InputError(f"{path}: files disagree on frame_rate ({sorted(rates)})")
-    file_cpp = next(iter(cpps), None)
-    file_rate = next(iter(rates), None)
+    files = _files(path, pattern) if path.is_dir() else [path]
+    parts = [_one(f, *_keys(source)) for f in files]
+    names = _names(files)
+    file_cpp = _one_value(path, [p["cpp"] for p in parts], "cm_per_pixel")
+    file_rate = _one_value(path, [p["rate"] for p in parts], "frame_rate")
     rate = resolve_fps(path, fps, file_rate, "TRex")
     attrs: dict[str, Any] = {"trex_source": source}
     if file_rate is not None:
@@ -218,53 +246,35 @@ def read(
     cpp = cpp_opt if cpp_opt is not None else file_cpp
     if cpp is not None:
         attrs["trex_cm_per_pixel"] = cpp
-    if px_per_mm is not None:
-        if cpp is None:
-            raise InputError(
-                f"{path}: to apply --px-per-mm the cm/px factor TRex used is needed, and the "
-                "file does not record it; pass --read-option cm_per_pixel=... (or drop "
-                "--px-per-mm to keep TRex's cm)"
-            )
-        factor = 1.0 / (cpp * px_per_mm)
-        attrs.update(
-            px_per_mm=px_per_mm,
-            source_space_unit="cm",
-            unit_conversion="mm = cm / trex_cm_per_pixel / px_per_mm",
-        )
-    else:
-        factor = 10.0
-        attrs.update(source_space_unit="cm", unit_conversion="mm = cm * 10")
-    frames = np.concatenate(rows["frame"])
+    factor, unit_attrs = _scale(path, cpp, px_per_mm)
+    attrs.update(unit_attrs)
+    frames = np.concatenate([p["frame"] for p in parts])
+    have_time = all(p["time"] is not None for p in parts)
     frame_rate = None
     if rate is not None and (fps is not None or not have_time):
         time, frame_rate = frames, rate
         attrs["time_from"] = "frame / fps"
     elif have_time:
-        time = _time_from_pairs(path, frames, np.concatenate(rows["time"]))
+        time = _time_from_pairs(path, frames, np.concatenate([p["time"] for p in parts]))
     else:
         raise InputError(f"{path}: no 'time' array and no frame_rate in the file; pass --fps")
-    parts = assemble_long(
+    long = assemble_long(
         path,
-        individual=np.concatenate(rows["ind"]),
+        individual=np.concatenate(
+            [np.full(p["frame"].size, n, dtype=object) for p, n in zip(parts, names, strict=True)]
+        ),
         time=time,
-        x=np.concatenate(rows["x"]) * factor,
-        y=np.concatenate(rows["y"]) * factor,
+        x=np.concatenate([p["x"] for p in parts]) * factor,
+        y=np.concatenate([p["y"] for p in parts]) * factor,
         keypoint=None,
         individual_order=names,
         frame_rate=frame_rate,
         clock="shared",  # TRex's times are those of one video's frames
     )
-    attrs.update(parts["attrs"])
-    return make_tracks(
-        parts["position"],
-        time=parts["time"],
-        fps=rate,
-        individuals=parts["individuals"],
-        keypoints=[source],
-        source_software="TRex",
-        source_file=str(path),
-        attrs=attrs,
-    )
+    attrs.update(long["attrs"])
+    return make_tracks(long["position"], time=long["time"], fps=rate,
+                       individuals=long["individuals"], keypoints=[source],
+                       source_software="TRex", source_file=str(path), attrs=attrs)  # fmt: skip
 
 
 def _time_from_pairs(path: Path, frames: np.ndarray, times: np.ndarray) -> np.ndarray:

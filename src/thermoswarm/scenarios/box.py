@@ -196,6 +196,9 @@ def diffusion_from_tracks(
     """
     t = tracks["time"].values
     pos = tracks["position"].isel(keypoints=0).values  # (time, space, individuals)
+    if t.size < 2:  # one recorded frame: no displacement to measure
+        nan = float("nan")
+        return {"D": nan, "se": nan, "theory": kT * tau / 2, "window": nan, "n_windows": 0}
     dt_frame = float(np.median(np.diff(t)))
     k = max(1, int(round(lag_periods * tau / dt_frame)))
     gap = max(1, int(math.ceil(tau / dt_frame)))

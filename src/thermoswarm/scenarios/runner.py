@@ -31,10 +31,12 @@ import xarray as xr
 from thermoswarm import __version__
 from thermoswarm.config import (
     apply_overrides,
+    check_magnitudes,
     dumps_toml,
     from_mapping,
     load_toml,
     parse_overrides,
+    shown,
     to_dict,
 )
 from thermoswarm.errors import ConfigError, InputError, OutputError
@@ -89,9 +91,29 @@ def resolve(
     params = from_mapping(cls.Params, apply_overrides(data, over), source=source)
     s = seed if seed is not None else over_seed if over_seed is not None else file_seed
     s = 0 if s is None else s
-    if isinstance(s, bool) or not isinstance(s, int) or s < 0:
-        raise ConfigError(f"seed must be a non-negative integer, got {s!r}")
+    if isinstance(s, bool) or not isinstance(s, int) or not 0 <= s < 2**63:
+        raise ConfigError(f"seed must be an integer from 0 to 2**63 - 1, got {shown(s)}")
+    check_run_params(params, source or "config")
     return RunConfig(str(name), params, int(s))
+
+
+#: Largest magnitude of a finite number in a scenario's parameters: far beyond any
+#: arena (mm), time (s) or temperature (mm^2/s^2) of the paper, and small enough that
+#: areas, speeds and step counts made from it stay finite in float64.
+MAX_PARAM = 1e12
+#: Smallest non-zero magnitude (engine.dt = 1e-300 asks for 1e301 steps).
+MIN_PARAM = 1e-9
+#: Most time steps of one run.
+MAX_STEPS = 10**12
+
+
+def check_run_params(params: Any, source: str) -> None:
+    """Refuse a float parameter outside [:data:`MIN_PARAM`, :data:`MAX_PARAM`] (or 0),
+    naming its key, before the scenario computes with it."""
+    # a long duration is refused by the memory check (its recorded frames) and by
+    # MAX_STEPS, with the numbers
+    check_magnitudes(params, source, smallest=MIN_PARAM, largest=MAX_PARAM,
+                     what="the range the simulator handles", unbounded=("duration",))  # fmt: skip
 
 
 def build(cfg: RunConfig) -> tuple[Scenario, Setup, Simulator, SwarmState]:
@@ -116,8 +138,18 @@ def build(cfg: RunConfig) -> tuple[Scenario, Setup, Simulator, SwarmState]:
 
 def _steps(scen: Scenario, sim: Simulator) -> tuple[int, int]:
     dt = sim.params.dt
+    if not scen.duration / dt <= MAX_STEPS:
+        raise ConfigError(
+            f"duration / engine.dt = {scen.duration:g} / {dt:g}: more than {MAX_STEPS:.0e} "
+            "time steps in one run"
+        )
     total = int(math.floor(scen.duration / dt + 1e-9))
     every = scen.recording.interval / dt
+    if not every <= MAX_STEPS:
+        raise ConfigError(
+            f"record.interval = {scen.recording.interval:g}: more than {MAX_STEPS:.0e} "
+            f"time steps of {dt:g} s between frames"
+        )
     if abs(every - round(every)) > 1e-6 * max(1.0, every) or round(every) < 1:
         raise ConfigError(
             f"record.interval must be a multiple of engine.dt = {dt}, "

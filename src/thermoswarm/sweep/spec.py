@@ -13,7 +13,7 @@ import thermoswarm
 from thermoswarm.config import from_mapping, parse_overrides
 from thermoswarm.errors import ConfigError
 from thermoswarm.scenarios import get
-from thermoswarm.scenarios.runner import RunConfig
+from thermoswarm.scenarios.runner import RunConfig, check_run_params
 
 __all__ = ["SweepSpec", "RunRecord", "expand", "run_id", "code_fingerprint", "with_overrides"]
 
@@ -136,8 +136,8 @@ def expand(spec: SweepSpec) -> list[tuple[dict[str, Any], int, RunConfig]]:
     if not spec.seeds:
         raise ConfigError("sweep needs at least one seed")
     for seed in spec.seeds:
-        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-            raise ConfigError(f"sweep seeds must be non-negative integers, got {seed!r}")
+        if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
+            raise ConfigError(f"sweep seeds must be integers from 0 to 2**63 - 1, got {seed!r}")
     runs = []
     for values in itertools.product(*(spec.grid[k] for k in keys)):
         point = dict(zip(keys, values, strict=True))
@@ -145,6 +145,7 @@ def expand(spec: SweepSpec) -> list[tuple[dict[str, Any], int, RunConfig]]:
         for k, v in point.items():
             _set_dotted(data, k, v)
         params = from_mapping(cls.Params, data, source=f"sweep point {point}")
+        check_run_params(params, f"sweep point {point}")
         for seed in spec.seeds:
             runs.append((point, int(seed), RunConfig(spec.scenario, params, int(seed))))
     return runs

@@ -56,12 +56,13 @@ _DISTRACTORS = (2, 7, 8, 12)
 _EPS = np.finfo(float).eps
 
 
-def _frames(table: np.ndarray, first: int, n_frames: int) -> list[np.ndarray]:
-    """Row indices per frame ``first .. first + n_frames - 1``."""
+def _frames(table: np.ndarray, numbers: np.ndarray) -> list[np.ndarray]:
+    """Row indices of each frame number in ``numbers`` (sorted, unique)."""
     f = table[:, 0].astype(np.int64)
     order = np.argsort(f, kind="stable")
-    bounds = np.searchsorted(f[order], np.arange(first, first + n_frames + 1))
-    return [order[bounds[i] : bounds[i + 1]] for i in range(n_frames)]
+    lo = np.searchsorted(f[order], numbers, side="left")
+    hi = np.searchsorted(f[order], numbers, side="right")
+    return [order[a:b] for a, b in zip(lo, hi, strict=True)]
 
 
 def _as_table(t: np.ndarray, name: str) -> np.ndarray:
@@ -91,15 +92,14 @@ def _as_table(t: np.ndarray, name: str) -> np.ndarray:
 
 
 def _check_unique(table: np.ndarray, name: str) -> None:
+    """One row per (frame, id): compared as the numbers themselves, not as one packed
+    key (``frame * 2**31 + id`` made frame 1, id 2**31 + 1 look like frame 2, id 1)."""
     if table.shape[0] == 0:
         return
-    key = table[:, 0].astype(np.int64) * (2**31) + table[:, 1].astype(np.int64)
-    uniq, counts = np.unique(key, return_counts=True)
+    pairs, counts = np.unique(table[:, :2], axis=0, return_counts=True)
     if np.any(counts > 1):
-        bad = uniq[counts > 1][0]
-        raise InputError(
-            f"{name}: id {int(bad % 2**31)} appears twice in frame {int(bad // 2**31)}"
-        )
+        frame, ident = pairs[counts > 1][0]
+        raise InputError(f"{name}: id {ident:.0f} appears twice in frame {frame:.0f}")
 
 
 def _hota(
@@ -174,7 +174,7 @@ def _per_frame(
     frames: ground truth of class 1 and considered; predictions matched to a distractor
     removed (TrackEval's MOT17 preprocessing)."""
     # Frames are counted from 0 when either table has a frame 0, else from 1
-    # (MOTChallenge); frames without rows in either table are empty, never dropped.
+    # (MOTChallenge); frames without rows in either table count in n_frames.
     first = 0 if (gt[:, 0].min(initial=1) == 0 or pred[:, 0].min(initial=1) == 0) else 1
     last = int(max(gt[:, 0].max(initial=first - 1), pred[:, 0].max(initial=first - 1)))
     n_frames = last - first + 1
@@ -182,11 +182,13 @@ def _per_frame(
     gt_cls = np.where(gt_cls == -1, 1, gt_cls)
     gt_keep = (gt[:, 6] != 0) & (gt_cls == 1)
     distractor = np.isin(gt_cls, _DISTRACTORS)
-    gt_rows = _frames(gt, first, n_frames)
-    pr_rows = _frames(pred, first, n_frames)
+    # only the frames with rows: an empty frame changes no tally (a clip numbered from
+    # 10,000,000 is not walked from frame 0)
+    numbers = np.unique(np.concatenate([gt[:, 0], pred[:, 0]]).astype(np.int64))
+    gt_rows = _frames(gt, numbers)
+    pr_rows = _frames(pred, numbers)
     per_frame = []
-    for t in range(n_frames):
-        g, p = gt_rows[t], pr_rows[t]
+    for g, p in zip(gt_rows, pr_rows, strict=True):
         if len(g) and len(p) and distractor[g].any():
             sim = box_iou(gt[g, 2:6], pred[p, 2:6])
             score = np.where(sim < 0.5 - _EPS, 0.0, sim)

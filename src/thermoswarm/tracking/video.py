@@ -34,6 +34,23 @@ os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
 IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 
 
+#: Smallest frame side (px) anything can be detected in, and most pixels of a frame.
+MIN_SIDE = 8
+MAX_PIXELS = 2**30
+
+
+def _check_frame_size(img: np.ndarray, where: Path) -> np.ndarray:
+    """``img`` if its sides are at least :data:`MIN_SIDE` px and it has at most
+    :data:`MAX_PIXELS` pixels; else a one-line InputError naming ``where``."""
+    h, w = img.shape[:2]
+    if min(w, h) < MIN_SIDE or w * h > MAX_PIXELS:
+        raise InputError(
+            f"{where}: a {w}x{h} px frame; expected sides of at least {MIN_SIDE} px and "
+            f"at most {MAX_PIXELS:,} pixels"
+        )
+    return img
+
+
 class VideoSource:
     """A video file or a folder of frames.
 
@@ -79,6 +96,7 @@ class VideoSource:
             if not ok or frame is None:
                 raise InputError(f"{self.path}: no frame could be decoded (corrupt video?)")
             self.size = (frame.shape[1], frame.shape[0])
+            _check_frame_size(frame, self.path)
             fps = cap.get(cv2.CAP_PROP_FPS)
             self.fps = float(fps) if fps and math.isfinite(fps) and 0 < fps < 10000 else None
             n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
@@ -109,10 +127,16 @@ class VideoSource:
     def _read_image(self, p: Path) -> np.ndarray:
         import cv2
 
-        img = cv2.imread(str(p), cv2.IMREAD_COLOR)
+        try:
+            img = cv2.imread(str(p), cv2.IMREAD_COLOR)
+        except cv2.error:  # e.g. a header declaring more pixels than OpenCV decodes
+            img = None
         if img is None:
-            raise InputError(f"{p}: cannot read image frame")
-        return cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
+            raise InputError(
+                f"{p}: cannot read image frame (unreadable, corrupt, or larger than "
+                f"{MAX_PIXELS:,} pixels)"
+            )
+        return cv2.cvtColor(_check_frame_size(img, p), cv2.COLOR_BGR2RGB)
 
     def _iter(self, stop: int | None, step: int = 1) -> Iterator[np.ndarray]:
         import cv2

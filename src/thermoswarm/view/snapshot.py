@@ -33,7 +33,6 @@ def _index(data: ViewData, select: str) -> int:
 
 def screenshot(
     data: ViewData,
-    root: str | os.PathLike,
     out: str | os.PathLike,
     *,
     frame: int = 0,
@@ -69,7 +68,7 @@ def screenshot(
     if color_by is not None and color_by not in data.variables():
         raise InputError(f"--color-by {color_by!r}: expected one of {', '.join(data.variables())}")
     index = _index(data, select) if select is not None else -1
-    server = start_server(data, root)
+    server = start_server(data)
     serve_in_thread(server)
     try:
         with Chromium(*size) as browser:

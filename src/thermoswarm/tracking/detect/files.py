@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from thermoswarm.config import shown
 from thermoswarm.errors import InputError
 from thermoswarm.tracking.detection import FrameDetections
 
@@ -69,8 +70,14 @@ SKELETON = [[1, 2], [2, 3]]
 #: Formats :func:`read_detections` reads.
 FORMATS = ("mot", "yolo", "coco")
 
-#: The longest frame range accepted (10 million frames: 3.9 days at 30 fps).
-MAX_FRAMES = 10_000_000
+#: The longest frame range accepted (1 million frames: 9.3 hours at 30 fps). The tracker
+#: walks every frame of the range: a sparse file spanning 1,000,000 frames takes 24 s and
+#: 1.5 GB (issue 36's fuzz: 10 million took minutes and many GB).
+MAX_FRAMES = 1_000_000
+#: The largest frame number (exact in a float64).
+MAX_FRAME_NUMBER = 2**53
+#: The largest box coordinate or size, and image side (px).
+MAX_PX = 1e7
 
 _INT = re.compile(r"(\d+)")
 
@@ -103,18 +110,25 @@ class DetectionTable:
         return int(self.frames.size)
 
     def first_frame(self, first_frame: int | None = None) -> int:
-        """The number of the tracker's first frame: ``first_frame`` if given, else 0
-        when the file has a frame 0, else 1."""
+        """The number of the tracker's first frame: ``first_frame`` if given (0 or 1),
+        else the file's first frame number (0 when empty).  A file numbered from
+        10,000,000 is tracked from there, not from frame 0."""
         if first_frame is not None:
-            if first_frame not in (0, 1):
+            if isinstance(first_frame, bool) or first_frame not in (0, 1):
                 raise InputError(f"first_frame must be 0 or 1, got {first_frame!r}")
             if len(self) and int(self.frames.min()) < first_frame:
                 raise InputError(
                     f"{self.source}: frame {int(self.frames.min())} comes before the "
                     f"first frame {first_frame}"
                 )
+            if len(self) and int(self.frames.max()) - first_frame + 1 > MAX_FRAMES:
+                raise InputError(
+                    f"{self.source}: frames {first_frame} to {int(self.frames.max())} are "
+                    f"more than the {MAX_FRAMES:,} accepted; leave out --first-frame to "
+                    f"start at the file's first frame {int(self.frames.min())}"
+                )
             return first_frame
-        return 0 if len(self) and int(self.frames.min()) == 0 else 1
+        return int(self.frames.min()) if len(self) else 0
 
     def per_frame(self, first_frame: int | None = None) -> tuple[int, list[FrameDetections]]:
         """``(first, dets)``: detections of frames ``first, first + 1, ...`` up to the
@@ -162,6 +176,12 @@ def _check_table(source: str, frames: np.ndarray, boxes: np.ndarray, where: list
     bad = ~np.all(np.isfinite(boxes), axis=1)
     if bad.any():
         raise InputError(f"{where[int(np.argmax(bad))]}: non-finite box value")
+    bad = np.any(np.abs(boxes) > MAX_PX, axis=1)
+    if bad.any():
+        raise InputError(
+            f"{where[int(np.argmax(bad))]}: a box value beyond {MAX_PX:g} px "
+            f"({', '.join(f'{v:g}' for v in boxes[int(np.argmax(bad))])})"
+        )
     bad = (boxes[:, 2] <= 0) | (boxes[:, 3] <= 0)
     if bad.any():
         i = int(np.argmax(bad))
@@ -197,6 +217,10 @@ def _frame_number(name: str, source: str) -> int:
     nums = _INT.findall(Path(name).stem)
     if not nums:
         raise InputError(f"{source}: no frame number in the file name {name!r}")
+    if len(nums[-1]) > 16 or int(nums[-1]) > MAX_FRAME_NUMBER:
+        raise InputError(
+            f"{source}: frame number {nums[-1][:20]} in {name[:80]!r} is above {MAX_FRAME_NUMBER}"
+        )
     return int(nums[-1])
 
 
@@ -207,7 +231,8 @@ def _read_yolo(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
             "WIDTHxHEIGHT (or a frame or the video to read it from)"
         )
     W, H = image_size
-    files = sorted(p for p in path.iterdir() if p.suffix.lower() == ".txt")
+    # a folder named like frame_9.txt is not a frame's file
+    files = sorted(p for p in path.iterdir() if p.suffix.lower() == ".txt" and p.is_file())
     if not files:
         raise InputError(f"{path}: no .txt files (YOLO detections: one file per frame)")
     frames, rows, where = [], [], []
@@ -221,6 +246,8 @@ def _read_yolo(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
             text = f.read_text(encoding="utf-8")
         except UnicodeDecodeError:
             raise InputError(f"{f}: not a YOLO text file") from None
+        except OSError as exc:
+            raise InputError(f"{f}: cannot be read ({exc.strerror or exc})") from None
         for lineno, line in enumerate(text.splitlines(), 1):
             parts = line.split()
             if not parts:
@@ -249,10 +276,7 @@ def _read_yolo(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
 
 
 def _read_coco(path: Path, image_size: tuple[int, int] | None) -> DetectionTable:
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise InputError(f"{path}: not a JSON file ({e})") from None
+    data = _load_json(path)
     frame_of: dict[object, int] = {}
     sizes: set[tuple[int, int]] = set()
     kp_index = _keypoint_index(data, path)
@@ -260,9 +284,13 @@ def _read_coco(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
         anns = data.get("annotations")
         if not isinstance(anns, list):
             raise InputError(f"{path}: a COCO file needs an 'annotations' list")
-        for img in data.get("images", []) or []:
-            if not isinstance(img, dict) or "id" not in img:
-                raise InputError(f"{path}: every entry of 'images' needs an 'id'")
+        images = data.get("images", []) or []
+        if not isinstance(images, list):
+            raise InputError(f"{path}: 'images' must be a list, got {type(images).__name__}")
+        for img in images:
+            if not isinstance(img, dict) or not _is_id(img.get("id")):
+                raise InputError(f"{path}: every entry of 'images' needs an 'id' (a number "
+                                 "or a string)")  # fmt: skip
             if "frame_id" in img:
                 frame_of[img["id"]] = _int(img["frame_id"], path, "frame_id")
             elif "file_name" in img and _INT.findall(Path(str(img["file_name"])).stem):
@@ -270,7 +298,7 @@ def _read_coco(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
             else:
                 frame_of[img["id"]] = _int(img["id"], path, "image id")
             if "width" in img and "height" in img:
-                sizes.add((int(img["width"]), int(img["height"])))
+                sizes.add((_side(img["width"], path), _side(img["height"], path)))
     elif isinstance(data, list):
         anns = data
     else:
@@ -283,7 +311,7 @@ def _read_coco(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
         if not isinstance(a, dict) or "bbox" not in a or "image_id" not in a:
             raise InputError(f"{here}: needs 'image_id' and 'bbox'")
         if frame_of:
-            if a["image_id"] not in frame_of:
+            if not _is_id(a["image_id"]) or a["image_id"] not in frame_of:
                 raise InputError(f"{here}: image_id {a['image_id']!r} is not in 'images'")
             k = frame_of[a["image_id"]]
         else:
@@ -292,9 +320,9 @@ def _read_coco(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
         if not (isinstance(bb, list) and len(bb) == 4):
             raise InputError(f"{here}: bbox must be [x, y, width, height]")
         try:
-            x, y, w, h = (float(v) for v in bb)
-            s = float(a.get("score", 1.0))
-        except (TypeError, ValueError):
+            x, y, w, h = (_number(v, here, "bbox") for v in bb)
+            s = _number(a.get("score", 1.0), here, "score")
+        except (TypeError, ValueError, OverflowError):
             raise InputError(f"{here}: non-numeric bbox or score") from None
         frames.append(k)
         rows.append((x, y, w, h, s))
@@ -308,9 +336,13 @@ def _read_coco(path: Path, image_size: tuple[int, int] | None) -> DetectionTable
     table = _assemble(path, frames, rows, where, "coco", size)
     if kp_index is None or not points:
         return table
-    ours = data.get("info", {}).get("thermoswarm", {}) if isinstance(data, dict) else {}
+    info = data.get("info", {}) if isinstance(data, dict) else {}
+    ours = info.get("thermoswarm", {}) if isinstance(info, dict) else {}
     length = ours.get("length_px") if isinstance(ours, dict) else None
-    if length is not None and not (isinstance(length, (int, float)) and length > 0):
+    if length is not None and not (
+        isinstance(length, (int, float)) and not isinstance(length, bool)
+        and 0 < length <= MAX_PX
+    ):  # fmt: skip
         raise InputError(f"{path}: info.thermoswarm.length_px must be positive, got {length!r}")
     return dataclasses.replace(
         table,
@@ -326,7 +358,10 @@ def _keypoint_index(data: object, path: Path) -> list[int] | None:
     names them, or None when no category does."""
     if not isinstance(data, dict):
         return None
-    for cat in data.get("categories", []) or []:
+    cats = data.get("categories", []) or []
+    if not isinstance(cats, list):
+        raise InputError(f"{path}: 'categories' must be a list, got {type(cats).__name__}")
+    for cat in cats:
         names = cat.get("keypoints") if isinstance(cat, dict) else None
         if isinstance(names, list) and all(k in names for k in KEYPOINT_NAMES):
             return [names.index(k) for k in KEYPOINT_NAMES]
@@ -334,9 +369,41 @@ def _keypoint_index(data: object, path: Path) -> list[int] | None:
 
 
 def _number(v: object, here: str, what: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise InputError(f"{here}: {what} must be a finite number, got {v!r}")
-    return float(v)
+    f = float(v) if isinstance(v, (int, float)) and abs(v) < 1e308 else math.inf
+    if isinstance(v, bool) or not math.isfinite(f):
+        raise InputError(f"{here}: {what} must be a finite number, got {shown(v)}")
+    return f
+
+
+def _load_json(path: Path) -> object:
+    """The parsed JSON of ``path``; every failure a one-line InputError naming it."""
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise InputError(f"{path}: not a JSON file ({e})") from None
+    except RecursionError:
+        raise InputError(f"{path}: JSON nested too deeply") from None
+    except ValueError as e:  # an integer of more than 4,300 digits
+        raise InputError(f"{path}: a number too long to read ({str(e)[:80]})") from None
+    except OSError as e:
+        raise InputError(f"{path}: cannot be read ({e.strerror or e})") from None
+
+
+def _is_id(v: object) -> bool:
+    """A usable image id: a string or a finite number (not a list, a dict or NaN)."""
+    num = isinstance(v, (int, float)) and not isinstance(v, bool)
+    return isinstance(v, str) or (num and (not isinstance(v, float) or math.isfinite(v)))
+
+
+def _side(v: object, path: Path) -> int:
+    """An image width or height: an integer from 1 to :data:`MAX_PX`."""
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+    ok = ok and (not isinstance(v, float) or (math.isfinite(v) and v.is_integer()))
+    if not ok or not 1 <= v <= MAX_PX:
+        raise InputError(
+            f"{path}: image width and height must be integers from 1 to {MAX_PX:g}, got {shown(v)}"
+        )
+    return int(v)
 
 
 def _pose(a: dict, index: list[int], centre: tuple[float, float], here: str) -> np.ndarray:
@@ -438,8 +505,15 @@ def mot_rows(detections: list[FrameDetections], *, pad: float) -> np.ndarray:
 
 
 def _int(v: object, path: Path, what: str) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v):
-        raise InputError(f"{path}: {what} must be an integer frame number, got {v!r}")
+    """A frame number: an integer from 0 to :data:`MAX_FRAME_NUMBER` (NaN, inf, 1e300,
+    2**70, a list or a string are one-line errors)."""
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+    ok = ok and (not isinstance(v, float) or (math.isfinite(v) and v.is_integer()))
+    if not ok or not 0 <= v <= MAX_FRAME_NUMBER:
+        raise InputError(
+            f"{path}: {what} must be an integer frame number, got {shown(v)} (expected 0 "
+            f"to {MAX_FRAME_NUMBER})"
+        )
     return int(v)
 
 

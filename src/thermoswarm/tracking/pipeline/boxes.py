@@ -58,8 +58,9 @@ def track_detection_file(
     fmt, image_size
         Format (default from the path) and ``(width, height)`` px (needed by YOLO).
     first_frame
-        Number of the first frame (0 or 1; default 0 if the file has a frame 0, else 1);
-        the tracks keep the input's numbering.
+        Number of the first frame (0 or 1; default: the file's first frame number, so
+        that a file numbered from 10,000,000 is not tracked from frame 0); the tracks
+        keep the input's numbering.
     length_px
         The objects' length in px, the tracker's unit; default the length the file
         records (``thermoswarm detect``'s COCO), else the median longer box side.

@@ -101,6 +101,11 @@ class TrackerConfig:
         for name in ("confirm_s", "tentative_gap_s", "max_gap_s", "duplicate_radius"):
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, name, "a non-negative number (s or L)", v)
+        # the track bank keeps the confirming detections of each tentative track and a
+        # lag of frames: bounded here, and in frames by the Tracker, before allocation
+        for name, most in (("confirm_s", 60.0), ("tentative_gap_s", 60.0), ("max_gap_s", 3600.0)):
+            v = getattr(self, name)
+            check(v <= most, name, f"at most {most:g} (s)", v)
         for name in (
             "max_speed_bl_s",
             "accel_bl_s2",
