@@ -173,6 +173,9 @@ STEPS = [
          ["--dets", "post09", "--steps", "3"], needs="trackers",
          title="ours, ByteTrack, OC-SORT, SORT on real ant boxes at 15, 7.5, 5 fps "
          "(held-out half; DATA: --ant-boxes-data, see docs/tracking.md)"),
+    Step("tracking_js16", "bench_js16_boxes", [], ["--steps", "2"], needs="trackers",
+         title="ours, ByteTrack, OC-SORT, SORT on boxes made from real ant motion "
+         "(anTraX JS16, 10 and 5 fps)"),
     Step("viewer", "bench_viewer", [], ["--sizes", "10000,100000", "--seconds", "3"]),
 ]  # fmt: skip
 #: Steps that ``--quick`` leaves out (no quick size says anything).

@@ -139,10 +139,10 @@ def test_bad_input_is_a_one_line_error(tmp_path, crops):
         trr.load_background(BACKGROUND, bad / "BB" / "zz.png", 64)
 
 
-def _cli(tmp_path: Path, *extra: str) -> tuple[int, str]:
+def _cli(tmp_path: Path, *extra: str, tile: int = 64) -> tuple[int, str]:
     args = ["track", "train", "--out", str(tmp_path / "m.pt"), "--quiet", "--threads", "1"]
     args += ["--set", "max_steps=2", "--set", "patch_size=32", "--set", "centroid_batch=2"]
-    args += ["--set", "pose_batch=4", "--set", "real.tile=64", "--set", "real.n_frames=6"]
+    args += ["--set", "pose_batch=4", "--set", f"real.tile={tile}", "--set", "real.n_frames=6"]
     args += ["--set", "model.centroid_channels=[8,16,16]", "--set", "model.pose_channels=[8,8,8]"]
     res = CliRunner().invoke(cli, [*args, *extra])
     return res.exit_code, res.output
@@ -169,5 +169,5 @@ def test_cli_bad_real_input(tmp_path):
                      str(BACKGROUND))  # fmt: skip
     assert code == 2 and out.startswith("error:") and "no ant crops" in out
     code, out = _cli(tmp_path, "--real-crops", str(CROPS), "--background", str(BACKGROUND),
-                     "--set", "real.tile=512")  # fmt: skip
+                     tile=512)  # fmt: skip
     assert code == 2 and "smaller than the 512 px tile" in out

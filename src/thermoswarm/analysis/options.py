@@ -102,7 +102,7 @@ def _check_group(spec: Any) -> None:
 
 def _check_bootstrap_memory(n_bootstrap: int, test_size: int | None) -> None:
     """Refuse replicates whose draws (``n_bootstrap x test_size`` float64) cannot fit."""
-    from thermoswarm.sim.memory import available_memory
+    from thermoswarm.system import available_memory
 
     have = available_memory()
     need = 16.0 * n_bootstrap * (test_size or MIN_SAMPLES)

@@ -31,14 +31,17 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from thermoswarm.config import loads_value, shown
+from thermoswarm.config import loads_value
 from thermoswarm.errors import InputError, OutputError, ThermoswarmError
 from thermoswarm.fsutil import check_replaceable
 from thermoswarm.io._common import MAX_ABS_MM, check_fps, check_tracks
+from thermoswarm.io._scale import (  # noqa: F401 (the scale parser, re-exported)
+    MAX_PX_PER_MM,
+    MIN_PX_PER_MM,
+    SCALE_PRESETS,
+    resolve_px_per_mm,
+)
 from thermoswarm.tracks import per_individual, validate_tracks
-
-#: Named scale presets for ``px_per_mm``.
-SCALE_PRESETS: dict[str, float] = {"paper": 3.04}
 
 
 @dataclass(frozen=True)
@@ -76,38 +79,6 @@ def register_format(fmt: Format) -> None:
 def formats() -> dict[str, Format]:
     """The registered formats, by name."""
     return dict(_FORMATS)
-
-
-#: Range of a scale (px/mm): one pixel per kilometre to a million per millimetre.
-MIN_PX_PER_MM, MAX_PX_PER_MM = 1e-6, 1e6
-
-
-def resolve_px_per_mm(value: float | str | None) -> float | None:
-    """``None``, a number from :data:`MIN_PX_PER_MM` to :data:`MAX_PX_PER_MM`, or a
-    preset name (``"paper"`` = 3.04 px/mm); anything else is a one-line InputError."""
-    if value is None:
-        return None
-    if isinstance(value, str):
-        key = value.strip().lower()
-        if key in SCALE_PRESETS:
-            return SCALE_PRESETS[key]
-        try:
-            value = float(key)
-        except ValueError:
-            presets = ", ".join(SCALE_PRESETS)
-            raise InputError(
-                f"px_per_mm must be a positive number or a preset ({presets}), got {value!r}"
-            ) from None
-    try:
-        value = float(value)
-    except (TypeError, ValueError, OverflowError):
-        raise InputError(f"px_per_mm must be a positive number, got {shown(value)}") from None
-    if not MIN_PX_PER_MM <= value <= MAX_PX_PER_MM:
-        raise InputError(
-            f"px_per_mm must be a number from {MIN_PX_PER_MM:g} to {MAX_PX_PER_MM:g} (or a "
-            f"preset: {', '.join(SCALE_PRESETS)}), got {shown(value)}"
-        )
-    return value
 
 
 def _suffix(path: Path) -> str:

@@ -214,7 +214,7 @@ def table_from_tracks(
     ds: xr.Dataset, *, px_per_mm: float | None = None, box_size_px: float = 20.0
 ) -> np.ndarray:
     """Rows of a MOT table with a square box of ``box_size_px`` around each centroid."""
-    from thermoswarm.io import resolve_px_per_mm
+    from thermoswarm.io._scale import resolve_px_per_mm
 
     scale = px_per_mm if px_per_mm is not None else ds.attrs.get("px_per_mm")
     if scale is None:

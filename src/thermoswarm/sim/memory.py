@@ -9,9 +9,8 @@ promise: a run it lets through may still be tight.
 
 from __future__ import annotations
 
-import os
-
 from thermoswarm.errors import ConfigError
+from thermoswarm.system import available_memory
 
 __all__ = ["BYTES_PER_ROBOT", "BYTES_PER_ROBOT_FRAME", "available_memory", "check_run_memory"]
 
@@ -22,21 +21,6 @@ BYTES_PER_ROBOT = 1024
 #: Bytes per robot and recorded frame: position (2 x 8) and the per-frame extras
 #: (heading, speed, phase ...), in the recorder's buffer and in the tracks read back.
 BYTES_PER_ROBOT_FRAME = 32
-
-
-def available_memory() -> int | None:
-    """Bytes of memory available to a new allocation (``MemAvailable``), or None."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
-    except (ValueError, OSError, AttributeError):
-        return None
 
 
 def _bytes(n: float) -> str:

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
@@ -16,16 +16,13 @@ from thermoswarm.sim.gpu.kernels_gs import CAP
 from thermoswarm.sim.gpu.runtime import cuda
 from thermoswarm.sim.world import World
 
-if TYPE_CHECKING:
-    from thermoswarm.sim.gpu.engine import GpuSimulator
-
 __all__ = ["Device"]
 
 
 class Device:
     """The device arrays of one swarm (struct of arrays, float32 positions)."""
 
-    def __init__(self, sim: GpuSimulator, n: int) -> None:
+    def __init__(self, sim: Any, n: int) -> None:
         p = sim.params
         w = sim.world
         r = p.radius

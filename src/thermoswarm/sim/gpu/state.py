@@ -3,7 +3,7 @@ whose robot arrays live on the device (see :mod:`thermoswarm.sim.gpu.engine`).""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
@@ -11,9 +11,6 @@ from thermoswarm.policy import BoltzmannUniform, ConnectedTransport, Policy
 from thermoswarm.sim import kernels as K
 from thermoswarm.sim.engine import Sensing, SwarmState
 from thermoswarm.sim.world import World
-
-if TYPE_CHECKING:
-    from thermoswarm.sim.gpu.engine import GpuSimulator
 
 __all__ = ["GpuSwarmState", "ROBOT_FIELDS", "device_policy"]
 
@@ -65,7 +62,7 @@ class GpuSwarmState(SwarmState):
     Do not construct directly: :meth:`GpuSimulator.init` returns one.
     """
 
-    def __init__(self, sim: GpuSimulator, bodies, pistons, step, time, rng, counters) -> None:
+    def __init__(self, sim: Any, bodies, pistons, step, time, rng, counters) -> None:
         # not the dataclass __init__: the robot arrays are properties backed by the device
         self.__dict__["_sim"] = sim
         self.__dict__["_host"] = {}
