@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 
 from thermoswarm.config import check
+from thermoswarm.errors import ConfigError
 from thermoswarm.tracking import anatomy
 
 __all__ = ["TrackerConfig", "frames"]
@@ -24,6 +25,17 @@ def frames(seconds: float, fps: float) -> int:
     if seconds <= 0:
         return 0
     return max(1, int(round(seconds * fps)))
+
+
+def _bounded(seconds: float, fps: float, key: str) -> int:
+    """:func:`frames`, at most 1000: the frames the track bank holds per tentative track
+    (checked before it allocates them; ConfigError naming ``key`` otherwise)."""
+    n = frames(seconds, fps)
+    if n > 1000:
+        raise ConfigError(
+            f"tracker.{key} = {seconds:g} s is {n} frames at {fps:g} frames/s; at most 1000"
+        )
+    return n
 
 
 @dataclass(frozen=True)
@@ -138,11 +150,11 @@ class TrackerConfig:
 
     def n_init(self, fps: float) -> int:
         """Detections that confirm a new track at ``fps``."""
-        return 1 + frames(self.confirm_s, fps)
+        return 1 + _bounded(self.confirm_s, fps, "confirm_s")
 
     def tentative_max_misses(self, fps: float) -> int:
         """Frames a new track may miss before it is confirmed, at ``fps``."""
-        return frames(self.tentative_gap_s, fps)
+        return _bounded(self.tentative_gap_s, fps, "tentative_gap_s")
 
     def max_gap(self, fps: float) -> int:
         """Frames a confirmed track coasts without detections, at ``fps``."""

@@ -148,14 +148,6 @@ class Tracker:
         self.max_gap = c.max_gap(fps)
         self.n_init = c.n_init(fps)
         self.tentative_max_misses = c.tentative_max_misses(fps)
-        for name, n in (
-            ("confirm_s", self.n_init),
-            ("tentative_gap_s", self.tentative_max_misses),
-        ):
-            if n > 1000:  # frames the track bank holds per tentative track
-                raise InputError(
-                    f"tracker.{name} is {n} frames at {fps:g} frames/s; at most 1000 frames"
-                )
         #: Frames after which a frame's output can no longer change.
         self.lag = max(self.max_gap, self.n_init + self.tentative_max_misses) + 1
         self.frame = -1
