@@ -151,7 +151,9 @@ def tiny(argv: list[str]) -> list[str]:
     if verb == "bench":
         return [*_replace(a, "--n", "2000"), "--seconds", "0.5"]
     if verb == "track" and len(a) > 1 and a[1] != "train":
-        return [*a, "--max-frames", "5", "--no-overlay"]
+        # the toy clip's 12 frames: the ants defaults confirm a track after 0.2 s (7
+        # detections at 30 frames/s), so 5 frames would confirm none
+        return [*a, "--max-frames", "12", "--no-overlay"]
     if verb == "view" and "--out" not in a and "--screenshot" not in a:
         # serving runs until Ctrl+C: the same data written as the self-contained page
         return [*a, "--out", "view.html"]
