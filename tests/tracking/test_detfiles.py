@@ -75,14 +75,24 @@ def test_scaled_detections_give_the_same_identities(noisy_boxes):
         np.testing.assert_array_equal(r.boxes, base.boxes * s)
 
 
-def _own_boxes(result_table: np.ndarray, det_rows: np.ndarray) -> np.ndarray:
-    """For each detected (score > 0) output row: is its box one of the input boxes of
-    the same frame?"""
-    ok = []
+def _source_boxes(result_table: np.ndarray, det_rows: np.ndarray) -> np.ndarray:
+    """For each detected (score > 0) output row, the input box of the same frame that
+    it was written from (NaN where none): the same size (sizes are written as
+    detected; the tracker smooths only the centres) and a centre within half of
+    the box's larger side."""
+    out = []
     for r in result_table[result_table[:, 6] > 0]:
         same = det_rows[det_rows[:, 0] == r[0]]
-        ok.append(np.any(np.all(np.abs(same[:, 2:6] - r[2:6]) < 1e-3, axis=1)))
-    return np.array(ok)
+        size = np.all(np.abs(same[:, 4:6] - r[4:6]) < 1e-3, axis=1)
+        near = np.all(np.abs(same[:, 2:4] - r[2:4]) < r[4:6].max() / 2, axis=1)
+        hit = same[size & near]
+        out.append(hit[0, 2:6] if len(hit) else np.full(4, np.nan))
+    return np.array(out)
+
+
+def _own_boxes(result_table: np.ndarray, det_rows: np.ndarray) -> np.ndarray:
+    """For each detected output row: was it written from an input box of its frame?"""
+    return np.isfinite(_source_boxes(result_table, det_rows)[:, 0])
 
 
 def test_mot_file_from_frame_0_keeps_its_numbering(noisy_boxes, tmp_path):
@@ -112,8 +122,8 @@ def test_mot_file_from_frame_0_keeps_its_numbering(noisy_boxes, tmp_path):
     with xr.open_dataset(tmp_path / "o1" / "tracks.nc") as ds:
         assert ds.attrs["space_unit"] == "px"
         body = ds["position"].sel(keypoints="body").values  # (time, space, individuals)
-    first = t1[t1[:, 0] == 1]
-    centres = first[:, 2:4] + first[:, 4:6] / 2
+    first = _source_boxes(t1[t1[:, 0] == 1], read_mot_table(tmp_path / "one.txt"))
+    centres = first[:, :2] + first[:, 2:] / 2  # the body points are the detections'
     got = body[0][:, np.isfinite(body[0, 0])].T
     assert len(got) == len(centres)
     np.testing.assert_allclose(np.sort(got[:, 0]), np.sort(centres[:, 0]), atol=2e-3)

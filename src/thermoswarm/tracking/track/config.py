@@ -75,6 +75,11 @@ class TrackerConfig:
     below 1) whose box intersection covers that share of the smaller box; none below
     ``min_score``.  ``width_bl``: object width, half of which pads body-centred pose
     boxes.
+
+    Output: ``smooth`` smooths each finished track's box centres
+    (:mod:`~thermoswarm.tracking.track.smooth`: a fixed-interval Kalman smoother whose
+    noises are measured on the tracks); false writes the detections' boxes.  The body
+    points are never smoothed.
     """
 
     confirm_s: float = 0.2
@@ -108,6 +113,7 @@ class TrackerConfig:
     motion_weight: float = 1.5
     shape_weight: float = 1.0
     width_bl: float = anatomy.ANT_WIDTH_MM / anatomy.ANT_LENGTH_MM
+    smooth: bool = True
 
     def __post_init__(self) -> None:
         for name in ("confirm_s", "tentative_gap_s", "max_gap_s", "duplicate_radius"):

@@ -43,6 +43,13 @@ class TrackResult:
     n_frames: int
     first_frame: int = 1
 
+    @classmethod
+    def empty(cls, n_frames: int) -> TrackResult:
+        """No tracks over ``n_frames`` frames."""
+        z = np.zeros(0)
+        return cls(z.astype(np.int64), z.astype(np.int64), np.zeros((0, 3, 2)),
+                   np.zeros((0, 4)), z, z.astype(bool), n_frames)  # fmt: skip
+
     @property
     def n_tracks(self) -> int:
         return int(np.unique(self.ids).size)

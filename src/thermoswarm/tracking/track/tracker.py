@@ -78,6 +78,7 @@ from thermoswarm.tracking.track import bank as track_bank
 from thermoswarm.tracking.track.bank import TrackBank
 from thermoswarm.tracking.track.config import TrackerConfig
 from thermoswarm.tracking.track.result import TrackResult, fix_jumps, orient_tracks
+from thermoswarm.tracking.track.smooth import smooth_boxes
 
 __all__ = ["TrackerConfig", "Tracker", "TrackResult", "track_detections", "estimate_length_px"]
 
@@ -548,15 +549,7 @@ class Tracker:
         """All confirmed tracks (tentative ones at the end are dropped)."""
         n_frames = self.frame + 1
         if not self._blocks:
-            return TrackResult(
-                np.zeros(0, np.int64),
-                np.zeros(0, np.int64),
-                np.zeros((0, 3, 2)),
-                np.zeros((0, 4)),
-                np.zeros(0),
-                np.zeros(0, bool),
-                n_frames,
-            )
+            return TrackResult.empty(n_frames)
         frames, ids, pts, boxes, scores, interp, hc = (
             np.concatenate(col) for col in zip(*self._blocks, strict=True)
         )
@@ -568,6 +561,9 @@ class Tracker:
             frames, ids, pts, boxes = frames[keep], ids[keep], pts[keep], boxes[keep]
             scores, interp, hc = scores[keep], interp[keep], hc[keep]
         pts = orient_tracks(self.config, frames, ids, pts, hc, self.motion_px)
+        if self.config.smooth:
+            v0 = self.config.birth_speed_bl_s * self.length_px
+            boxes = smooth_boxes(frames, ids, boxes, interp, fps=self.fps, speed_px_s=v0)
         order = np.lexsort((ids, frames))
         return TrackResult(
             frames[order],
