@@ -79,8 +79,8 @@ def test_mde_ks_has_its_power_by_simulation():
 def test_power_note_says_test_sample_and_effect():
     text = power_note("bootstrap LR", "3 seeds x 2,000 samples", "kT difference 4.1 mm^2/s^2")
     assert text == (
-        "test: bootstrap LR; sample: 3 seeds x 2,000 samples; smallest "
-        "detectable kT difference 4.1 mm^2/s^2 (two-sided 5 % level, 80 % power)"
+        "test: bootstrap LR; sample: 3 seeds x 2,000 samples; smallest detectable effect "
+        "(two-sided 5 % level, 80 % power): kT difference 4.1 mm^2/s^2"
     )
     assert "none computable" in power_note("t", "1 run", None)
 
@@ -125,7 +125,7 @@ def test_a_tiny_sample_states_a_larger_mde_than_a_large_one():
                 "seeds": seeds, "verdict": "no detectable motion"}  # fmt: skip
         return compare("regime", {"rows": [cell], "seeds": seeds})[0]["why"]
 
-    pat = r"smallest detectable mean drift ([\d.]+)-"
+    pat = r"80 % power\): mean drift ([\d.]+)-"
     few, many = regime(0.3, 3), regime(0.3 / math.sqrt(10), 30)
     assert _number(pat, few) > 3 * _number(pat, many)
     assert _number(pat, few) == pytest.approx(mde(0.3, df=2), rel=0.01)
@@ -151,7 +151,7 @@ def test_the_steering_trend_states_the_slope_it_detects():
     assert _number(r"KS distance ([\d.]+) in the smallest bin", law) == pytest.approx(
         mde_ks(40), abs=0.006)  # fmt: skip
     assert "t-test of the weighted least-squares slope (4 degrees of freedom)" in trend
-    assert _number(r"smallest detectable slope ([\d.]+)", trend) == pytest.approx(
+    assert _number(r"slope ([\d.]+) rad/s per", trend) == pytest.approx(
         mde(0.004, df=4), rel=0.01)  # fmt: skip
 
 

@@ -67,7 +67,7 @@ def compare_narrow_road(res: Mapping[str, Any]) -> list[dict[str, str]]:
             + power_note(
                 "none (a rule on one run's crossings, no rate estimated)",
                 f"1 run of {fmt(dur, unit='s')}, {fmt(_get(res, 'n'))} robots",
-                "effect: none stated (one run gives no rate of deadlocks; seeds would)",
+                "none stated (one run gives no rate of deadlocks; seeds would)",
                 level=False,
             ),
         )
@@ -258,7 +258,7 @@ def _variant_row(r: Mapping[str, Any], v: str, panel: str) -> dict[str, str]:
         ("one run: reached or not" if t is not None
          else "one run; moving toward the light is not arriving")
         + "; " + power_note("none (one run: reached or not)", "1 run",
-                            "effect: none stated (one run gives no rate)", level=False),
+                            "none stated (one run gives no rate)", level=False),
     )  # fmt: skip
 
 

@@ -185,7 +185,12 @@ def _ant_row(ants: Mapping[str, Any], nb: Any, real: bool) -> dict[str, str]:
         if pref
         else NOT_MEASURED,  # fmt: skip
         (f"{_powerless(nb)}; " if pref and not ok and _powerless(nb) else "")
-        + ("two phases, but one of them is standing: " if ok and standing else "")
+        + (
+            "partly: two phases preferred and not rejected, but the cold one is standing "
+            "ants' jitter (which phase is which, below); "
+            if ok and standing
+            else ""
+        )
         + why
         + (_lr_power(ants, nb) + "; " if pref else "")
         + what
@@ -215,7 +220,7 @@ def _slope_power(st: Mapping[str, Any]) -> str:
         f"t-test of the weighted least-squares slope ({fmt(k - 2 if k else None)} degrees "
         "of freedom)",
         f"{fmt(k)} bins",
-        None if m is None else f"slope {fmt(m, 2)} (rad/s per mm^2/s^2)",
+        None if m is None else f"slope {fmt(m, 2)} rad/s per mm^2/s^2",
     )
 
 

@@ -108,13 +108,10 @@ def mde_ks(n: int | None, *, alpha: float = ALPHA, power: float = POWER) -> floa
 
 def power_note(test: str, sample: str, detectable: str | None, *, level: bool = True) -> str:
     """One plain clause for a row's ``why``: ``test: ...; sample: ...; smallest
-    detectable ... (two-sided 5 % level, 80 % power)``; without a ``detectable`` effect,
-    says that none can be computed from this sample; ``level=False`` for a rule that is
-    no significance test (one run, a threshold)."""
+    detectable effect (two-sided 5 % level, 80 % power): ...``; without a
+    ``detectable`` effect, says that none can be computed from this sample;
+    ``level=False`` for a rule that is no significance test (one run, a threshold)."""
     if detectable is None:
-        tail = "smallest detectable effect: none computable from this sample"
-    else:
-        tail = f"smallest detectable {detectable}"
-        if level:
-            tail += f" (two-sided {100 * ALPHA:g} % level, {100 * POWER:g} % power)"
-    return f"test: {test}; sample: {sample}; {tail}"
+        detectable, level = "none computable from this sample", False
+    at = f" (two-sided {100 * ALPHA:g} % level, {100 * POWER:g} % power)" if level else ""
+    return f"test: {test}; sample: {sample}; smallest detectable effect{at}: {detectable}"
