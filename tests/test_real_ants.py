@@ -112,7 +112,8 @@ def test_the_real_row_states_its_rule_and_source():
     good = dict(real, preferred="two_phase", lr_p_value=0.01, ks_p_value_preferred=0.4)
     row = compare("unified_law", {"ants_real": good})[0]
     # no jitter measured (an older results.json): the verdict by the rule, and it says so
-    assert row["verdict"] == "reproduced" and "which phase is which: not measured" in row["why"]
+    assert row["verdict"] == "reproduced"
+    assert "which phase of the two-phase fit is which: not measured" in row["why"]
     assert compare("unified_law", {})[0]["verdict"] == "not measured"
     assert rows[1]["claim"].startswith("ants (synthetic control)")
 
@@ -223,7 +224,7 @@ def test_the_real_data_cold_phase_is_standing_and_the_walking_command_runs(
            "two_phase": {k: en["two_phase"][k] for k in ("phi", "kT1", "kT2")},
            **counts}  # fmt: skip
     why = compare("unified_law", {"ants_real": res})[0]["why"]
-    assert "which phase is which" in why
+    assert "which phase of the two-phase fit is which" in why
     cold = math.sqrt(math.pi * en["two_phase"]["kT1"] / 2)
     standing = cold <= 2 * jit["speed_mm_s"]
     assert ("standing ants' jitter" in why) == standing

@@ -37,6 +37,7 @@ def _r2_power(k: Any) -> str:
         f"{fmt(k)} points, one run each" if k else "points n/a",
         "departure from the line: residuals above sqrt(1 - 0.99) = 10 % of the points' "
         "spread (set by the threshold, not by the sample)",
+        level=False,
     )
 
 
@@ -46,11 +47,10 @@ def _arrival_power(seeds: Any) -> str:
     return power_note(
         "a count of the runs that arrive (every run must)",
         f"{fmt(seeds)} runs (seeds)",
-        None
-        if f is None
-        else f"failure rate {fmt(100 * f, 2)} % (below it, a failing "
-        "run is likely not among these)",
-    )
+        None if f is None else f"failure rate {fmt(100 * f, 2)} % (a failing run is "
+        "among these with probability 0.8; at a lower rate, likely none is)",
+        level=False,
+    )  # fmt: skip
 
 
 def _mean_power(se: Any, seeds: Any, what: str) -> str:

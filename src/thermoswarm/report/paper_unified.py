@@ -93,11 +93,13 @@ def _phases(ants: Mapping[str, Any]) -> tuple[str, bool]:
         return "", False
     cold, hot = math.sqrt(math.pi * kt1 / 2), math.sqrt(math.pi * kt2 / 2)
     if not j:
-        return (f"; which phase is which: not measured (no jitter of ants at rest; the cold "
-                f"phase's mean speed is {fmt(cold, 2)} mm/s)"), False  # fmt: skip
+        text = (f"; which phase of the two-phase fit is which: not measured (no jitter of "
+                f"ants at rest; the cold phase's mean speed is {fmt(cold, 2)} mm/s)")  # fmt: skip
+        return text, False
     text = (
-        f"; which phase is which: the cold phase's mean speed {fmt(cold, 2)} mm/s against "
-        f"the jitter of ants at rest, {fmt(j, 2)} mm/s (the mean speed of "
+        "; which phase of the two-phase fit is which: the cold phase's mean speed "
+        f"{fmt(cold, 2)} mm/s against the jitter of ants at rest, {fmt(j, 2)} mm/s (the "
+        "mean speed of "
         f"{fmt(jit.get('n_steps'))} nonzero steps of {fmt(jit.get('n_individuals'))} ants "
         f"whose positions stayed within {fmt(jit.get('extent_mm'), 2)} mm for "
         f"{fmt(jit.get('window_s'), 2)} s; one pixel a frame is "
@@ -145,7 +147,7 @@ def _ant_row(ants: Mapping[str, Any], nb: Any, real: bool) -> dict[str, str]:
             f"({fmt(sm.get('cluster_shared'))} in clusters, left out), "
             f"{fmt(_get(ants, 'steps', 'resting'))} resting steps left out"
         )
-        phases, standing = _phases(ants) if pref == "two_phase" else ("", False)
+        phases, standing = _phases(ants)
         what += phases
         claim = "ants (real): energy is a two-phase exponential mixture"
     else:
@@ -187,7 +189,7 @@ def _ant_row(ants: Mapping[str, Any], nb: Any, real: bool) -> dict[str, str]:
         (f"{_powerless(nb)}; " if pref and not ok and _powerless(nb) else "")
         + (
             "partly: two phases preferred and not rejected, but the cold one is standing "
-            "ants' jitter (which phase is which, below); "
+            "ants' jitter (which phase of the two-phase fit is which, below); "
             if ok and standing
             else ""
         )
