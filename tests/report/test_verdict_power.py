@@ -4,6 +4,7 @@ row's own numbers, so a smaller sample states a larger one."""
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 from statistics import NormalDist
@@ -20,6 +21,7 @@ from thermoswarm.report.power import (
     mde_spearman,
     p_floor,
     power_note,
+    rank_p_floor,
 )
 
 Z = NormalDist()
@@ -42,6 +44,40 @@ def test_mde_known_answers():
     assert (1 - mde_failure_rate(3)) ** 3 == pytest.approx(0.2)
     assert mde_failure_rate(10) < mde_failure_rate(3) and mde_failure_rate(0) is None
     assert mde_spearman(3) is None and mde_ks(0) is None
+
+
+@pytest.mark.parametrize("groups", [[1, 1, 1, 1], [2, 2], [2, 1, 1], [1, 1, 1, 1, 1], [3, 2]])
+def test_rank_p_floor_is_the_exact_permutation_floor(groups):
+    """Every ordering of distinct responses over x values with these ties: the share
+    whose |Spearman rho| reaches the largest possible is the smallest two-sided p."""
+    x = np.repeat(np.arange(len(groups)), groups)
+    rhos = np.array([stats.spearmanr(x, perm).statistic
+                     for perm in itertools.permutations(range(len(x)))])  # fmt: skip
+    share = np.mean(np.abs(rhos) >= np.abs(rhos).max() - 1e-12)
+    assert rank_p_floor(groups) == pytest.approx(share, rel=1e-12)
+
+
+def test_rank_p_floor_known_answers():
+    assert rank_p_floor([1, 1, 1, 1]) == pytest.approx(2 / 24)  # 0.083: never below 5 %
+    assert rank_p_floor([2, 2]) == pytest.approx(1 / 3)
+    assert rank_p_floor([1] * 5) == pytest.approx(2 / 120)  # 0.017: can reject
+    assert rank_p_floor([5, 5]) == pytest.approx(2 * 120**2 / math.factorial(10))
+    assert rank_p_floor([4]) is None and rank_p_floor(None) is None
+
+
+def test_a_rank_trend_that_no_ordering_makes_significant_is_not_resolved():
+    """Two sizes of two runs: even a perfect ordering gives p = 1/3, so a flat or a
+    rising capacity is not resolved; ten runs a size can decide."""
+    rows = [{"n": n, "maxdisp_median": m, "seeds": k, "reached": 0}
+            for n, m, k in [(50, 8.0, 2), (150, 14.0, 2)]]  # fmt: skip
+    for trend in ({"spearman_rho": 0.0, "spearman_p": 1.0},
+                  {"spearman_rho": 0.9, "spearman_p": 0.01}):  # fmt: skip
+        u = compare("scaling", {"rows": rows, "trend": trend})[0]
+        assert u["verdict"] == "not resolved at this scale", u
+        assert "smallest p-value of an exact rank test is 0.33" in u["why"]
+    more = [dict(r, seeds=10) for r in rows]
+    flat = compare("scaling", {"rows": more, "trend": {"spearman_rho": 0.0, "spearman_p": 1.0}})
+    assert flat[0]["verdict"] == "differs"
 
 
 def test_mde_spearman_has_its_power_by_simulation():

@@ -40,7 +40,7 @@ from thermoswarm.report.paper_power import (
     _z_power,
 )
 from thermoswarm.report.paper_unified import compare_unified_law
-from thermoswarm.report.power import mde, mde_spearman, power_note
+from thermoswarm.report.power import mde, mde_spearman, power_note, rank_p_floor
 
 __all__ = ["COMPARISONS", "compare", "fmt", "NOTES_PAGE"]
 
@@ -344,7 +344,14 @@ def _capacity_row(rows: Sequence[Mapping[str, Any]], trend: Mapping[str, Any], l
         peak += f", within its 95 % interval from N = {fmt(n_sat)} on"
     if rho is None:
         return _row(claim, paper, ours, NOT_MEASURED, "too few runs for a rank correlation")
-    if rho > 0 and p is not None and p < 0.05:
+    floor = rank_p_floor([r.get("seeds") or 0 for r in rows])
+    if floor is not None and floor >= 0.05:  # no ordering of these runs is significant
+        verdict = NOT_RESOLVED
+        why = (f"not resolved at this scale: with {fmt(sum(r.get('seeds') or 0 for r in rows))}"
+               f" runs over {fmt(len(rows))} swarm sizes the smallest p-value of an exact "
+               f"rank test is {fmt(floor, 2)}, so none can reject at the 5 % level (more "
+               f"seeds or sizes resolve it: reproduce --full); {peak}")  # fmt: skip
+    elif rho > 0 and p is not None and p < 0.05:
         if n_top == meds[-1][0]:
             verdict, why = REPRODUCED, f"grows with N ({peak})"
         else:

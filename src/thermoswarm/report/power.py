@@ -24,6 +24,7 @@ __all__ = [
     "mde_spearman",
     "p_floor",
     "power_note",
+    "rank_p_floor",
 ]
 
 #: The level and the power every row's smallest detectable effect is stated at.
@@ -73,6 +74,21 @@ def p_floor(n_bootstrap: int | None) -> float | None:
     """The smallest p-value a bootstrap of ``n_bootstrap`` replicates can give,
     ``1 / (n_bootstrap + 1)`` (dimensionless); ``None`` without a bootstrap."""
     return 1 / (n_bootstrap + 1) if n_bootstrap else None
+
+
+def rank_p_floor(group_sizes: list[int] | None) -> float | None:
+    """The smallest two-sided p-value that an exact rank test of a trend (Spearman's, or
+    any test that only sees the ranks) can give for runs at ``len(group_sizes)`` values of
+    x, ``group_sizes[i]`` runs at the i-th (ties in x), the responses all distinct:
+    ``2 prod(m_i!) / n!`` (dimensionless), the share of the ``n!`` equally likely
+    orderings that are perfectly increasing or perfectly decreasing.  At or above the
+    level, no rank test can reject: 4 runs at 4 sizes give 2/24 = 0.083; ``None`` below
+    two values of x."""
+    sizes = [int(m) for m in group_sizes or [] if m]
+    if len(sizes) < 2:
+        return None
+    n, same = sum(sizes), math.prod(math.factorial(m) for m in sizes)
+    return min(1.0, 2 * same / math.factorial(n))
 
 
 def mde_failure_rate(n_runs: int | None, *, power: float = POWER) -> float | None:
