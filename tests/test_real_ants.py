@@ -12,7 +12,7 @@ import pytest
 import xarray as xr
 
 from thermoswarm.io import read_tracks
-from thermoswarm.report.paper import compare
+from thermoswarm.report.paper import compare, fmt
 from thermoswarm.report.paper_unified import walking_command
 from thermoswarm.reproduce.unified import (
     ANTRAX_JS16,
@@ -174,10 +174,11 @@ def test_rest_jitter_measures_the_speed_of_a_standing_ant():
     assert rest_jitter(_still_and_walking(1.0, fps, 200, seed=3))["speed_mm_s"] is None
 
 
-def _two_phase_row(kT1, jitter, command="thermoswarm analyze X --seed 0 --out OUT"):
+def _two_phase_row(kT1, jitter, command="thermoswarm analyze X --seed 0 --out OUT",
+                   walking=None):  # fmt: skip
     real = {"preferred": "two_phase", "lr_p_value": 0.005, "ks_p_value_preferred": 0.4,
             "two_phase": {"phi": 0.3, "kT1": kT1, "kT2": 16.0}, "n_bootstrap": 200,
-            "command": command,
+            "command": command, "walking": walking,
             "jitter": {"speed_mm_s": jitter, "n_steps": 500, "n_individuals": 8,
                        "window_s": 1.0, "extent_mm": 0.5, "pixel_speed_mm_s": 0.92}}  # fmt: skip
     return compare("unified_law", {"ants_real": real})[0]
@@ -192,8 +193,27 @@ def test_the_real_row_says_which_phase_is_standing():
     assert "the cold phase's mean speed 0.63 mm/s against the jitter of ants at rest, 0.5" in (
         row["why"])  # fmt: skip
     assert "standing ants' jitter, not a walking phase" in row["why"]
-    assert "(the walking steps alone: thermoswarm analyze X --seed 0 --resting-speed 1 --out " in (
-        row["why"])  # fmt: skip
+    # no walking fit in these results: the row says so and prints the command for it
+    assert ("the walking steps alone are not fitted in this run (their command: thermoswarm "
+            "analyze X --seed 0 --resting-speed 1 --out OUT)") in row["why"]  # fmt: skip
+    assert row["why"].index("which phase") < row["why"].index("test: ")  # after the rule
+    walked = _two_phase_row(0.256, 0.5, walking={
+        "resting_speed_mm_s": 1.0, "resting_left_out": 300, "n_steps": 900, "n_test": 60,
+        "preferred": "one_phase", "lr_p_value": 0.4, "ks_p_value_preferred": 0.2,
+        "n_bootstrap": 200, "two_phase": {"phi": 0.5, "kT1": 4.0, "kT2": 5.0}})  # fmt: skip
+    assert walked["verdict"] == "partly"
+    assert ("the walking steps alone: not two walking phases by the row's rule (LR p = 0.4, "
+            "KS p = 0.2; their fit: below)") in walked["why"]  # fmt: skip
+    assert ("left out as standing: 300; 900 fitted, 60 in the test sample): one_phase "
+            "preferred") in walked["why"]  # fmt: skip
+    assert "not two walking phases by the row's rule (numbers from: thermoswarm analyze X " in (
+        walked["why"])  # fmt: skip
+    # a bootstrap too small to reject: the walking fit is not resolved, not "one phase"
+    few = _two_phase_row(0.256, 0.5, walking={
+        "resting_speed_mm_s": 1.0, "n_steps": 900, "n_test": 60, "preferred": "one_phase",
+        "lr_p_value": 0.05, "ks_p_value_preferred": 0.05, "n_bootstrap": 19})  # fmt: skip
+    assert ("mm/s; smallest detectable kT difference – mm^2/s^2): not resolved at this scale "
+            "(19 bootstrap replicates cannot reject") in few["why"]  # fmt: skip
     # kT1 4: mean speed 2.5 mm/s, over twice the jitter: two walking phases
     fast = _two_phase_row(4.0, 0.5)
     assert fast["verdict"] == "reproduced" and "both phases walk" in fast["why"]
@@ -230,7 +250,7 @@ def test_the_real_data_cold_phase_is_standing_and_the_walking_command_runs(
     assert ("standing ants' jitter" in why) == standing
     if not standing:
         return
-    walk = why.split("(the walking steps alone: ")[1].split(")")[0]
+    walk = why.split("the walking steps alone (")[1].split("(numbers from: ")[1].split(")")[0]
     words = shlex.split(walk)
     words[words.index("OUT")] = str(tmp_path / "walk")
     monkeypatch.chdir(ANTRAX_JS16.parents[3])
@@ -240,3 +260,13 @@ def test_the_real_data_cold_phase_is_standing_and_the_walking_command_runs(
     cut = float(words[words.index("--resting-speed") + 1])
     assert fits["excluded"]["resting"]["resting_speed_mm_s"] == cut
     assert fits["energy"]["n"] < en["n"]  # the standing steps left out
+    # the row's walking numbers are the command's (issue 33: each row's numbers from its
+    # printed command), rounded as results.json rounds them
+    w, e = counts["walking"], fits["energy"]
+    assert w["resting_speed_mm_s"] == cut and w["preferred"] == e["preferred"]
+    assert w["n_steps"] == e["n"] and w["resting_left_out"] == fits["excluded"]["resting"]["n"]
+    assert w["lr_p_value"] == round(e["lr_p_value"], 4)
+    assert w["ks_p_value_preferred"] == round(e[e["preferred"]]["p_value"], 4)
+    for k in ("phi", "kT1", "kT2"):
+        assert w["two_phase"][k] == round(e["two_phase"][k], 3)
+        assert f"{k} = {fmt(w['two_phase'][k])}" in why

@@ -86,39 +86,86 @@ def _phases(ants: Mapping[str, Any]) -> tuple[str, bool]:
     """Which fitted phase of the real ants is which: the cold phase's mean speed
     (``sqrt(pi kT1 / 2)`` for an exponential energy law) against the measured speed of
     ants at rest (the tracking's jitter).  Within twice the jitter the cold phase is
-    standing ants' jitter; ``(text, standing)``."""
+    standing ants' jitter, and the walking steps alone (results' ``walking``) are
+    stated; ``(text, standing)``."""
     tp, jit = ants.get("two_phase") or {}, ants.get("jitter") or {}
     kt1, kt2, j = tp.get("kT1"), tp.get("kT2"), jit.get("speed_mm_s")
     if not kt1 or not kt2:
         return "", False
-    cold, hot = math.sqrt(math.pi * kt1 / 2), math.sqrt(math.pi * kt2 / 2)
+    cold, hot = _mean_speed(kt1), _mean_speed(kt2)
     if not j:
-        text = (f"; which phase of the two-phase fit is which: not measured (no jitter of "
-                f"ants at rest; the cold phase's mean speed is {fmt(cold, 2)} mm/s)")  # fmt: skip
+        text = ("which phase of the two-phase fit is which: not measured (no jitter of ants "
+                f"at rest; the cold phase's mean speed is {fmt(cold, 2)} mm/s); ")  # fmt: skip
         return text, False
     text = (
-        "; which phase of the two-phase fit is which: the cold phase's mean speed "
+        "which phase of the two-phase fit is which: the cold phase's mean speed "
         f"{fmt(cold, 2)} mm/s against the jitter of ants at rest, {fmt(j, 2)} mm/s (the "
-        "mean speed of "
-        f"{fmt(jit.get('n_steps'))} nonzero steps of {fmt(jit.get('n_individuals'))} ants "
-        f"whose positions stayed within {fmt(jit.get('extent_mm'), 2)} mm for "
-        f"{fmt(jit.get('window_s'), 2)} s; one pixel a frame is "
-        f"{fmt(jit.get('pixel_speed_mm_s'), 2)} mm/s): "
+        f"mean speed of {fmt(jit.get('n_steps'))} nonzero steps of "
+        f"{fmt(jit.get('n_individuals'))} ants whose positions stayed within "
+        f"{fmt(jit.get('extent_mm'), 2)} mm for {fmt(jit.get('window_s'), 2)} s; one pixel "
+        f"a frame is {fmt(jit.get('pixel_speed_mm_s'), 2)} mm/s): "
     )
-    standing = cold <= 2 * j
-    if standing:
-        text += (
-            "within twice the jitter, so the cold phase is standing ants' jitter, not a "
-            f"walking phase; the hot phase (mean {fmt(hot, 2)} mm/s) is the walking one, "
-            "and whether walking has two temperatures is not tested by this row"
-        )
-        walk = walking_command(ants.get("command"), 2 * j)
-        if walk:
-            text += f" (the walking steps alone: {walk})"
-    else:
+    if cold > 2 * j:
         text += (f"above twice the jitter, so both phases walk: the cold phase is slow "
-                 f"walking, the hot one (mean {fmt(hot, 2)} mm/s) fast walking")  # fmt: skip
-    return text, standing
+                 f"walking, the hot one (mean {fmt(hot, 2)} mm/s) fast walking; ")  # fmt: skip
+        return text, False
+    text += (
+        "within twice the jitter, so the cold phase is standing ants' jitter, not a "
+        f"walking phase, and the hot phase (mean {fmt(hot, 2)} mm/s) is the walking one; "
+    )
+    return text + _walking(ants, 2 * j), True
+
+
+def _mean_speed(kt: float) -> float:
+    """The mean speed (mm/s) of an exponential energy law of temperature ``kt``
+    (mm^2/s^2, energy v^2/2): ``sqrt(pi kt / 2)``."""
+    return math.sqrt(math.pi * kt / 2)
+
+
+def _walking(ants: Mapping[str, Any], cut: float) -> str:
+    """The walking steps alone: the fit with every step at or below ``cut`` (twice the
+    jitter, mm/s) left out as standing, by the ant row's rule, and its command."""
+    w = ants.get("walking") or {}
+    cut = w.get("resting_speed_mm_s") or cut
+    cmd = walking_command(ants.get("command"), cut)
+    if not w.get("preferred"):
+        return ("the walking steps alone are not fitted in this run"
+                + (f" (their command: {cmd}); " if cmd else "; "))  # fmt: skip
+    tp, nb = w.get("two_phase") or {}, w.get("n_bootstrap")
+    speeds = ", ".join(fmt(_mean_speed(tp[k]), 2) for k in ("kT1", "kT2") if tp.get(k))
+    speeds = speeds or fmt(None)
+    return (
+        f"the walking steps alone (steps at or below {fmt(cut, 2)} mm/s, twice the jitter, "
+        f"left out as standing: {fmt(w.get('resting_left_out'))}; {fmt(w.get('n_steps'))} "
+        f"fitted, {fmt(w.get('n_test'))} in the test sample): {w['preferred']} preferred "
+        f"(LR {_p(w.get('lr_p_value'), nb)}), KS {_p(w.get('ks_p_value_preferred'), nb)}; "
+        f"phi = {fmt(tp.get('phi'))}, kT1 = {fmt(tp.get('kT1'))}, kT2 = {fmt(tp.get('kT2'))} "
+        f"mm^2/s^2 (mean speeds {speeds} mm/s; smallest detectable kT difference "
+        f"{fmt(_kt_gap_mde(w), 2)} mm^2/s^2): "
+        + _walking_outcome(w) + (f" (numbers from: {cmd}); " if cmd else "; ")
+    )  # fmt: skip
+
+
+def _walking_outcome(w: Mapping[str, Any]) -> str:
+    """The walking fit by the ant row's rule: two walking phases, not, or not resolved
+    (a bootstrap whose smallest p-value is not below 0.05 cannot prefer two)."""
+    ok = w.get("preferred") == "two_phase" and (w.get("ks_p_value_preferred") or 0) > 0.05
+    if ok:
+        return "two walking phases by the row's rule"
+    if _powerless(w.get("n_bootstrap")):
+        return (f"not resolved at this scale ({fmt(w.get('n_bootstrap'))} bootstrap "
+                "replicates cannot reject at the 5 % level)")  # fmt: skip
+    return "not two walking phases by the row's rule"
+
+
+def _walking_verdict(ants: Mapping[str, Any]) -> str:
+    """The walking fit's outcome in a few words, with its p-values."""
+    w = ants.get("walking") or {}
+    if not w.get("preferred"):
+        return "the walking steps alone are not fitted in this run"
+    nb = w.get("n_bootstrap")
+    return (f"the walking steps alone: {_walking_outcome(w)} (LR {_p(w.get('lr_p_value'), nb)}"
+            f", KS {_p(w.get('ks_p_value_preferred'), nb)}; their fit: below)")  # fmt: skip
 
 
 def walking_command(command: str | None, resting_speed: float) -> str | None:
@@ -134,39 +181,44 @@ def _ant_row(ants: Mapping[str, Any], nb: Any, real: bool) -> dict[str, str]:
     """The paper's two-phase claim checked on real ants, or on the synthetic control.
 
     Rule for both: two phases preferred by the LR test and the two-phase fit not
-    rejected by its KS test (p > 0.05).
+    rejected by its KS test (p > 0.05).  The real row says which phase is which (standing
+    or walking) right after its rule, then its test and sample, then its data.
     """
     pref = ants.get("preferred")
     tp = ants.get("two_phase") or {}
     ok = pref == "two_phase" and (ants.get("ks_p_value_preferred") or 0) > 0.05
     sm = ants.get("samples") or {}
+    phases, standing = _phases(ants) if real else ("", False)
     if real:
-        what = (
+        data = (
             f"real ants: {ants.get('source') or 'source n/a'}; {fmt(sm.get('single'))} of "
             f"{fmt(sm.get('total'))} samples measured individually "
             f"({fmt(sm.get('cluster_shared'))} in clusters, left out), "
             f"{fmt(_get(ants, 'steps', 'resting'))} resting steps left out"
         )
-        phases, standing = _phases(ants)
-        what += phases
         claim = "ants (real): energy is a two-phase exponential mixture"
     else:
-        standing = False
-        what = (
+        data = (
             "control: synthetic ants drawn from the paper's two-phase model, read back by "
             "the same analysis: this checks the analysis, not the biology"
         )
         claim = "ants (synthetic control): the analysis recovers the two-phase mixture"
-    why = (
-        "rule: two phases preferred (LR p < 0.05) and the two-phase fit not rejected "
-        "(KS p > 0.05); "
-    )
+    why = ("rule: two phases preferred (LR p < 0.05) and the two-phase fit not rejected "
+           "(KS p > 0.05); ")  # fmt: skip
     if pref and not ok:
-        why += (
-            "here one phase was preferred; "
-            if pref != "two_phase"
-            else "here the KS test rejects the two-phase fit; "
-        )
+        why += ("here one phase was preferred; " if pref != "two_phase"
+                else "here the KS test rejects the two-phase fit; ")  # fmt: skip
+    weak = _powerless(nb) if pref and not ok else None
+    if not pref:
+        verdict = NOT_MEASURED
+    elif ok:
+        verdict = PARTLY if standing else REPRODUCED
+    else:
+        verdict = NOT_RESOLVED if weak else DIFFERS
+    lead = (f"{weak}; " if weak else "") + (
+        "partly: two phases preferred and not rejected, but one of them is standing, not "
+        f"walking (which is which: below); {_walking_verdict(ants)}; " if ok and standing
+        else "")  # fmt: skip
     return _row(
         claim,
         "Fig. 2 (a-h): p(v^2) = phi Exp(kT1) + (1 - phi) Exp(kT2) fits every energy level; "
@@ -175,29 +227,10 @@ def _ant_row(ants: Mapping[str, Any], nb: Any, real: bool) -> dict[str, str]:
         f"one phase kT = {fmt(ants.get('one_phase_kT'))}; phi = {fmt(tp.get('phi'))}, "
         f"kT1 = {fmt(tp.get('kT1'))}, kT2 = {fmt(tp.get('kT2'))} mm^2/s^2; KS "
         f"{_p(ants.get('ks_p_value_preferred'), nb)}",
-        (
-            PARTLY
-            if ok and standing
-            else REPRODUCED
-            if ok
-            else NOT_RESOLVED
-            if _powerless(nb)
-            else DIFFERS
-        )
-        if pref
-        else NOT_MEASURED,  # fmt: skip
-        (f"{_powerless(nb)}; " if pref and not ok and _powerless(nb) else "")
-        + (
-            "partly: two phases preferred and not rejected, but the cold one is standing "
-            "ants' jitter (which phase of the two-phase fit is which, below); "
-            if ok and standing
-            else ""
-        )
-        + why
-        + (_lr_power(ants, nb) + "; " if pref else "")
-        + what
+        verdict,
+        lead + why + phases + (_lr_power(ants, nb) + "; " if pref else "") + data
         + _command(ants),
-    )
+    )  # fmt: skip
 
 
 def _ks_power(st: Mapping[str, Any], k: Any) -> str:

@@ -148,7 +148,22 @@ def real_ants(path: Path = ANTRAX_JS16, *, seed: int = 0, n_bootstrap: int = 200
                   "implausible_left_out": ex["implausible"]["n"]},
         "jitter": jitter,
     }  # fmt: skip
+    if jitter.get("speed_mm_s"):
+        counts["walking"] = _walking_fit(ds, jitter["speed_mm_s"], seed, n_bootstrap)
     return study, counts
+
+
+def _walking_fit(ds: Any, jitter: float, seed: int, n_bootstrap: int) -> dict[str, Any]:
+    """The study of the walking steps alone: every step at or below twice the jitter of
+    ants at rest (mm/s, two significant digits, as the row's walking command prints it)
+    left out as resting; the fit's numbers as :func:`_fit_summary` gives them."""
+    from thermoswarm.analysis.study import run_study
+
+    cut = float(f"{2 * jitter:.2g}")
+    walk = run_study(ds, seed=seed, n_bootstrap=n_bootstrap, mask_shared_positions=True,
+                     resting_speed=cut)  # fmt: skip
+    return {"resting_speed_mm_s": cut, "resting_left_out": walk.fits["excluded"]["resting"]["n"],
+            **_fit_summary(walk, n_bootstrap)}  # fmt: skip
 
 
 def _simulate(
@@ -204,6 +219,13 @@ def _panel(ax: Any, study: Any, label: str, n_bootstrap: int) -> dict[str, Any]:
     ax.set_ylabel("probability density")
     ax.set_title(label, fontsize=9)
     ax.legend(fontsize=7)
+    return {**_fit_summary(study, n_bootstrap), "steering": _steering(study.fits["steering"])}
+
+
+def _fit_summary(study: Any, n_bootstrap: int) -> dict[str, Any]:
+    """A study's energy fits for results.json: the preferred model, the LR and KS
+    p-values, the one- and two-phase temperatures (mm^2/s^2) and the tests' sample."""
+    en = study.fits["energy"]
     return {
         "preferred": en["preferred"],
         "lr_p_value": _num(en["lr_p_value"], 4),
@@ -218,7 +240,6 @@ def _panel(ax: Any, study: Any, label: str, n_bootstrap: int) -> dict[str, Any]:
         "n_test": (en.get("test_sample") or {}).get("n"),
         "ks_p_value_preferred": _num(en[en["preferred"]]["p_value"], 4),
         "n_bootstrap": n_bootstrap,
-        "steering": _steering(study.fits["steering"]),
     }
 
 
