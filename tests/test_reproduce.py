@@ -89,6 +89,11 @@ def test_results_json_holds_every_experiment_with_its_verdicts(done):
     real = on_disk["unified_law"]["ants_real"]  # the real ant excerpt, with its source
     assert "anTraX-data" in real["source"] and "JS16" in real["source"]
     assert real["samples"]["total"] == 16 * 2400 and real["steps"]["used"] > 0
+    # the walking steps alone: the standing ones (at or below twice the jitter) left out
+    walk = real["walking"]
+    assert walk["resting_speed_mm_s"] == float(f"{2 * real['jitter']['speed_mm_s']:.2g}")
+    assert walk["resting_left_out"] > real["steps"]["resting_left_out"]
+    assert 0 < walk["n_steps"] < real["n_steps"]
     assert on_disk == json.loads(json.dumps(res))  # what the function returned
 
 

@@ -31,7 +31,16 @@ from thermoswarm.report.paper_common import (
     _row,
     fmt,
 )
+from thermoswarm.report.paper_power import (
+    _arrival_power,
+    _cells_power,
+    _mean_power,
+    _r2_power,
+    _se_diff,
+    _z_power,
+)
 from thermoswarm.report.paper_unified import compare_unified_law
+from thermoswarm.report.power import mde, mde_spearman, power_note, rank_p_floor
 
 __all__ = ["COMPARISONS", "compare", "fmt", "NOTES_PAGE"]
 
@@ -54,23 +63,38 @@ def compare_narrow_road(res: Mapping[str, Any]) -> list[dict[str, str]]:
             f"{fmt(cross.get('+x'))} crossings toward +x and {fmt(cross.get('-x'))} toward -x "
             f"in {fmt(dur, unit='s')}; longest period with no crossing {fmt(gap, unit='s')}",
             (REPRODUCED if ok else DIFFERS) if cross else NOT_MEASURED,
-            "rule: both directions cross and no gap without a crossing reaches 60 s",
+            "rule: both directions cross and no gap without a crossing reaches 60 s; "
+            + power_note(
+                "none (a rule on one run's crossings, no rate estimated)",
+                f"1 run of {fmt(dur, unit='s')}, {fmt(_get(res, 'n'))} robots",
+                "none stated (one run gives no rate of deadlocks; seeds would)",
+                level=False,
+            ),
         )
     ]
     sec = _get(res, "section_energy") or {}
     wide, narrow = _get(sec, "wide", "mean"), _get(sec, "narrow", "mean")
     if wide is not None and narrow is not None:
+        se = _se_diff(_get(sec, "wide", "se"), _get(sec, "narrow", "se"))
+        resolved = se is None or abs(wide - narrow) > 1.96 * se
         rows.append(
             _row(
                 "slower, colder motion in the narrow section",
                 "Fig. 2 (i): fewer ants in the high-temperature phase on the narrow side "
                 "(ants; the robots' sections are not reported)",
                 f"mean energy {fmt(narrow)} (narrow) against {fmt(wide)} mm^2/s^2 (wide)",
-                REPRODUCED if narrow < wide else DIFFERS,
-                "the same direction as the ants, for robots whose speed law does not depend "
-                "on the section: crowding alone cools them",
+                NOT_RESOLVED if not resolved else REPRODUCED if narrow < wide else DIFFERS,
+                ("the same direction as the ants, for robots whose speed law does not depend "
+                 "on the section: crowding alone cools them" if narrow < wide else
+                 "warmer, not colder, in the narrow section")
+                + ("" if resolved else ", but within 1.96 standard errors of no difference")
+                + "; rule: the narrow section's mean energy below the wide one's; "
+                + power_note("z-test of the difference of the two means",
+                             "1 run: each section's steps, their standard errors from the run",
+                             None if se is None else
+                             f"energy difference {fmt(mde(se), 2)} mm^2/s^2"),
             )
-        )
+        )  # fmt: skip
     return rows
 
 
@@ -85,7 +109,7 @@ def compare_compression(res: Mapping[str, Any]) -> list[dict[str, str]]:
             "to that of an ideal gas'",
             f"Z = P A_free / (n kT_eff) = {fmt(z)} on the isotherm (ideal gas: 1)",
             (REPRODUCED if abs(z - 1) < 0.1 else DIFFERS) if z is not None else NOT_MEASURED,
-            "rule: the mean Z within 10 % of 1",
+            "rule: the mean Z within 10 % of 1; " + _z_power(_get(res, "isotherm") or []),
         )
     )
     pt = _get(res, "pressure_vs_temperature") or {}
@@ -100,7 +124,8 @@ def compare_compression(res: Mapping[str, Any]) -> list[dict[str, str]]:
             (REPRODUCED if r2 is not None and r2 > 0.99 else DIFFERS)
             if r2 is not None
             else NOT_MEASURED,
-            "rule: a straight line through the points with R^2 > 0.99",
+            "rule: a straight line through the points with R^2 > 0.99; "
+            + _r2_power(pt.get("n_points")),
         )
     )
     td = _get(res, "temperature_for_density") or {}
@@ -113,7 +138,8 @@ def compare_compression(res: Mapping[str, Any]) -> list[dict[str, str]]:
             f"linear in the force, R^2 = {fmt(r2, 5)}; packing fraction held at "
             f"{', '.join(fmt(x, 3) for x in pf) or 'n/a'}",
             (REPRODUCED if r2 > 0.99 else DIFFERS) if r2 is not None else NOT_MEASURED,
-            "rule: R^2 > 0.99 of the temperature against the force",
+            "rule: R^2 > 0.99 of the temperature against the force; "
+            + _r2_power(td.get("n_points")),
         )
     )
     return rows
@@ -143,7 +169,7 @@ def compare_transport_connected(res: Mapping[str, Any]) -> list[dict[str, str]]:
             f"reached in {reached} of {seeds} runs; time to target {fmt(t, unit='s')} "
             f"(sd {fmt(sd, unit='s')})",
             REPRODUCED if ok else (PARTLY if reached else DIFFERS),
-            "rule: every run reaches the target room",
+            "rule: every run reaches the target room; " + _arrival_power(seeds),
         )
     ]
 
@@ -162,7 +188,7 @@ def compare_transport_free(res: Mapping[str, Any]) -> list[dict[str, str]]:
     if seeds is None:
         verdict, why = NOT_MEASURED, ""
     elif seeds and k == seeds:
-        verdict, why = REPRODUCED, "rule: every run reaches the target line"
+        verdict, why = REPRODUCED, "every run reaches the target line"
     elif k:
         verdict = PARTLY
         why = f"{k} of {seeds} runs reached the target within the run"
@@ -198,38 +224,42 @@ def compare_transport_free(res: Mapping[str, Any]) -> list[dict[str, str]]:
             "Fig. 5 (real robots, 0-300 s): they 'move the green object toward the light'",
             ours,
             verdict,
-            why,
+            (why + "; rule: every run reaches the target line, or (partly) the mean "
+             "displacement toward it is above 2 standard errors; " + _arrival_power(seeds)
+             + "; " + _mean_power(d.get("displacement_toward_target_se"), seeds,
+                                  "displacement (mm)")) if seeds is not None else why,
         )
-    )
-    for v, panel in (
+    )  # fmt: skip
+    rows.extend(_variant_row(_get(res, v) or {}, v, panel) for v, panel in (
         ("obstacle", "Fig. 6 (i-p): past an obstacle"),
         ("zigzag", "Fig. 6 (q-t): along a zig-zag curve"),
-    ):
-        r = _get(res, v) or {}
-        if not r:
-            rows.append(_row(f"variant {v}", panel + " to the top", "n/a", NOT_MEASURED, ""))
-            continue
-        disp = r.get("max_displacement_toward_target", r.get("displacement_toward_target"))
-        t = r.get("time_to_target")
-        verdict = REPRODUCED if t is not None else (PARTLY if (disp or 0) > 0 else DIFFERS)
-        rows.append(
-            _row(
-                f"variant {v}",
-                panel + " to the top",
-                (
-                    f"reached the target line {fmt(r.get('target_distance_mm'), unit='mm')} up "
-                    f"at {fmt(t, unit='s')}"
-                    if t is not None
-                    else f"target not reached in {fmt(r.get('duration_s'), unit='s')}; "
-                    f"at most {fmt(disp, unit='mm')} toward it"
-                ),
-                verdict,
-                "one run: reached or not"
-                if t is not None
-                else "one run; moving toward the light is not arriving",
-            )
-        )
+    ))  # fmt: skip
     return rows
+
+
+def _variant_row(r: Mapping[str, Any], v: str, panel: str) -> dict[str, str]:
+    """One run of a variant (obstacle, zig-zag): reached the target, or how far it got."""
+    if not r:
+        return _row(f"variant {v}", panel + " to the top", "n/a", NOT_MEASURED, "")
+    disp = r.get("max_displacement_toward_target", r.get("displacement_toward_target"))
+    t = r.get("time_to_target")
+    verdict = REPRODUCED if t is not None else (PARTLY if (disp or 0) > 0 else DIFFERS)
+    return _row(
+        f"variant {v}",
+        panel + " to the top",
+        (
+            f"reached the target line {fmt(r.get('target_distance_mm'), unit='mm')} up "
+            f"at {fmt(t, unit='s')}"
+            if t is not None
+            else f"target not reached in {fmt(r.get('duration_s'), unit='s')}; "
+            f"at most {fmt(disp, unit='mm')} toward it"
+        ),
+        verdict,
+        ("one run: reached or not" if t is not None
+         else "one run; moving toward the light is not arriving")
+        + "; " + power_note("none (one run: reached or not)", "1 run",
+                            "none stated (one run gives no rate)", level=False),
+    )  # fmt: skip
 
 
 _MECHANISMS = [
@@ -270,7 +300,9 @@ def compare_mechanism(res: Mapping[str, Any]) -> list[dict[str, str]]:
             why = ("the object moves away from the light" if away else
                    "no motion toward the light beyond the 95 % interval")  # fmt: skip
         out.append(_row(label, "the swarm moves the object to the light (Figs. 5-6)", ours,
-                        verdict, why))  # fmt: skip
+                        verdict, why + "; rule: toward the light when the 95 % t interval "
+                        "of the displacement over seeds is above 0; " + _cells_power(rs,
+                        "disp_se", "displacement", "mm")))  # fmt: skip
     return out
 
 
@@ -312,7 +344,14 @@ def _capacity_row(rows: Sequence[Mapping[str, Any]], trend: Mapping[str, Any], l
         peak += f", within its 95 % interval from N = {fmt(n_sat)} on"
     if rho is None:
         return _row(claim, paper, ours, NOT_MEASURED, "too few runs for a rank correlation")
-    if rho > 0 and p is not None and p < 0.05:
+    floor = rank_p_floor([r.get("seeds") or 0 for r in rows])
+    if floor is not None and floor >= 0.05:  # no ordering of these runs is significant
+        verdict = NOT_RESOLVED
+        why = (f"not resolved at this scale: with {fmt(sum(r.get('seeds') or 0 for r in rows))}"
+               f" runs over {fmt(len(rows))} swarm sizes the smallest p-value of an exact "
+               f"rank test is {fmt(floor, 2)}, so none can reject at the 5 % level (more "
+               f"seeds or sizes resolve it: reproduce --full); {peak}")  # fmt: skip
+    elif rho > 0 and p is not None and p < 0.05:
         if n_top == meds[-1][0]:
             verdict, why = REPRODUCED, f"grows with N ({peak})"
         else:
@@ -321,8 +360,15 @@ def _capacity_row(rows: Sequence[Mapping[str, Any]], trend: Mapping[str, Any], l
     else:
         verdict, why = DIFFERS, f"no significant increase with N ({peak})"
     rule = "rule: Spearman correlation of the runs' maximum displacement with N, positive at "
+    n_runs = trend.get("n_runs") or sum(r.get("seeds") or 0 for r in rows) or None
+    m = mde_spearman(n_runs)
+    power = power_note(
+        "Spearman rank correlation",
+        f"{fmt(n_runs)} runs over {fmt(len(rows))} swarm sizes",
+        None if m is None else f"rank correlation {fmt(m, 2)}",
+    )
     return _row(claim, paper, ours, verdict, f"{why}; {rule}the 5 % level, the largest median "
-                "at the largest N")  # fmt: skip
+                f"at the largest N; {power}")  # fmt: skip
 
 
 def _time_row(rows: Sequence[Mapping[str, Any]], label: str) -> dict[str, str]:
@@ -375,8 +421,17 @@ def _time_row(rows: Sequence[Mapping[str, Any]], label: str) -> dict[str, str]:
     else:
         verdict = DIFFERS
         why = f"no faster than at the smallest N, to the 95 % interval ({where})"
+    power = power_note(
+        "order-statistic (distribution-free) 95 % interval of the fastest median",
+        f"{'-'.join(fmt(x) for x in sorted({r.get('seeds') for r in rows if r.get('seeds')}))}"
+        f" runs a size, {fmt(len(rows))} sizes",
+        None
+        if hi is None
+        else f"fall {fmt(hi - t_best, 2, 's')} (the interval's upper "
+        "half-width: a smaller swarm's median must lie above it)",
+    )
     return _row(claim, paper, ours, verdict, f"{why}; rule: the fastest median at the largest "
-                "N, and the smallest N's median above its 95 % interval")  # fmt: skip
+                f"N, and the smallest N's median above its 95 % interval; {power}")  # fmt: skip
 
 
 def compare_scaling(res: Mapping[str, Any]) -> list[dict[str, str]]:
@@ -450,7 +505,8 @@ def compare_regime(res: Mapping[str, Any]) -> list[dict[str, str]]:
     else:
         verdict, why = DIFFERS, "no cell moves the object toward the light"
     return [_row(claim, paper, ours, verdict, why + "; rule: a cell moves toward the light "
-                 "when the 95 % interval of its drift is above 0")]  # fmt: skip
+                 "when the 95 % interval of its drift is above 0; "
+                 + _cells_power(rows, "drift_se", "drift", "mm/s"))]  # fmt: skip
 
 
 COMPARISONS = {

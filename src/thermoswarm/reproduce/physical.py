@@ -127,8 +127,10 @@ def _compression_results(iso: Any, temp: Any, dens: Any, n: int) -> dict[str, An
                          strict=True)],  # fmt: skip
         "dilute_Z_mean": _num(float(np.mean(iso["Z"]))),
         "pressure_vs_temperature": {"r2": _num(pt_fit["r2"], 6), "slope": _num(pt_fit["slope"], 9),
+                                    "n_points": len(temp),
                                     "ideal_slope": _num(n / float(temp["free_area"].iloc[0]), 9)},
         "temperature_for_density": {"r2": _num(dens_fit["r2"], 6),
+                                    "n_points": len(dens),
                                     "packing_fraction": [_num(x, 4) for x in
                                                          dens["packing_fraction"]]},
     }  # fmt: skip

@@ -21,7 +21,7 @@ from thermoswarm.reproduce.plans import Plan
 from thermoswarm.reproduce.runs import _run
 from thermoswarm.reproduce.text import _fig, _num
 
-__all__ = ["ANTRAX_JS16", "REAL_ANTS_COMMAND", "mask_shared_positions", "real_ants"]
+__all__ = ["ANTRAX_JS16", "REAL_ANTS_COMMAND", "mask_shared_positions", "real_ants", "rest_jitter"]
 
 #: The real ant excerpt: in a source checkout only (tests/data is not package data).
 ANTRAX_JS16 = (
@@ -35,12 +35,67 @@ REAL_ANTS_COMMAND = ("thermoswarm analyze {path} --mask-shared-positions --seed 
                      "--bootstrap {n_bootstrap} --out OUT")  # fmt: skip
 #: The ``analyze`` command of a simulated (or synthetic) system's row.
 SYSTEM_COMMAND = "thermoswarm analyze {path} --seed {seed} --bootstrap {n_bootstrap} --out OUT"
+#: The excerpt's pixel (mm): anTraX's scale tool, a 65 mm arena drawn 704 px across
+#: (tests/data/antrax_js16/README.md); positions are blob centroids, finer than a pixel.
+ANTRAX_PIXEL_MM = 65.0 / 704
+#: The resting rule of :func:`rest_jitter`: an ant is at rest over a window of
+#: ``REST_WINDOW_S`` seconds when all its positions in it lie within a box whose
+#: diagonal is under ``REST_EXTENT_MM`` (about 5 pixels, a fifth of an O. biroi's
+#: 2.5 mm body): it may jitter, it does not walk.
+REST_WINDOW_S, REST_EXTENT_MM = 1.0, 0.5
 #: Where the excerpt comes from (tests/data/antrax_js16/README.md has the details).
 ANTRAX_SOURCE = (
     "anTraX-data (github.com/Social-Evolution-and-Behavior/anTraX-data, commit 37ed5e9a, "
     "GPL-3.0), JS16/antrax_demo/antdata/xy_1_1.csv: 16 tagged Ooceraea biroi tracked by "
     "anTraX, first 2,400 frames (240 s at 10 frames/s), in mm"
 )
+
+
+def rest_jitter(
+    ds: Any, *, window_s: float = REST_WINDOW_S, extent_mm: float = REST_EXTENT_MM
+) -> dict[str, Any]:
+    """The speed of positions of individuals at rest: the tracking's jitter, measured.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Trajectories in mm with ``attrs["fps"]`` (frames/s); shared positions already
+        masked (missing samples break a window).
+    window_s, extent_mm
+        The resting rule: every position of a window of ``window_s`` seconds within a
+        box of diagonal below ``extent_mm`` (mm); each step inside such a window is a
+        step at rest.
+
+    Returns
+    -------
+    dict
+        ``speed_mm_s``: the mean speed (mm/s) of the nonzero steps at rest (zero steps
+        are left out, as the fit leaves them out), ``None`` when there are none;
+        ``n_steps`` (steps at rest, nonzero), ``n_individuals`` (with any),
+        ``window_s``, ``extent_mm`` and ``pixel_speed_mm_s`` (one pixel a frame).
+    """
+    fps = float(ds.attrs["fps"])
+    w = max(1, round(window_s * fps))  # steps in a window
+    xy = ds["position"].transpose("time", "space", "keypoints", "individuals").values[:, :2, 0, :]
+    speeds, who = [], 0
+    for i in range(xy.shape[2]):
+        p = xy[:, :, i]
+        if p.shape[0] <= w:
+            continue
+        win = np.lib.stride_tricks.sliding_window_view(p, w + 1, axis=0)  # (T-w, 2, w+1)
+        with np.errstate(invalid="ignore"):
+            ext = np.hypot(*(win.max(axis=2) - win.min(axis=2)).T)
+        rest = np.isfinite(win).all(axis=(1, 2)) & (ext < extent_mm)
+        # step j (frames j to j+1) is at rest when a resting window starts in [j-w+1, j]
+        at_rest = np.convolve(rest.astype(int), np.ones(w, dtype=int))[: p.shape[0] - 1] > 0
+        step = np.hypot(*np.diff(p, axis=0).T) * fps
+        v = step[at_rest & np.isfinite(step) & (step > 0)]
+        who += bool(v.size)
+        speeds.append(v)
+    v = np.concatenate(speeds) if speeds else np.array([])
+    return {"speed_mm_s": float(v.mean()) if v.size else None, "n_steps": int(v.size),
+            "n_individuals": who, "window_s": float(window_s), "extent_mm": float(extent_mm),
+            "pixel_speed_mm_s": ANTRAX_PIXEL_MM * fps}  # fmt: skip
 
 
 def real_ants(path: Path = ANTRAX_JS16, *, seed: int = 0, n_bootstrap: int = 200
@@ -62,13 +117,15 @@ def real_ants(path: Path = ANTRAX_JS16, *, seed: int = 0, n_bootstrap: int = 200
         ``samples``: ``total`` (frames x ants), ``missing`` (no position in the source),
         ``cluster_shared`` (masked here), ``single`` (the rest, measured individually);
         ``steps``: the study's step buckets (they sum to ``total``), and the resting and
-        implausible steps it left out.
+        implausible steps it left out; ``jitter``: :func:`rest_jitter` of the masked
+        trajectories (the speed of ants at rest, to tell standing from walking).
     """
     from thermoswarm.analysis.kinematics import data_quality
     from thermoswarm.analysis.study import run_study
     from thermoswarm.io import read_tracks
 
     ds = read_tracks(path)
+    jitter = rest_jitter(mask_shared_positions(ds)[0])
     xy = ds["position"].values[:, :2, 0, :]
     total = int(xy.shape[0] * xy.shape[2])
     missing = int((~np.isfinite(xy).all(axis=1)).sum())
@@ -89,8 +146,24 @@ def real_ants(path: Path = ANTRAX_JS16, *, seed: int = 0, n_bootstrap: int = 200
         "steps": {"total": dq["n_steps_total"], **dq["step_buckets"],
                   "resting_left_out": ex["resting"]["n"],
                   "implausible_left_out": ex["implausible"]["n"]},
+        "jitter": jitter,
     }  # fmt: skip
+    if jitter.get("speed_mm_s"):
+        counts["walking"] = _walking_fit(ds, jitter["speed_mm_s"], seed, n_bootstrap)
     return study, counts
+
+
+def _walking_fit(ds: Any, jitter: float, seed: int, n_bootstrap: int) -> dict[str, Any]:
+    """The study of the walking steps alone: every step at or below twice the jitter of
+    ants at rest (mm/s, two significant digits, as the row's walking command prints it)
+    left out as resting; the fit's numbers as :func:`_fit_summary` gives them."""
+    from thermoswarm.analysis.study import run_study
+
+    cut = float(f"{2 * jitter:.2g}")
+    walk = run_study(ds, seed=seed, n_bootstrap=n_bootstrap, mask_shared_positions=True,
+                     resting_speed=cut)  # fmt: skip
+    return {"resting_speed_mm_s": cut, "resting_left_out": walk.fits["excluded"]["resting"]["n"],
+            **_fit_summary(walk, n_bootstrap)}  # fmt: skip
 
 
 def _simulate(
@@ -146,14 +219,27 @@ def _panel(ax: Any, study: Any, label: str, n_bootstrap: int) -> dict[str, Any]:
     ax.set_ylabel("probability density")
     ax.set_title(label, fontsize=9)
     ax.legend(fontsize=7)
+    return {**_fit_summary(study, n_bootstrap), "steering": _steering(study.fits["steering"])}
+
+
+def _fit_summary(study: Any, n_bootstrap: int) -> dict[str, Any]:
+    """A study's energy fits for results.json: the preferred model, the LR and KS
+    p-values, the one- and two-phase temperatures (mm^2/s^2) and the tests' sample."""
+    en = study.fits["energy"]
     return {
         "preferred": en["preferred"],
         "lr_p_value": _num(en["lr_p_value"], 4),
         "one_phase_kT": _num(en["one_phase"]["kT"]),
-        "two_phase": {k: _num(en["two_phase"][k]) for k in ("phi", "kT1", "kT2")},
+        "one_phase_kT_se": _num(en["one_phase"].get("kT_se"), 4),
+        "two_phase": {
+            k: _num(en["two_phase"].get(k), 4 if k.endswith("_se") else 3)
+            for k in ("phi", "kT1", "kT2", "kT1_se", "kT2_se")
+        },  # fmt: skip
+        # the sample of the tests: steps fitted and the decorrelated test sample
+        "n_steps": en.get("n"),
+        "n_test": (en.get("test_sample") or {}).get("n"),
         "ks_p_value_preferred": _num(en[en["preferred"]]["p_value"], 4),
         "n_bootstrap": n_bootstrap,
-        "steering": _steering(study.fits["steering"]),
     }
 
 
@@ -165,9 +251,12 @@ def _steering(st: dict[str, Any]) -> dict[str, Any]:
         "by": st.get("by"),
         "bins": len(bins),
         "bins_exponential": sum(1 for b in bins if b["p_value"] > 0.05),
-        "slope": _num(tr.get("slope")),
+        "slope": _num(tr.get("slope"), 6),
         "p_value": _num(tr.get("p_value"), 4),
         "spearman_rho": _num(tr.get("spearman_rho"), 3),
+        "slope_se": _num(tr.get("slope_se"), 6),
+        "k": tr.get("k"),
+        "bin_n": [b.get("n") for b in bins],
         "direction": tr.get("direction"),
     }
 
