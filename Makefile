@@ -8,7 +8,7 @@ OUT    ?= out
 # directory (`thermoswarm cache` prints it; NUMBA_CACHE_DIR overrides it), the same for
 # make, the thermoswarm command and Python; `make install` compiles them.
 
-.PHONY: install lock run test test-latest test-slow test-all bench lint docs clean
+.PHONY: install lock run test test-latest test-slow test-slow-ci test-all bench lint docs clean
 
 # Installs are reproducible: `make install` (and so CI) installs the exact versions in
 # requirements/lock.txt; pyproject.toml keeps the ranges that library users need.
@@ -84,6 +84,11 @@ test: install
 # The slow suite: spread test by test over both cores; the slowest are listed.
 test-slow: install
 	$(PY) -m pytest -q -m slow -n 2 --dist load --durations=10
+
+# CI's share of the slow suite: all but the heavy tests (tests/conftest.py HEAVY, over a
+# minute each), which `make test-slow` runs; CI must finish in 90 minutes on 2 cores.
+test-slow-ci: install
+	$(PY) -m pytest -q -m "slow and not heavy" -n 2 --dist load --durations=25
 
 test-all: install
 	$(PY) -m pytest -q

@@ -236,6 +236,7 @@ def _pressure_pair(n, width, height, steps, batches, seed, host_policy=False):
     return out
 
 
+@pytest.mark.slow  # 1-2.5 min in numba-cuda's simulator: kept out of make test
 def test_wall_pressure_matches_the_cpu_engine():
     # slit 60 mm high: the density profile relaxes in h^2 / (pi^2 D) = 11 s, and the
     # 10 batches of 20 s are ~2 relaxation times each, so batch means are ~independent
@@ -308,6 +309,7 @@ SMALL = ("n=40", "packing_fraction=0.3", "duration=20", "tau=0.5", "record.inter
          "record.block=8", "engine.backend='gpu'")  # fmt: skip
 
 
+@pytest.mark.slow  # 1-2.5 min in numba-cuda's simulator: kept out of make test
 def test_a_gpu_run_records_to_zarr_and_resumes_to_the_uninterrupted_result(tmp_path, monkeypatch):
     from thermoswarm.scenarios.box import Box
 
@@ -334,6 +336,7 @@ def test_a_gpu_run_records_to_zarr_and_resumes_to_the_uninterrupted_result(tmp_p
     assert m["final_max_overlap_fraction"] <= 0.005
 
 
+@pytest.mark.slow  # 1-2.5 min in numba-cuda's simulator: kept out of make test
 def test_compression_and_transport_run_on_the_gpu_backend(tmp_path):
     m = runner.run(runner.resolve("compression", overrides=("n=60", "duration=15",
                    "engine.backend='gpu'"), seed=1), tmp_path / "c", progress=False)  # fmt: skip
