@@ -430,7 +430,7 @@ class ClassicalDetector:
             return _Blobs.empty()
         if split and c.join_split:  # one ant split at its waist: one detection (.join)
             span = (anatomy.FRONT - anatomy.BACK) * self._length + 2 * self._widen
-            join_split_bodies(px, self._area1, self._length, span)
+            join_split_bodies(px, self._area1, self._length, span, c.downsample)
         if split:
             k, hint_at = split_counts(
                 px, self._area1, c.downsample, c.split_area, c.hint_split_area, c.max_split, hints

@@ -190,7 +190,7 @@ def _best_matching(pairs: np.ndarray, gaps: np.ndarray) -> list[int]:
     return chosen
 
 
-def join_split_bodies(px: Any, area1: float, length: float, span: float) -> int:
+def join_split_bodies(px: Any, area1: float, length: float, span: float, f: int = 1) -> int:
     """Merge the pairs of blobs that are the two ends of one body into one blob.
 
     Parameters
@@ -205,6 +205,8 @@ def join_split_bodies(px: Any, area1: float, length: float, span: float) -> int:
         The body length (full-resolution px).
     span
         The expected silhouette length of one ant (full-resolution px).
+    f
+        The working resolution's downsampling (``px.labels`` is at ``1/f``).
 
     Returns
     -------
@@ -240,14 +242,21 @@ def join_split_bodies(px: Any, area1: float, length: float, span: float) -> int:
         return 0
     to = np.arange(px.n)
     chosen = _best_matching(pairs, gaps)
+    h, w = px.labels.shape
     for p in chosen:
         a, b = (int(q) for q in pairs[p])
         to[b] = a
         px.area[a] += px.area[b]
         px.peak[a] = max(px.peak[a], px.peak[b])
         px.area[b], px.good[b] = 0.0, False
+        # Relabel b as a in its box (working px; the dilated labels reach one further).
+        on = px.lab == b
+        x0, x1 = int(px.fx[on].min()) // f - 2, int(px.fx[on].max()) // f + 3
+        y0, y1 = int(px.fy[on].min()) // f - 2, int(px.fy[on].max()) // f + 3
+        box = slice(max(y0, 0), min(y1, h)), slice(max(x0, 0), min(x1, w))
+        for arr in (px.labels, px.lab_d):
+            sub = arr[box]
+            sub[sub == b] = a
     if chosen:
         px.lab = to[px.lab]
-        px.labels = to[px.labels].astype(px.labels.dtype)
-        px.lab_d = to[px.lab_d.astype(np.int64)].astype(px.lab_d.dtype)
     return len(chosen)
