@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     a = p.parse_args(argv)
     print(f"{a.frames} frames of 60 ants 6-7 px, {a.split:.2f} of them split at the waist")
-    print("joining | ants | found | duplicates | other detections")
+    print("joining | ants | found | duplicates | other detections | detection time")
     for join in (False, True):
         det = prepared(None if a.no_scale else 6.5, (6.0, 7.0), a.split, join=join)
         if join:
@@ -45,12 +46,17 @@ def main(argv: list[str] | None = None) -> int:
         ants = 0
         for _ in range(a.frames):
             drawn = scene(rng, 60, (6.0, 7.0), a.split)
-            tot += score(det, frame(rng, drawn), np.array([d[0] for d in drawn]), 6.5)
+            img = frame(rng, drawn)
+            tot += score(det, img, np.array([d[0] for d in drawn]), 6.5)
             ants += len(drawn)
+        t0 = time.perf_counter()
+        for _ in range(20):  # the last frame again: the detection time
+            det.detect(img)
+        ms = (time.perf_counter() - t0) / 20 * 1e3
         f, d, o = (int(v) for v in tot)
         print(
             f"{'on' if join else 'off'} | {ants} | {f} ({f / ants:.3f}) | {d} ({d / ants:.3f})"
-            f" | {o} ({o / ants:.3f})"
+            f" | {o} ({o / ants:.3f}) | {ms:.1f} ms/frame"
         )
     return 0
 
