@@ -333,13 +333,16 @@ def _track_detections(
 
 
 def _echo_summary(summary: dict[str, Any], out_dir: Path) -> None:
-    """Print one line: frames, tracks, detections per frame, speed and the main output."""
+    """Print one line: frames, tracks, detections per frame, speed and the main output;
+    then each of the summary's warnings (e.g. no track confirmed) on stderr."""
     main = "tracks.nc" if "tracks.nc" in summary["outputs"] else "tracks_mot.txt"
     click.echo(
         f"{summary['n_frames']} frames, {summary['n_tracks']} tracks, "
         f"{summary['detections_per_frame']:.1f} detections/frame, "
         f"{summary['frames_per_second']:.1f} frames/s -> {out_dir}/{main}"
     )
+    for text in summary.get("warnings") or []:
+        click.echo(f"\nWARNING: {text}\n(also in {out_dir}/WARNING.txt)", err=True)
 
 
 def _run_batch(

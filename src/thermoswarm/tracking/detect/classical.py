@@ -80,6 +80,7 @@ from thermoswarm.tracking.detect.blobs import (
     typical_area,
 )
 from thermoswarm.tracking.detect.config import ClassicalConfig
+from thermoswarm.tracking.detect.join import join_split_bodies
 from thermoswarm.tracking.detect.registry import (  # _DETECTORS: the registry itself
     _DETECTORS,  # noqa: F401
     DetectorEntry,
@@ -427,6 +428,9 @@ class ClassicalDetector:
         )
         if px is None:
             return _Blobs.empty()
+        if split and c.join_split:  # one ant split at its waist: one detection (.join)
+            span = (anatomy.FRONT - anatomy.BACK) * self._length + 2 * self._widen
+            join_split_bodies(px, self._area1, self._length, span, c.downsample)
         if split:
             k, hint_at = split_counts(
                 px, self._area1, c.downsample, c.split_area, c.hint_split_area, c.max_split, hints

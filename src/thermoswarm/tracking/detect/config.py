@@ -44,6 +44,8 @@ class ClassicalConfig:
     far (px, working resolution) the background may have moved under the camera; a
     pixel is compared with the background's extreme within that distance, so that
     jitter between photos or video frames does not turn its edges into blobs.
+    ``join_split``: join two blobs that are the two ends of one body split at its
+    waist into one detection (:mod:`~.join`).
     """
 
     ant_length_mm: float = anatomy.ANT_LENGTH_MM
@@ -64,6 +66,7 @@ class ClassicalConfig:
     bg_rate: float = 0.02
     gain_grid: int = 24
     shift_px: int = 0
+    join_split: bool = True
 
     def __post_init__(self) -> None:
         for name in ("ant_length_mm", "ant_width_mm", "threshold_sigmas", "split_area"):

@@ -14,6 +14,7 @@ from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_json, prepare_output_dir
 from thermoswarm.tracking.detection import FrameDetections
 from thermoswarm.tracking.pipeline.common import _summary, pixel_dataset
+from thermoswarm.tracking.pipeline.flood import warn_no_track
 from thermoswarm.tracking.track.tracker import Tracker, TrackerConfig, TrackResult
 
 
@@ -97,6 +98,7 @@ def track_detection_file(
         tracker=tcfg,
         length_px=float(tracker.length_px or 0),
         elapsed=elapsed,
+        per_frame=np.array([len(d) for d in dets]),
     )
 
 
@@ -111,11 +113,13 @@ def _write_detection_outputs(
     tracker: TrackerConfig,
     length_px: float,
     elapsed: float,
+    per_frame: np.ndarray,
 ) -> dict[str, Any]:
     """Write tracks_mot.txt, tracks.nc and summary.json of :func:`track_detection_file`.
 
     ``table`` is the detections read from ``path``, ``length_px`` the tracker's unit
-    (px) and ``elapsed`` the tracking time (s); returns the summary.
+    (px), ``elapsed`` the tracking time (s) and ``per_frame`` the detections per frame;
+    returns the summary (its ``warnings``: :func:`~.flood.no_track_warning`'s, if any).
     """
     from thermoswarm.io.mot import write_mot_table
     from thermoswarm.io.netcdf import write as write_nc
@@ -151,6 +155,7 @@ def _write_detection_outputs(
         first_frame=first,
         length_px=length_px,
         space_unit="mm" if px_per_mm is not None else "px",
+        warnings=warn_no_track(result.n_tracks, per_frame, fps, tracker, out, video=False),
     )
     atomic_write_json(out / "summary.json", summary)
     return summary

@@ -17,11 +17,17 @@ checks a run's output against what animals can be:
 :func:`refuse_flood` then raises :class:`~thermoswarm.errors.InputError` with the
 reasons and what to try, after the outputs are written with ``WARNING.txt`` beside
 them (so the user can look), and the CLI exits with status 2.
+
+Nor a silent empty result: when detections were found but no track was confirmed,
+:func:`no_track_warning` says why (detections, frames, the confirmation needed) and
+what to try; the outputs are written with it in ``WARNING.txt`` and
+``summary.json``'s ``warnings``, and the CLI prints it on stderr (exit status 0).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -29,7 +35,7 @@ from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_text
 from thermoswarm.tracking import anatomy
 
-__all__ = ["flood_reasons", "refuse_flood", "FLOOD_HINT"]
+__all__ = ["flood_reasons", "refuse_flood", "no_track_warning", "warn_no_track", "FLOOD_HINT"]
 
 #: What to try when the output is not animals.
 FLOOD_HINT = (
@@ -108,3 +114,62 @@ def refuse_flood(source: str, out: Path, reasons: list[str]) -> None:
     text = f"{source}: the detections are not animals: " + "; ".join(reasons)
     atomic_write_text(out / "WARNING.txt", text + "\n" + FLOOD_HINT + "\n")
     raise InputError(f"{text}; outputs kept in {out} for a look (WARNING.txt); {FLOOD_HINT}")
+
+
+def no_track_warning(
+    per_frame: np.ndarray,
+    fps: float,
+    confirm_s: float,
+    n_init: int,
+    tentative_gap: int,
+    *,
+    video: bool = True,
+) -> str:
+    """One paragraph: why no track was confirmed from the detections counted per frame
+    in ``per_frame`` at ``fps`` frames/s, when a track needs ``n_init`` detections
+    (``confirm_s`` s) with at most ``tentative_gap`` missed frames between them; and
+    what to try (for a video, or for a detections file when ``video`` is false)."""
+    per_frame = np.asarray(per_frame)
+    n_frames, n_det = len(per_frame), int(per_frame.sum())
+    seen = int(np.count_nonzero(per_frame))
+    gap = f"at most {tentative_gap} missed frame" + "s" * (tentative_gap > 1)
+    gap = gap if tentative_gap else "no missed frame"
+    text = (
+        f"no track was confirmed, so tracks.nc holds no individuals: {n_det} detections in "
+        f"{n_frames} frames ({seen} frames with any) at {fps:g} frames/s, and a track is "
+        f"confirmed once one animal is detected {n_init} times (tracker.confirm_s = "
+        f"{confirm_s:g} s = {n_init} detections at {fps:g} frames/s, with {gap} between "
+        "them)"
+    )
+    if n_frames < n_init:
+        text += f"; the run has fewer frames ({n_frames}) than that"
+    more = f"more frames (at least {n_init}{'; --max-frames' if video else ''})"
+    look = (
+        "if the animals are missed or scattered (look at detections.txt and overlay.mp4), "
+        "the detector's options (--set detector.threshold=..., detector.polarity, "
+        "detector.channel) or --px-per-mm"
+        if video
+        else "if the boxes are few or scattered, the detector that made them, or "
+        "--object-size-px (the tracker's body length)"
+    )
+    return (
+        f"{text}. What to try: {more}, --set tracker.confirm_s=0 (confirm a track at its "
+        "first detection), --set tracker.tentative_gap_s=0.2 (let a new track miss "
+        f"frames); {look}."
+    )
+
+
+def warn_no_track(
+    n_tracks: int, per_frame: np.ndarray, fps: float, cfg: Any, out: Path, *, video: bool = True
+) -> list[str]:
+    """``[]``, or where no track was confirmed (``n_tracks`` 0), :func:`no_track_warning`'s
+    paragraph for the tracker's config ``cfg`` at ``fps`` frames/s, also written to
+    ``out/WARNING.txt`` (removed when tracks were found: an earlier run's)."""
+    if n_tracks:
+        (out / "WARNING.txt").unlink(missing_ok=True)  # an earlier run's
+        return []
+    text = no_track_warning(
+        per_frame, fps, cfg.confirm_s, cfg.n_init(fps), cfg.tentative_max_misses(fps), video=video
+    )
+    atomic_write_text(out / "WARNING.txt", text + "\n")
+    return [text]

@@ -27,7 +27,7 @@ from thermoswarm.tracking.pipeline.common import (
     build_detector,
     pixel_dataset,
 )
-from thermoswarm.tracking.pipeline.flood import flood_reasons, refuse_flood
+from thermoswarm.tracking.pipeline.flood import flood_reasons, refuse_flood, warn_no_track
 from thermoswarm.tracking.track.tracker import Tracker, TrackerConfig, TrackResult
 
 
@@ -353,7 +353,7 @@ def _write_video_outputs(
     reasons = flood_reasons(
         per_frame, src.size, scale["length_px"], dets if still_bg else None, fps=rate
     )
-    summary["warnings"] = reasons
+    summary["warnings"] = reasons or warn_no_track(result.n_tracks, per_frame, rate, tracker, out)
     atomic_write_json(out / "summary.json", summary)
     if reasons:
         refuse_flood(str(video), out, reasons)

@@ -116,9 +116,10 @@ def fix_jumps(
     boxes: np.ndarray,
     scores: np.ndarray,
     interp: np.ndarray,
-    limit: float,
+    limit: float | np.ndarray,
 ) -> np.ndarray:
-    """Remove what no ant can do: moving faster than ``limit`` px per frame.
+    """Remove what no ant can do: moving faster than ``limit`` px per frame (one number,
+    or one per row: each track's own, :func:`~thermoswarm.tracking.track.speed.track_limits`).
 
     Rows are sorted by track then frame; ``pts``, ``boxes``, ``scores`` and ``interp``
     are changed in place.  A single row that jumps away and back (a misplaced
@@ -134,14 +135,15 @@ def fix_jumps(
     f_all = frames.astype(np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):  # across tracks: not used
         step_all = np.linalg.norm(np.diff(pts[:, 1], axis=0), axis=1) / np.diff(f_all)
-    fast_all = (step_all > limit) & (ids[1:] == ids[:-1])
+    lim = np.broadcast_to(np.asarray(limit, dtype=np.float64), ids.shape)
+    fast_all = (step_all > lim[1:]) & (ids[1:] == ids[:-1])
     if not fast_all.any():
         return drop
     starts, ends = _track_bounds(ids)
     owner = np.searchsorted(starts, np.flatnonzero(fast_all), side="right") - 1
     for t in np.unique(owner):
         a, b = starts[t], ends[t]
-        f = f_all[a:b]
+        f, limit = f_all[a:b], lim[a]
         body = pts[a:b, 1]
         step = np.linalg.norm(np.diff(body, axis=0), axis=1) / np.diff(f)
         fast = step > limit

@@ -14,8 +14,8 @@ Each frame:
    the track's predicted uncertainty: a new track, whose velocity is unknown, reaches
    as far as an ant walks) and ``da`` the angle between the body axes (head-tail
    ambiguity ignored).  A pair is allowed only inside the gate: ``m`` below
-   ``gate_sigmas`` and ``d`` below what ``max_speed_bl_s`` allows since the track's
-   last detection (and, where ``min_iou`` > 0, a detector's own boxes overlapping).
+   ``gate_sigmas``, ``d`` below what ``max_speed_bl_s`` (or 1.5 x the track's speed,
+   :mod:`.speed`) allows since its last detection, a detector's boxes' IoU ``min_iou``.
 3. **Assign** with :func:`scipy.optimize.linear_sum_assignment`, confirmed tracks
    first (including tracks that lost their ant within the last ``max_gap_s``), then
    tentative tracks with the detections left; pairs costing more than ``max_cost`` are
@@ -73,7 +73,7 @@ import numpy as np
 from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detection import FrameDetections
-from thermoswarm.tracking.track import association, kalman
+from thermoswarm.tracking.track import association, kalman, speed
 from thermoswarm.tracking.track import bank as track_bank
 from thermoswarm.tracking.track.bank import TrackBank
 from thermoswarm.tracking.track.config import TrackerConfig
@@ -265,6 +265,7 @@ class Tracker:
         S, pred, tboxes, axes, reach, any_axis = track_bank.prepare_costs(
             b.F, b.I, b.n, self.frame, self._r2, self.pad, self.step_px
         )
+        reach = speed.reach_px(b.x[:, 2:], self.frame - b.last, self.step_px, self.pad)
         cost = association.pair_costs(
             c,
             S=S,
@@ -422,7 +423,7 @@ class Tracker:
         )
         best = None
         if lost.size:
-            reach = self.step_px * (first_frame - last[lost]) + 2 * self.pad
+            reach = speed.reach_px(b.x[lost, 2:], first_frame - last[lost], self.step_px, self.pad)
             dv = first_p[1] - b.last_points[lost, 1]
             s = np.hypot(dv[:, 0], dv[:, 1]) / reach
             s = np.where(np.isnan(s), np.inf, s)
@@ -557,7 +558,8 @@ class Tracker:
         frames, ids, pts, boxes = frames[order], ids[order], pts[order], boxes[order]
         scores, interp, hc = scores[order], interp[order], hc[order]
         if self.config.fix_jumps:
-            keep = ~fix_jumps(frames, ids, pts, boxes, scores, interp, self.step_px)
+            lim = speed.track_limits(frames, ids, pts[:, 1], self.step_px)
+            keep = ~fix_jumps(frames, ids, pts, boxes, scores, interp, lim)
             frames, ids, pts, boxes = frames[keep], ids[keep], pts[keep], boxes[keep]
             scores, interp, hc = scores[keep], interp[keep], hc[keep]
         pts = orient_tracks(self.config, frames, ids, pts, hc, self.motion_px)
