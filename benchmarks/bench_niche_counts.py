@@ -262,6 +262,25 @@ def count_photo(photo: Photo, bodies: np.ndarray, length: float, margin: float) 
     return masks
 
 
+def count_all(photos: list[Photo], dets: dict, args: argparse.Namespace) -> tuple[dict, int]:
+    """Set every photo's counts: from the tool's ``NAME_regions.csv`` where there is
+    one, else counted here (and for the photos to draw, whose masks are returned with
+    the number of photos counted here)."""
+    masks = {}
+    n_counted = 0
+    for p in photos:
+        bodies, length, _, counts = dets[p.trial]
+        draw = p.name in args.overlay.split(",") and args.overlay_dir is not None
+        if counts is not None:
+            p.counts = counts[p.name]
+        if counts is None or draw:
+            m = count_photo(p, bodies[p.name], length, args.margin)
+            n_counted += 1
+            if draw:
+                masks[p.name] = m
+    return masks, n_counted
+
+
 def predicted(photo: Photo, sides: dict[int, str]) -> tuple[int, int]:
     """(sucrose, peptone) counted, with the sucrose dish on ``sides[trial]``."""
     s = sides[photo.trial]
@@ -451,18 +470,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         dets = detect_trials(photos, Path(tmp), args)
     t0 = time.perf_counter()
-    masks = {}
-    n_counted = 0
-    for p in photos:
-        bodies, length, _, counts = dets[p.trial]
-        draw = p.name in args.overlay.split(",") and args.overlay_dir is not None
-        if counts is not None:
-            p.counts = counts[p.name]  # the tool's NAME_regions.csv
-        if counts is None or draw:
-            m = count_photo(p, bodies[p.name], length, args.margin)
-            n_counted += 1
-            if draw:
-                masks[p.name] = m
+    masks, n_counted = count_all(photos, dets, args)
     patch_s = time.perf_counter() - t0
     sides = dict(SUCROSE_SIDE)
     tuned = tune_sides([p for p in photos if p.trial in TRAIN_TRIALS])

@@ -71,8 +71,10 @@ from thermoswarm.errors import InputError
     type=click.Choice(["auto", "yes", "no"]),
     default="auto",
     show_default=True,
-    help="Photo series (EXIF clocks a minute or more apart, or 'yes'): detect in windows "
-    "of 12 photos, each with its own background, with the options tuned on such photos.",
+    help="Photo series (photos a minute or more apart by their EXIF clocks or the times in "
+    "their names, else consecutive photos as different as photos 8 apart; or 'yes'): "
+    "detect in windows of 12 photos, in the order taken, each with its own background, "
+    "with the options tuned on such photos.",
 )
 def detect(
     inputs: tuple[Path, ...],

@@ -186,7 +186,6 @@ def _detect_source(
     """
     from thermoswarm.io.mot import write_mot_table
     from thermoswarm.tracking.detect.files import coco_dataset, mot_rows
-    from thermoswarm.tracking.video import VideoSource
 
     t0 = time.perf_counter()
     rate = fps or src.fps or 30.0  # images: the background from up to 90 of them
@@ -194,26 +193,17 @@ def _detect_source(
         camera = "still"
     src, path = register_source(src, camera, max_frames=max_frames)
     offset = src.camera.offset if isinstance(src, RegisteredSource) else (0.0, 0.0)
+    src, evidence = _series_source(src, series, max_frames)
     files = src.files
-    evidence = series_evidence(files) if files is not None and series != "no" else None
-    build = dict(px_per_mm=px_per_mm, detector=detector, model=model)
-    if evidence is not None and (series == "yes" or evidence["series"]):
-        files = evidence["files"][:max_frames]  # in the order taken
-        src = VideoSource.from_images(files, str(src.path))
-        dets, scale, det = detect_series(
-            files, options=detector_options, window=series_window, **build
-        )
+    kw = dict(px_per_mm=px_per_mm, detector=detector, model=model, options=detector_options)
+    if evidence is not None:
+        dets, scale, det = detect_series(files, window=series_window, **kw)
         scale["photo_series"] = _series_record(evidence, scale, forced=series == "yes")
     else:
-        n_prep = _prep_frames(prepare_s, rate, max_frames)
-        det, scale = build_detector(src, n_prep, options=detector_options, **build)
+        det, scale = build_detector(src, _prep_frames(prepare_s, rate, max_frames), **kw)
         frames = src.frames(max_frames, prefetch=4)
         dets = [shift_detections(det.detect(f), offset) for f in frames]
-    images = []
-    for k in range(len(dets)):
-        img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
-        img["file_name"] = files[k].name if files else f"{src.path.name}#{k + 1:06d}"
-        images.append(img)
+    images = _coco_images(src, files, len(dets))
     pad = 0.5 * width_bl * scale["length_px"]
     coco = coco_dataset(
         images,
@@ -228,7 +218,7 @@ def _detect_source(
         write_mot_table(out / f"{name}_det.txt", mot_rows(dets, pad=pad))
         written.append(f"{name}_det.txt")
     written += _camera_and_counts(name, out, src, path, dets, images, regions, px_per_mm)
-    if isinstance(regions, ColorRegions):
+    if isinstance(regions, ColorRegions):  # needs the animals' length
         written += _patch_counts(name, out, src, dets, images, regions, scale["length_px"])
     n_det = sum(len(d) for d in dets)
     reasons = flood_reasons(np.array([len(d) for d in dets]), src.size, scale["length_px"])
@@ -248,6 +238,31 @@ def _detect_source(
         "camera": camera_summary(path, isinstance(src, RegisteredSource)),
         "photo_series": scale.get("photo_series"),
     }
+
+
+def _coco_images(src: Any, files: list[Path] | None, n: int) -> list[dict[str, Any]]:
+    """The COCO ``images`` of ``n`` frames of ``src`` (a photo's file name, or
+    ``VIDEO#000001``)."""
+    images = []
+    for k in range(n):
+        img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
+        img["file_name"] = files[k].name if files else f"{src.path.name}#{k + 1:06d}"
+        images.append(img)
+    return images
+
+
+def _series_source(src: Any, series: str, max_frames: int | None) -> tuple[Any, dict | None]:
+    """``(source, evidence)``: for a photo series (recognised, or ``series="yes"``) its
+    photos in the order taken and :func:`series_evidence`'s record; else ``(src, None)``."""
+    from thermoswarm.tracking.video import VideoSource
+
+    if src.files is None or series == "no":
+        return src, None
+    evidence = series_evidence(src.files)
+    if not (series == "yes" or evidence["series"]):
+        return src, None
+    files = evidence["files"][:max_frames]
+    return VideoSource.from_images(files, str(src.path)), evidence
 
 
 def _series_record(evidence: dict, scale: dict, *, forced: bool) -> dict[str, Any]:
