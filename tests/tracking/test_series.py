@@ -96,6 +96,11 @@ def test_series_recognised_by_the_times_in_names(tmp_path):
     secs = [f"cam_20240501_0830{k:02d}.png" for k in range(16)]
     fast = series_evidence(_write(tmp_path / "fast", frames, secs))
     assert not fast["series"] and fast["by"] == "names" and fast["median_gap_s"] == 1.0
+    # One "time" in every name is no clock: the changes decide.
+    same = series_evidence(
+        _write(tmp_path / "same", frames, [f"ant_3d_{k:03d}.png" for k in range(16)])
+    )
+    assert not same["series"] and same["by"] == "changes"
 
 
 def test_names_with_spans_and_order(tmp_path):

@@ -9,7 +9,8 @@ order (the first that speaks decides):
    a series when the median gap between consecutive photos is at least ``min_gap_s``
    (60 s), frames when it is shorter.
 2. **Names** -- times written in every file name (``IMG_20240501_083000``,
-   ``2024-05-01_08-30-00``, ``08-30-00``, ``t_2h30m``, ``030min``): the same rule.
+   ``2024-05-01_08-30-00``, ``08-30-00``, ``t_2h30m``, ``030min``): the same rule,
+   when at least half of the names give different times.
 3. **Changes** -- photos minutes apart share no motion: an ant is somewhere else in
    the next photo, the light has moved, so consecutive photos differ about as much as
    photos eight apart; consecutive frames of a video differ far less than frames eight
@@ -223,6 +224,8 @@ def series_evidence(files: list[Path] | None, min_gap_s: float = 60.0) -> dict[s
         return {"series": False, "by": None, "files": files}
     for by, times in (("clocks", photo_times), ("names", name_times)):
         t = times(files)
+        if by == "names" and t is not None and len(np.unique(t)) < max(2, len(t) // 2):
+            t = None  # the same "time" in most names (``ant_3d_0001``): not a clock
         if t is not None:
             order = np.argsort(t, kind="stable")
             gap = float(np.median(np.diff(t[order])))
