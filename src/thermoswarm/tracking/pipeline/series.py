@@ -19,9 +19,13 @@ order (the first that speaks decides):
    spread): the share of pixels that change by more than 6 times the noise between
    neighbours, ``f1``, and between images eight apart, ``f8``.  A series when
    ``f1 >= 0.6 f8`` and something changes at all (``f8 >= 2e-4``).  Measured ``f1 /
-   f8``: the six Niche-Lab trials (a photo per 30 min), 0.69-0.98; five videos of flies
-   and ants at 24-30 frames/s, still or hand-held, 0.04-0.23; drawn ants walking 2.6
-   body lengths/s at 30 frames/s (``tests/tracking/test_series.py``), 0.48-0.49.
+   f8``: the six Niche-Lab trials (a photo per 30 min), 0.69-0.98; the first 24 frames
+   of SLEAP's fly clip (25 frames/s; 0.04, and 0.11 moved by a synthetic hand-held
+   camera), of a rendered ant clip (30 frames/s; 0.23) and of a tracking overlay video
+   (0.11); drawn ants walking 2.6 body lengths/s at 30 frames/s
+   (``tests/tracking/test_series.py``), 0.48-0.49.  Frames so far apart that the
+   animals move more than a body length between them (a time-lapse) count as a series
+   too (``series="no"`` keeps them a video).
 
 Images without clocks or times are taken in the order of the sequence number their
 names end with (``t6_999`` then ``t6_000``: a camera counter of fixed width that
