@@ -2,8 +2,9 @@
 thermoswarm detector without a scale, against the labelled counts.
 
     python benchmarks/bench_niche_counts.py DATA_DIR [--model M.pt] [--detector NAME]
-        [--set detector.KEY=VALUE] [--coco-dir DIR] [--margin 0.5] [--plot OUT.png]
-        [--overlay-dir DIR] [--json OUT.json]
+        [--set detector.KEY=VALUE] [--series auto|yes|no] [--window 12]
+        [--detections-dir DIR] [--margin 0.5] [--plot OUT.png] [--overlay-dir DIR]
+        [--json OUT.json]
 
 ``DATA_DIR``: the photos of Niche-Lab/ant-detective at commit be518ac,
 ``data/peptone_sucrose/train/`` (trials 1-5) and ``val/`` (trial 6) as ``DATA_DIR/train``
@@ -13,32 +14,38 @@ or ``DATA_DIR/{train,val}/annotation.txt`` (the authors' CSV: ``filename, time,
 sucrose, peptone, ...``).  docs/real_footage.md says how to bring them in.  Nothing of
 the ``test`` split (trials 7-9) is read.
 
-Method (stated in the output):
+The benchmark detects nothing itself; it scores what ``thermoswarm detect`` finds.
 
-- Detection: the photos of each trial (a fixed camera, one photo per 30 min), in the
-  order taken, in windows of ``--window`` consecutive photos (12, tuned on train: the
-  light, the rims' reflections and the wet wick drift over two days), each window
-  given to :func:`thermoswarm.tracking.pipeline.detect_inputs` as ``thermoswarm
-  detect PHOTOS... --out DIR`` does (its background learned from those photos);
-  without a scale: the ants' body length L (px) is measured once per trial from its
-  first 90 photos (``estimate_length_px``) and used for all its windows.
-  ``--model``/``--detector``/``--set`` choose and tune the detector as for ``detect``;
-  ``--coco-dir DIR`` reads ``DIR/t<N>.json`` (COCO from any detector, one file per
-  trial) instead.
-- Patches: each dish holds pieces of saturated yellow-orange paper soaked with one
-  food (two dishes, left and right).  A patch is the paper of one dish: pixels of hue
-  8-45 (OpenCV's 0-180 scale), saturation >= 150 and value >= 100; components smaller
-  than 3 L^2 or touching the photo's border (the loose paper outside the dishes) are
-  dropped; each component is closed with a disc of diameter L (the ants sitting on it)
-  and its holes filled; components left of the photo's centre form the left patch.
-- On a patch: the detection's body point lies within the patch plus a margin of
-  ``--margin`` body lengths (default 0.5, half a body length).
+- Detection: each trial's photos are given to
+  :func:`thermoswarm.tracking.pipeline.detect_inputs`, as ``thermoswarm detect PHOTOS...
+  --out DIR`` does: the tool recognises the photos as a series (no clocks, no times in
+  the names: by how much changes between them), takes them in the order taken (the
+  camera's counter wraps in trial 6) and detects them in windows of photos, each with
+  its own background, the body length measured once per trial from its first 90
+  photos, with its options for photo series (``thermoswarm.tracking.pipeline.series``).
+  ``--series``/``--window`` are ``detect_inputs``' ``series``/``series_window``;
+  ``--model``/``--detector``/``--set`` choose and tune the detector as for ``detect``.
+  ``--detections-dir DIR`` scores a finished run instead: ``DIR/t<N>.json`` (or
+  ``DIR/t<N>/t<N>.json``: ``thermoswarm detect t<N> --out DIR/t<N>`` on a folder
+  ``t<N>`` of one trial's photos), COCO from ``detect`` or any detector.
+- Patches and counts: the tool's ``--regions color:8-45,margin=M``
+  (:mod:`thermoswarm.tracking.pipeline.patches`, ``NAME_regions.csv``).  Each dish
+  holds pieces of saturated yellow-orange paper soaked with one food (two dishes, left
+  and right).  A patch is the paper of one dish: pixels of hue 8-45 (OpenCV's 0-180
+  scale), saturation >= 150 and value >= 100; components smaller than 3 L^2 or
+  touching the photo's border (the loose paper outside the dishes) are dropped; each
+  component is closed with a disc of diameter L (the ants sitting on it) and its holes
+  filled; components left of the photo's centre form the left patch.  On a patch: the
+  detection's body point lies within the patch plus a margin of ``--margin`` body
+  lengths (default 0.5, half a body length).  A ``--detections-dir`` without such a
+  CSV is counted here with the same functions.
 - Which dish holds sucrose: ``SUCROSE_SIDE`` per trial.  For trials 1-5 it is the side
   whose counts fit the train labels better (the only thing tuned, on train); trial 6's
   is read from the dishes' "S" and "P" marks (sucrose on the right), not from its labels.
 
-Figures per split and patch: mean absolute error (MAE), bias (mean of predicted minus
-labelled), Pearson correlation, and the labelled mean; frames (photos) per second of
+Figures per split and patch (and both patches together): mean absolute error (MAE),
+bias (mean of predicted minus labelled), Pearson and Spearman correlation, and the
+labelled mean; frames (photos) per second of
 the detection (wall time in this process, background learning included) and of the
 patch finding.
 """
@@ -60,20 +67,16 @@ from xml.etree import ElementTree
 
 import numpy as np
 
+from thermoswarm.tracking.pipeline.patches import ColorRegions, count_patches, on_patch
+from thermoswarm.tracking.pipeline.series import SERIES_WINDOW
+
+#: The food papers (yellow and orange): ``detect --regions color:8-45``
+#: (:mod:`thermoswarm.tracking.pipeline.patches`, saturation >= 150, value >= 100).
+PAPER_HUE = (8, 45)
+
 #: Side of the sucrose dish per trial: trials 1-5 tuned on the train labels (see
 #: ``tune_sides``), trial 6 read from the "S" written on the right dish.
 SUCROSE_SIDE = {1: "left", 2: "right", 3: "right", 4: "right", 5: "left", 6: "right"}
-
-#: Classical detector options for these photos (``--set detector.KEY=VALUE`` adds to
-#: or overrides them): a background edge moved by 1 px (working resolution) between
-#: photos is not an ant; blobs are split from 2.5 single-ant areas (tuned on train
-#: among 1.6, the default, and 2.5: MAE 2.69/3.12 against 3.24/3.43 on the two patches).
-PHOTO_OPTIONS: dict[str, object] = {"shift_px": 1, "split_area": 2.5}
-
-#: Photos per background (6 h at one photo per 30 min), tuned on train among 6, 12, 24
-#: and one per trial (its first 90 photos): MAE sucrose / peptone 0.97 / 0.64, 0.59 /
-#: 0.51, 0.72 / 0.93 and 2.69 / 3.12.
-WINDOW = 12
 
 TRAIN_TRIALS = (1, 2, 3, 4, 5)
 VAL_TRIALS = (6,)
@@ -171,66 +174,6 @@ def load_photos(data_dir: Path) -> list[Photo]:
     return photos
 
 
-def find_patches(rgb: np.ndarray, length_px: float) -> dict[str, np.ndarray]:
-    """Boolean masks ``{"left": ..., "right": ...}`` of the food paper in each dish.
-
-    Parameters
-    ----------
-    rgb
-        Photo, ``uint8`` ``(H, W, 3)`` RGB.
-    length_px
-        The ants' body length L, px (sets the smallest patch, 3 L^2, and the closing
-        disc, diameter L, that fills the holes the ants on the paper leave).
-    """
-    import cv2
-
-    hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
-    h, s, v = hsv[..., 0], hsv[..., 1], hsv[..., 2]
-    paper = ((h >= 8) & (h <= 45) & (s >= 150) & (v >= 100)).astype(np.uint8)
-    paper = cv2.morphologyEx(paper, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
-    n, lab, stats, cent = cv2.connectedComponentsWithStats(paper, connectivity=8)
-    height, width = paper.shape
-    k = max(3, int(round(length_px)) | 1)
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (k, k))
-    out = {"left": np.zeros_like(paper), "right": np.zeros_like(paper)}
-    for i in range(1, n):
-        x, y, w, hh, area = stats[i]
-        if area < 3 * length_px**2:
-            continue
-        if x <= 1 or y <= 1 or x + w >= width - 1 or y + hh >= height - 1:
-            continue  # loose paper outside the dishes
-        # Closed within its bounding box padded by the disc (the same result, faster).
-        y0, x0 = max(y - k, 0), max(x - k, 0)
-        y1, x1 = min(y + hh + k, height), min(x + w + k, width)
-        comp = (lab[y0:y1, x0:x1] == i).astype(np.uint8)
-        comp = cv2.morphologyEx(comp, cv2.MORPH_CLOSE, disc, borderValue=0)
-        contours, _ = cv2.findContours(comp, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-        side = "left" if cent[i][0] < width / 2 else "right"
-        cv2.drawContours(out[side][y0:y1, x0:x1], contours, -1, 1, thickness=cv2.FILLED)
-    return {k_: m.astype(bool) for k_, m in out.items()}
-
-
-def grow(mask: np.ndarray, radius_px: float) -> np.ndarray:
-    """``mask`` dilated by a disc of ``radius_px`` (the margin of "on a patch")."""
-    import cv2
-
-    r = int(round(radius_px))
-    if r <= 0:
-        return mask
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
-    return cv2.dilate(mask.astype(np.uint8), disc).astype(bool)
-
-
-def on_patch(bodies: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Which body points ``(n, 2)`` px (x, y) lie in ``mask``."""
-    if len(bodies) == 0:
-        return np.zeros(0, bool)
-    xy = np.rint(bodies).astype(int)
-    xy[:, 0] = np.clip(xy[:, 0], 0, mask.shape[1] - 1)
-    xy[:, 1] = np.clip(xy[:, 1], 0, mask.shape[0] - 1)
-    return mask[xy[:, 1], xy[:, 0]]
-
-
 def coco_bodies(path: Path) -> tuple[dict[str, np.ndarray], float]:
     """Body points per image file name from a COCO file of ``thermoswarm detect`` (the
     middle keypoint; the box centre when there are no keypoints) and the body length
@@ -254,90 +197,88 @@ def coco_bodies(path: Path) -> tuple[dict[str, np.ndarray], float]:
     return {n: np.asarray(p, float).reshape(-1, 2) for n, p in pts.items()}, float(length)
 
 
+def _detections_file(root: Path, trial: int) -> Path:
+    """``root/t<N>.json``, else ``root/t<N>/t<N>.json`` (``detect t<N> --out root/t<N>``)."""
+    for f in (root / f"t{trial}.json", root / f"t{trial}" / f"t{trial}.json"):
+        if f.is_file():
+            return f
+    sys.exit(f"error: {root}: no t{trial}.json or t{trial}/t{trial}.json (trial {trial})")
+
+
+def _regions_csv(path: Path) -> dict[str, dict[str, int]]:
+    """``{file: {"left": n, "right": n}}`` from a ``NAME_regions.csv`` of ``detect
+    --regions color:...``."""
+    with open(path, newline="") as fh:
+        return {r["file"]: {k: int(r[k]) for k in ("left", "right")} for r in csv.DictReader(fh)}
+
+
 def detect_trials(
     photos: list[Photo], out_dir: Path, args: argparse.Namespace
-) -> dict[int, tuple[dict[str, np.ndarray], float, float]]:
-    """Detect every trial's photos as one sequence; ``{trial: (bodies per file, L px,
-    seconds)}``.  With ``args.coco_dir`` the COCO files ``t<N>.json`` there are read
-    instead (seconds NaN)."""
+) -> dict[int, tuple[dict[str, np.ndarray], float, float, dict | None]]:
+    """Detect every trial's photos with ``detect_inputs`` (as ``thermoswarm detect
+    PHOTOS... --regions color:8-45,margin=M``); ``{trial: (bodies per file, L px,
+    seconds, counts per file)}``.  With ``args.detections_dir`` the COCO files there
+    are read instead (seconds NaN), and their ``t<N>_regions.csv`` when it holds
+    ``left`` and ``right`` (else counts ``None``: counted here with the tool's
+    patches)."""
     from thermoswarm.tracking.pipeline import detect_inputs
 
-    out: dict[int, tuple[dict[str, np.ndarray], float, float]] = {}
+    out: dict[int, tuple[dict[str, np.ndarray], float, float, dict | None]] = {}
     for t in sorted({p.trial for p in photos}):
-        if args.coco_dir is not None:
-            bodies, length = coco_bodies(args.coco_dir / f"t{t}.json")
-            out[t] = (bodies, length, math.nan)
+        if args.detections_dir is not None:
+            coco = _detections_file(args.detections_dir, t)
+            bodies, length = coco_bodies(coco)
+            regions = coco.with_name(f"t{t}_regions.csv")
+            with_sides = regions.is_file() and "left" in regions.read_text().split("\n", 1)[0]
+            out[t] = (bodies, length, math.nan, _regions_csv(regions) if with_sides else None)
             continue
-        files = time_order([p.path for p in photos if p.trial == t])
         t0 = time.perf_counter()
-        if args.window:
-            out[t] = (*_detect_windows(files, out_dir / f"t{t}", args), 0.0)
-        else:
-            detect_inputs(
-                files,
-                out_dir / f"t{t}",
-                detector=args.detector,
-                model=args.model,
-                detector_options=args.options or None,
-            )
-            out[t] = (*coco_bodies(out_dir / f"t{t}" / "images.json"), 0.0)
-        out[t] = (out[t][0], out[t][1], time.perf_counter() - t0)
-    return out
-
-
-def time_order(files: list[Path]) -> list[Path]:
-    """The photos in the order they were taken: their numbers (``t6_826``) count up and
-    wrap at 1000 (``t6_999`` is followed by ``t6_000``), so the sequence starts after
-    the largest gap between sorted numbers, counted around the wrap."""
-    files = sorted(files, key=lambda f: int(f.stem.split("_")[-1]))
-    if len(files) < 2:
-        return files
-    n = np.array([int(f.stem.split("_")[-1]) for f in files])
-    gaps = np.diff(np.r_[n, n[0] + 1000])
-    start = (int(np.argmax(gaps)) + 1) % len(files)
-    return files[start:] + files[:start]
-
-
-def _detect_windows(
-    files: list[Path], out_dir: Path, args: argparse.Namespace
-) -> tuple[dict[str, np.ndarray], float]:
-    """Detect ``files`` in windows of ``args.window`` consecutive photos, each window
-    with its own background (lighting, rims and stains drift over two days); the body
-    length is measured once from the trial's first 90 photos (no scale given)."""
-    from thermoswarm.tracking import anatomy
-    from thermoswarm.tracking.detect.classical import estimate_length_px
-    from thermoswarm.tracking.pipeline import detect_inputs
-    from thermoswarm.tracking.video import VideoSource
-
-    src = VideoSource.from_images(files[:90], "trial")
-    classical = (args.detector or ("classical" if args.model is None else "")) == "classical"
-    est = estimate_length_px(src.frames(90, step=2), args.options if classical else None)
-    bodies: dict[str, np.ndarray] = {}
-    for k in range(0, len(files), args.window):
-        chunk = files[k : k + args.window]
-        if len(chunk) < args.window // 2 and k:  # a short tail joins the previous window
-            chunk = files[max(k - args.window, 0) : k + args.window]
-        detect_inputs(
-            chunk,
-            out_dir / f"w{k}",
-            px_per_mm=est.length_px / anatomy.ANT_LENGTH_MM,
+        summary = detect_inputs(
+            [p.path for p in photos if p.trial == t],
+            out_dir / f"t{t}",
             detector=args.detector,
             model=args.model,
             detector_options=args.options or None,
+            series=args.series,
+            series_window=args.window,
+            regions=f"color:{PAPER_HUE[0]}-{PAPER_HUE[1]},margin={args.margin}",
         )
-        found, _ = coco_bodies(out_dir / f"w{k}" / "images.json")
-        bodies.update({f.name: found[f.name] for f in files[k : k + args.window]})
-    return bodies, est.length_px
+        args.series_used[t] = summary["inputs"][0]["photo_series"]
+        bodies, length = coco_bodies(out_dir / f"t{t}" / "images.json")
+        counts = _regions_csv(out_dir / f"t{t}" / "images_regions.csv")
+        out[t] = (bodies, length, time.perf_counter() - t0, counts)
+    return out
 
 
 def count_photo(photo: Photo, bodies: np.ndarray, length: float, margin: float) -> dict:
-    """Count the ants on each patch of one photo; returns the masks (with margin)."""
+    """Count the ants on each patch of one photo with the tool's patches
+    (``detect --regions color:8-45``); returns the masks (with margin)."""
     import cv2
 
     rgb = cv2.cvtColor(cv2.imread(str(photo.path)), cv2.COLOR_BGR2RGB)
-    masks = {k: grow(m, margin * length) for k, m in find_patches(rgb, length).items()}
-    photo.counts = {k: int(on_patch(bodies, m).sum()) for k, m in masks.items()}
+    spec = ColorRegions(hue=PAPER_HUE, margin_bl=margin)
+    counts, masks, _ = count_patches(spec, rgb, bodies, length)
+    photo.counts = {k: int(c) for k, c in zip(spec.names, counts, strict=False)}
     return masks
+
+
+def count_all(photos: list[Photo], dets: dict, args: argparse.Namespace) -> tuple[dict, int]:
+    """Set every photo's counts: from the tool's ``NAME_regions.csv`` where there is
+    one, else counted here (and for the photos to draw, whose masks are returned with
+    the number of photos counted here)."""
+    masks = {}
+    n_counted = 0
+    for p in photos:
+        bodies, length, _, counts = dets[p.trial]
+        draw = p.name in args.overlay.split(",") and args.overlay_dir is not None
+        if counts is not None:
+            p.counts = counts[p.name]
+        if counts is None or draw:
+            m = count_photo(p, bodies[p.name], length, args.margin)
+            n_counted += 1
+            if draw:
+                masks[p.name] = m
+    return masks, n_counted
 
 
 def predicted(photo: Photo, sides: dict[int, str]) -> tuple[int, int]:
@@ -364,13 +305,18 @@ def tune_sides(photos: list[Photo]) -> dict[int, str]:
 
 
 def metrics(pred: np.ndarray, true: np.ndarray) -> dict[str, float]:
-    """MAE, bias (mean of pred - true), Pearson r, labelled mean, n."""
+    """MAE, bias (mean of pred - true), Pearson r, Spearman rho, labelled mean, n."""
+    from scipy.stats import spearmanr
+
     d = pred - true
-    r = float(np.corrcoef(pred, true)[0, 1]) if pred.std() > 0 and true.std() > 0 else math.nan
+    varied = pred.std() > 0 and true.std() > 0
+    r = float(np.corrcoef(pred, true)[0, 1]) if varied else math.nan
+    rho = float(spearmanr(pred, true).statistic) if varied else math.nan
     return {
         "mae": float(np.abs(d).mean()),
         "bias": float(d.mean()),
         "r": r,
+        "rho": rho,
         "mean_label": float(true.mean()),
         "n": int(len(d)),
     }
@@ -475,13 +421,26 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--model", type=Path, help="trained detector weights (the unet detector)")
     ap.add_argument("--detector", help="detector name (default: classical, unet with --model)")
     ap.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE")
-    ap.add_argument("--coco-dir", type=Path, help="read DIR/t<N>.json instead of detecting")
+    ap.add_argument(
+        "--detections-dir",
+        "--coco-dir",
+        dest="detections_dir",
+        type=Path,
+        help="score DIR/t<N>.json or DIR/t<N>/t<N>.json (a detect run) instead of detecting",
+    )
     ap.add_argument("--margin", type=float, default=0.5, help="body lengths (default 0.5)")
+    ap.add_argument(
+        "--series",
+        choices=("auto", "yes", "no"),
+        default="auto",
+        help="detect's --series: auto (default) lets the tool recognise the photo series",
+    )
     ap.add_argument(
         "--window",
         type=int,
-        default=WINDOW,
-        help=f"photos per background (default {WINDOW}, tuned on train; 0: one per trial)",
+        default=SERIES_WINDOW,
+        help=f"photos per background in a series (default {SERIES_WINDOW}, the tool's; "
+        "0: one per trial)",
     )
     ap.add_argument("--tune-sides", action="store_true", help="re-tune SUCROSE_SIDE on train")
     ap.add_argument("--plot", type=Path, help="PNG of predicted against labelled counts")
@@ -498,8 +457,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     unknown = set(sets) - {"detector"}
     if unknown:
         ap.exit(2, f"error: --set takes detector.KEY=VALUE, got {sorted(unknown)[0]}.*\n")
-    # Photos 30 min apart: the camera may be nudged between them (see the docstring).
-    args.options = {**PHOTO_OPTIONS, **sets.get("detector", {})}
+    args.options = sets.get("detector", {})  # the tool adds its options for photo series
+    args.series_used = {}
     if not args.data_dir.is_dir():
         ap.exit(2, f"error: {args.data_dir}: no such folder (expected train/, val/)\n")
     return args
@@ -511,12 +470,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         dets = detect_trials(photos, Path(tmp), args)
     t0 = time.perf_counter()
-    masks = {}
-    for p in photos:
-        bodies, length, _ = dets[p.trial]
-        m = count_photo(p, bodies[p.name], length, args.margin)
-        if p.name in args.overlay.split(","):
-            masks[p.name] = m
+    masks, n_counted = count_all(photos, dets, args)
     patch_s = time.perf_counter() - t0
     sides = dict(SUCROSE_SIDE)
     tuned = tune_sides([p for p in photos if p.trial in TRAIN_TRIALS])
@@ -531,25 +485,29 @@ def main(argv: list[str] | None = None) -> int:
         + ", ".join(f"t{t} {v[1]:.1f}" for t, v in sorted(dets.items()))
     )
     print(f"sucrose side: {sides} (tuned on train: {tuned})")
-    print("| split | patch | n | labelled mean | MAE | bias | r |")
-    print("|---|---|---|---|---|---|---|")
+    if args.series_used:
+        print(f"photo series (per trial, as detect recognised them): {args.series_used}")
+    print("| split | patch | n | labelled mean | MAE | bias | r | Spearman |")
+    print("|---|---|---|---|---|---|---|---|")
     for split, per in res.items():
         for patch, m in per.items():
             print(
                 f"| {split} | {patch} | {m['n']} | {m['mean_label']:.2f} | {m['mae']:.2f} | "
-                f"{m['bias']:+.2f} | {m['r']:.3f} |"
+                f"{m['bias']:+.2f} | {m['r']:.3f} | {m['rho']:.3f} |"
             )
-    print(
-        f"detection: {n / det_s:.1f} photos/s ({det_s:.1f} s); "
-        f"patches and counting: {n / patch_s:.1f} photos/s ({patch_s:.1f} s)"
+    counted = (
+        f"patches and counting here: {n_counted / patch_s:.1f} photos/s ({patch_s:.1f} s)"
+        if n_counted
+        else "patches and counts: by detect (NAME_regions.csv)"
     )
+    print(f"detection: {n / det_s:.1f} photos/s ({det_s:.1f} s; NaN: read from files); {counted}")
     if args.plot:
         plot(photos, sides, res, args.plot)
     if args.overlay_dir:
         args.overlay_dir.mkdir(parents=True, exist_ok=True)
         for p in photos:
             if p.name in masks:
-                bodies, length, _ = dets[p.trial]
+                bodies, length = dets[p.trial][:2]
                 out = args.overlay_dir / f"niche_{p.name.split('.')[0]}.png"
                 draw_overlay(p, bodies[p.name], length, masks[p.name], sides, out)
     if args.json:
@@ -562,6 +520,7 @@ def main(argv: list[str] | None = None) -> int:
                 "sides": sides,
                 "tuned_sides": tuned,
                 "margin": args.margin,
+                "photo_series": args.series_used,
                 "length_px": {t: v[1] for t, v in dets.items()},
                 "detect_seconds": det_s,
                 "photos": [

@@ -1,6 +1,7 @@
-"""benchmarks/bench_niche_counts.py: the food patches, "on a patch", the labels reader
-and the table, on tray photos drawn here (the Niche-Lab photos carry no licence; the
-benchmark's numbers on them are in docs/real_footage.md)."""
+"""benchmarks/bench_niche_counts.py: the food patches ("on a patch": the tool's
+``detect --regions color:8-45``), the labels reader and the table, on tray photos
+drawn here (the Niche-Lab photos carry no licence; the benchmark's numbers on them are
+in docs/real_footage.md)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from click.testing import CliRunner
+
+from thermoswarm.cli import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 W, H = 400, 300
@@ -48,18 +52,21 @@ def _tray(ants: list[tuple[float, float]]) -> np.ndarray:
     return img
 
 
-def test_patches_and_margin(bench):
+def test_patches_and_margin():
+    # The patch finder is the tool's (detect --regions color:8-45); the benchmark uses it.
+    from thermoswarm.tracking.pipeline import patches
+
     # Truth: on the left paper 3 ants, one 8 px outside its right edge (within the
     # margin of L/2 = 12 px), one 40 px outside (off); on the right paper 2; one on
     # the loose border paper (not a patch).
     ants = [(60, 100), (90, 150), (120, 180), (158, 130), (190, 130), (280, 120), (330, 200)]
     ants.append((15, 30))
     img = _tray(ants)
-    masks = bench.find_patches(img, L)
-    grown = {k: bench.grow(m, 0.5 * L) for k, m in masks.items()}
+    masks = patches.find_patches(img, L)
+    grown = {k: patches.grow(m, 0.5 * L) for k, m in masks.items()}
     bodies = np.array(ants, float)
-    assert bench.on_patch(bodies, grown["left"]).tolist() == [1, 1, 1, 1, 0, 0, 0, 0]
-    assert bench.on_patch(bodies, grown["right"]).tolist() == [0, 0, 0, 0, 0, 1, 1, 0]
+    assert patches.on_patch(bodies, grown["left"]).tolist() == [1, 1, 1, 1, 0, 0, 0, 0]
+    assert patches.on_patch(bodies, grown["right"]).tolist() == [0, 0, 0, 0, 0, 1, 1, 0]
     # The patch is the paper with the ants' holes filled: its area is the paper's.
     x0, y0, x1, y1 = LEFT_PAPER
     assert masks["left"].sum() == pytest.approx((x1 - x0 + 1) * (y1 - y0 + 1), rel=0.02)
@@ -156,6 +163,22 @@ def test_table_on_drawn_trials(bench, tmp_path):
     for patch in ("sucrose", "peptone"):
         assert res["table"]["val"][patch]["mae"] <= 1 / 6 + 1e-9, res["table"]["val"]
         assert res["table"]["val"][patch]["n"] == 6
+    # The benchmark detects with the tool: the drawn photos, ants elsewhere in each,
+    # are a photo series to it.
+    assert res["photo_series"]["1"]["recognised_by"] == "changes"
+    # A finished `thermoswarm detect t<N> --out D/t<N>` per trial scores the same.
+    runs = tmp_path / "runs"
+    for trial, split in ((1, "train"), (6, "val")):
+        (tmp_path / f"t{trial}").symlink_to(tmp_path / split)
+        args = ["detect", str(tmp_path / f"t{trial}"), "--out", str(runs / f"t{trial}")]
+        assert CliRunner().invoke(cli, args).exit_code == 0
+    out2 = tmp_path / "r2.json"
+    assert bench.main([str(tmp_path), "--detections-dir", str(runs), "--json", str(out2)]) == 0
+    res2 = json.loads(out2.read_text())
+    for split in ("train", "val"):
+        for patch in ("sucrose", "peptone", "total"):
+            a, b = res["table"][split][patch], res2["table"][split][patch]
+            assert a["mae"] == pytest.approx(b["mae"]) and a["rho"] == pytest.approx(b["rho"])
 
 
 def test_missing_folder_is_one_line_error(bench, tmp_path, capsys):
@@ -164,12 +187,3 @@ def test_missing_folder_is_one_line_error(bench, tmp_path, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and "nope" in err[0]
-
-
-def test_photos_in_the_order_taken(bench):
-    # Trial 6's photos are numbered 826..999 then 000..019 (the camera's counter wraps).
-    names = [Path(f"t6_{n:03d}.JPG") for n in (0, 1, 19, 826, 827, 999)]
-    order = [p.stem for p in bench.time_order(names)]
-    assert order == ["t6_826", "t6_827", "t6_999", "t6_000", "t6_001", "t6_019"]
-    plain = [Path(f"t1_{n}.JPG") for n in (413, 411, 412)]
-    assert [p.stem for p in bench.time_order(plain)] == ["t1_411", "t1_412", "t1_413"]

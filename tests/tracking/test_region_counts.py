@@ -93,7 +93,7 @@ def test_photo_series_recognised_by_their_clocks(photos, tmp_path):
 
     from PIL import Image
 
-    from thermoswarm.tracking.pipeline.series import is_photo_series
+    from thermoswarm.tracking.pipeline.series import series_evidence
 
     root, folder, truth = photos
     series = tmp_path / "series"
@@ -103,14 +103,18 @@ def test_photo_series_recognised_by_their_clocks(photos, tmp_path):
         exif = Image.Exif()
         exif[306] = (t0 + dt.timedelta(minutes=30 * k)).strftime("%Y:%m:%d %H:%M:%S")
         Image.open(f).save(series / f"{f.stem}.jpg", quality=95, exif=exif.tobytes())
-    assert is_photo_series(sorted(series.glob("*.jpg")))
-    assert not is_photo_series(sorted(folder.glob("*.png")))  # no clock: frames
+    clocks = series_evidence(sorted(series.glob("*.jpg")))
+    assert clocks["series"] and clocks["by"] == "clocks" and clocks["median_gap_s"] == 1800
+    # Without clocks the same photos are a series by how much changes between them
+    # (the ants are elsewhere in every photo; tests/tracking/test_series.py).
+    assert series_evidence(sorted(folder.glob("*.png")))["by"] == "changes"
     out = tmp_path / "d"
     args = ["detect", str(series), "--out", str(out), "--regions", str(root / "regions.toml")]
     res = CliRunner().invoke(cli, args)
     assert res.exit_code == 0, res.output
     rec = json.loads((out / "summary.json").read_text())["inputs"][0]
     assert rec["photo_series"]["series_window"] == 12
+    assert rec["photo_series"]["recognised_by"] == "clocks"
     with open(out / "series_regions.csv") as f:
         rows = list(csv.DictReader(f))
     got = np.array([[int(r["sucrose"]), int(r["peptone"]), int(r["outside"])] for r in rows])

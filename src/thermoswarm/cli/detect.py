@@ -61,17 +61,20 @@ from thermoswarm.errors import InputError
 )
 @click.option(
     "--regions",
-    type=click.Path(path_type=Path),
-    help="Regions TOML (as `analyze --regions`; px, or mm with --px-per-mm): writes "
-    "NAME_regions.csv (detections per frame and region) and, for photos, a picture each.",
+    help="Regions TOML (as `analyze --regions`; px, or mm with --px-per-mm), or "
+    "color:HUE_LO-HUE_HI (coloured patches found in each photo, left and right; OpenCV "
+    "hue 0-180): writes NAME_regions.csv (detections per frame and region) and, for "
+    "photos, a picture each.",
 )
 @click.option(
     "--series",
     type=click.Choice(["auto", "yes", "no"]),
     default="auto",
     show_default=True,
-    help="Photo series (EXIF clocks a minute or more apart, or 'yes'): detect in windows "
-    "of 12 photos, each with its own background, with the options tuned on such photos.",
+    help="Photo series (photos a minute or more apart by their EXIF clocks or the times in "
+    "their names, else consecutive photos as different as photos 8 apart; or 'yes'): "
+    "detect in windows of 12 photos, in the order taken, each with its own background, "
+    "with the options tuned on such photos.",
 )
 def detect(
     inputs: tuple[Path, ...],
@@ -84,7 +87,7 @@ def detect(
     overrides: tuple[str, ...],
     max_frames: int | None,
     camera: str,
-    regions: Path | None,
+    regions: str | None,
     series: str,
 ) -> None:
     """Detect the animals in INPUTS (videos, folders of frames, images) into OUT.
@@ -98,7 +101,8 @@ def detect(
     """
     from thermoswarm.fsutil import require_input
 
-    require_input(*inputs, regions)  # before the heavy imports
+    colour = regions is not None and regions.startswith(("color:", "colour:"))
+    require_input(*inputs, None if colour else regions)  # before the heavy imports
     try:
         import cv2  # noqa: F401
     except ImportError:

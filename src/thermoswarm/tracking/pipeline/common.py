@@ -48,8 +48,10 @@ def build_detector(
     detector: str | None,
     model: str | os.PathLike | None,
     options: dict[str, Any] | None,
+    step: int | None = None,
 ) -> tuple[Any, dict[str, Any]]:
-    """The detector for video ``src``, prepared on its first ``n_prep`` frames.
+    """The detector for video ``src``, prepared on its first ``n_prep`` frames (every
+    ``step``-th; default every other from 32 frames, else all).
 
     Without a scale the animals' body length is measured first from the same frames
     (:func:`~thermoswarm.tracking.detect.classical.estimate_length_px`, with the classical
@@ -58,7 +60,7 @@ def build_detector(
     and ``{"px_per_mm", "length_px", "scale_source", "n_blobs"}`` (``px_per_mm`` the
     scale used, ``length_px`` the body length in px).
     """
-    step = 2 if n_prep >= 32 else 1
+    step = step or (2 if n_prep >= 32 else 1)
     info: dict[str, Any] = {"scale_source": "user", "n_blobs": None}
     if px_per_mm is None:
         classical = (detector or ("classical" if model is None else "")) == "classical"

@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import time
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -20,8 +21,14 @@ from thermoswarm.tracking.detect.register import (
 )
 from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector
 from thermoswarm.tracking.pipeline.flood import flood_reasons, refuse_flood
+from thermoswarm.tracking.pipeline.patches import (
+    ColorRegions,
+    count_patches,
+    draw_patches,
+    parse_color_regions,
+)
 from thermoswarm.tracking.pipeline.region_counts import count_regions, counts_csv, draw_counts
-from thermoswarm.tracking.pipeline.series import detect_series, is_photo_series
+from thermoswarm.tracking.pipeline.series import SERIES_WINDOW, detect_series, series_evidence
 from thermoswarm.tracking.track.tracker import TrackerConfig
 
 
@@ -63,6 +70,7 @@ def detect_inputs(
     camera: str = "auto",
     regions: str | os.PathLike | None = None,
     series: str = "auto",
+    series_window: int = SERIES_WINDOW,
 ) -> dict[str, Any]:
     """Detect the animals of videos, folders of frames or images; write COCO and MOT.
 
@@ -97,13 +105,21 @@ def detect_inputs(
         As for :func:`track_video`, for video files; folders and images are taken as
         from a still camera unless ``"moving"``.  ``NAME_camera.csv``: the path.
     regions
-        A regions TOML (:mod:`~thermoswarm.tracking.pipeline.region_counts`):
+        A regions TOML (:mod:`~thermoswarm.tracking.pipeline.region_counts`), or
+        ``"color:LO-HI"``: the coloured patches found in each frame, ``left`` and
+        ``right`` (:mod:`~thermoswarm.tracking.pipeline.patches`):
         ``NAME_regions.csv``, and for photos a picture each in ``NAME_regions/``.
     series
-        ``"auto"``: photos whose EXIF clocks are a minute or more apart are a series
-        (:mod:`~thermoswarm.tracking.pipeline.series`); ``"yes"``/``"no"`` force it.
+        ``"auto"``: folders and images recognised as a photo series by their clocks,
+        the times in their names or how much changes between them
+        (:func:`~thermoswarm.tracking.pipeline.series.series_evidence`) are detected
+        in windows of photos, in the order taken; ``"yes"``/``"no"`` force it.
+    series_window
+        Photos per background in a series (0: one background for the whole series).
     """
     _check_args(inputs, max_frames, fps, series)
+    if isinstance(series_window, bool) or not isinstance(series_window, int) or series_window < 0:
+        raise InputError(f"series_window must be a whole number >= 0, got {series_window!r}")
     wbl = TrackerConfig().width_bl if width_bl is None else float(width_bl)
     regs = _load_regions(regions)
     sources = _detect_sources([Path(p) for p in inputs])
@@ -111,7 +127,7 @@ def detect_inputs(
     opts = dict(
         px_per_mm=px_per_mm, detector=detector, model=model, detector_options=detector_options,
         fps=fps, max_frames=max_frames, prepare_s=prepare_s, width_bl=wbl, camera=camera,
-        regions=regs, series=series,
+        regions=regs, series=series, series_window=series_window,
     )  # fmt: skip
     results = [_detect_source(name, src, is_video, out, **opts) for name, src, is_video in sources]
     summary = {"inputs": results, "outputs": [f for r in results for f in r["outputs"]]}
@@ -131,9 +147,11 @@ def _check_args(inputs: list, max_frames: int | None, fps: float | None, series:
         raise InputError(f"series must be auto, yes or no; got {series!r}")
 
 
-def _load_regions(regions: str | os.PathLike | None) -> list | None:
+def _load_regions(regions: str | os.PathLike | None) -> list | ColorRegions | None:
     if regions is None:
         return None
+    if isinstance(regions, str) and regions.startswith(("color:", "colour:")):
+        return parse_color_regions(regions)
     from thermoswarm.analysis.regions import load_regions
     from thermoswarm.errors import ConfigError
 
@@ -158,8 +176,9 @@ def _detect_source(
     prepare_s: float,
     width_bl: float,
     camera: str = "auto",
-    regions: list | None = None,
+    regions: list | ColorRegions | None = None,
     series: str = "auto",
+    series_window: int = SERIES_WINDOW,
 ) -> dict[str, Any]:
     """Detect one source of :func:`detect_inputs`; write its COCO (and MOT) file.
 
@@ -174,21 +193,17 @@ def _detect_source(
         camera = "still"
     src, path = register_source(src, camera, max_frames=max_frames)
     offset = src.camera.offset if isinstance(src, RegisteredSource) else (0.0, 0.0)
+    src, evidence = _series_source(src, series, max_frames)
     files = src.files
-    as_series = series == "yes" or (series == "auto" and is_photo_series(files))
-    build = dict(px_per_mm=px_per_mm, detector=detector, model=model)
-    if as_series and files is not None:
-        dets, scale, det = detect_series(files[:max_frames], options=detector_options, **build)
+    kw = dict(px_per_mm=px_per_mm, detector=detector, model=model, options=detector_options)
+    if evidence is not None:
+        dets, scale, det = detect_series(files, window=series_window, **kw)
+        scale["photo_series"] = _series_record(evidence, scale, forced=series == "yes")
     else:
-        n_prep = _prep_frames(prepare_s, rate, max_frames)
-        det, scale = build_detector(src, n_prep, options=detector_options, **build)
+        det, scale = build_detector(src, _prep_frames(prepare_s, rate, max_frames), **kw)
         frames = src.frames(max_frames, prefetch=4)
         dets = [shift_detections(det.detect(f), offset) for f in frames]
-    images = []
-    for k in range(len(dets)):
-        img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
-        img["file_name"] = files[k].name if files else f"{src.path.name}#{k + 1:06d}"
-        images.append(img)
+    images = _coco_images(src, files, len(dets))
     pad = 0.5 * width_bl * scale["length_px"]
     coco = coco_dataset(
         images,
@@ -203,6 +218,8 @@ def _detect_source(
         write_mot_table(out / f"{name}_det.txt", mot_rows(dets, pad=pad))
         written.append(f"{name}_det.txt")
     written += _camera_and_counts(name, out, src, path, dets, images, regions, px_per_mm)
+    if isinstance(regions, ColorRegions):  # needs the animals' length
+        written += _patch_counts(name, out, src, dets, images, regions, scale["length_px"])
     n_det = sum(len(d) for d in dets)
     reasons = flood_reasons(np.array([len(d) for d in dets]), src.size, scale["length_px"])
     if reasons:
@@ -219,9 +236,43 @@ def _detect_source(
         "seconds": time.perf_counter() - t0,
         "outputs": written,
         "camera": camera_summary(path, isinstance(src, RegisteredSource)),
-        "photo_series": {k: scale[k] for k in ("series_window", "series_options") if k in scale}
-        or None,
+        "photo_series": scale.get("photo_series"),
     }
+
+
+def _coco_images(src: Any, files: list[Path] | None, n: int) -> list[dict[str, Any]]:
+    """The COCO ``images`` of ``n`` frames of ``src`` (a photo's file name, or
+    ``VIDEO#000001``)."""
+    images = []
+    for k in range(n):
+        img = {"id": k + 1, "width": src.size[0], "height": src.size[1], "frame_id": k + 1}
+        img["file_name"] = files[k].name if files else f"{src.path.name}#{k + 1:06d}"
+        images.append(img)
+    return images
+
+
+def _series_source(src: Any, series: str, max_frames: int | None) -> tuple[Any, dict | None]:
+    """``(source, evidence)``: for a photo series (recognised, or ``series="yes"``) its
+    photos in the order taken and :func:`series_evidence`'s record; else ``(src, None)``."""
+    from thermoswarm.tracking.video import VideoSource
+
+    if src.files is None or series == "no":
+        return src, None
+    evidence = series_evidence(src.files)
+    if not (series == "yes" or evidence["series"]):
+        return src, None
+    files = evidence["files"][:max_frames]
+    return VideoSource.from_images(files, str(src.path)), evidence
+
+
+def _series_record(evidence: dict, scale: dict, *, forced: bool) -> dict[str, Any]:
+    """``photo_series`` of a source's summary: the window, the options and why."""
+    rec = {"series_window": scale["series_window"], "series_options": scale["series_options"]}
+    rec["recognised_by"] = "--series yes" if forced and not evidence["series"] else evidence["by"]
+    for k in ("median_gap_s", "change_ratio", "changed_share"):
+        if k in evidence:
+            rec[k] = evidence[k]
+    return rec
 
 
 def _write_picture(
@@ -244,7 +295,7 @@ def _camera_and_counts(
     path: Any,
     dets: list,
     images: list[dict],
-    regions: list | None,
+    regions: list | ColorRegions | None,
     px_per_mm: float | None,
 ) -> list[str]:
     """Write ``NAME_camera.csv`` (a registered source), ``NAME_regions.csv`` and, for
@@ -253,7 +304,7 @@ def _camera_and_counts(
     if isinstance(src, RegisteredSource):
         atomic_write_text(out / f"{name}_camera.csv", path.table())
         written.append(f"{name}_camera.csv")
-    if regions is not None:
+    if isinstance(regions, list):
         counts = count_regions(regions, dets, px_per_mm)
         names = [img["file_name"] for img in images]
         atomic_write_text(out / f"{name}_regions.csv", counts_csv(names, regions, counts))
@@ -266,3 +317,37 @@ def _camera_and_counts(
                 _write_picture(pics / f"{files[k].stem}.jpg", frame, regions, dets[k], px_per_mm)
             written.append(f"{name}_regions/")
     return written
+
+
+def _patch_counts(
+    name: str,
+    out: Path,
+    src: Any,
+    dets: list,
+    images: list[dict],
+    spec: ColorRegions,
+    length_px: float,
+) -> list[str]:
+    """Count the detections on each frame's coloured patches (``--regions color:...``):
+    ``NAME_regions.csv`` and, for photos, a picture each in ``NAME_regions/``."""
+    import cv2
+
+    from thermoswarm.fsutil import atomic_write_bytes
+
+    pics = out / f"{name}_regions" if src.files is not None else None
+    if pics is not None:
+        pics.mkdir(exist_ok=True)
+    counts = []
+    for k, frame in enumerate(src.frames(len(dets), prefetch=4)):
+        d = dets[k]
+        bodies = d.points[:, 1, :] if len(d) else np.zeros((0, 2))
+        c, masks, side = count_patches(spec, frame, bodies, length_px)
+        counts.append(c)
+        if pics is not None:
+            img = draw_patches(frame, spec, masks, bodies, side, c)
+            ok, buf = cv2.imencode(".jpg", cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+            atomic_write_bytes(pics / f"{src.files[k].stem}.jpg", buf.tobytes())
+    names = [img["file_name"] for img in images]
+    regions = [SimpleNamespace(name=n) for n in spec.names]
+    atomic_write_text(out / f"{name}_regions.csv", counts_csv(names, regions, np.array(counts)))
+    return [f"{name}_regions.csv"] + ([f"{name}_regions/"] if pics is not None else [])
