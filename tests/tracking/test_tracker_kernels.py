@@ -9,7 +9,7 @@ import pytest
 
 from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detection import FrameDetections
-from thermoswarm.tracking.track import association, kalman
+from thermoswarm.tracking.track import association, kalman, speed
 from thermoswarm.tracking.track import bank as track_bank
 from thermoswarm.tracking.track.bank import TrackBank
 from thermoswarm.tracking.track.tracker import TrackerConfig, track_detections
@@ -43,7 +43,7 @@ def _reference_costs(c, b, frame, r2, pad, step_px, pts, boxes, L, hint_other):
     d = pts[None, :, 1, :] - pred[:, None, :]
     maha = np.einsum("nmi,nij,nmj->nm", d, Sinv, d)
     dist = np.hypot(d[..., 0], d[..., 1])
-    reach = step_px * (frame - b.last).astype(float) + 2 * pad
+    reach = speed.reach_px(b.x[:, 2:], frame - b.last, step_px, pad)
     ok = (maha <= c.gate_sigmas**2) & (dist <= reach[:, None])
     shape = b.shape
     poses = np.stack([pred + shape[:, 0], pred, pred + shape[:, 1]], axis=1)
@@ -103,7 +103,7 @@ def test_pair_costs_equal_the_array_expressions(seed):
     hint_other = (rng.random((n, m)) < 0.2) if seed % 4 == 1 else None
     frame, r2, pad, step, L = 100, 1.7, 3.2, 6.0, 20.0
     S, pred, tboxes, axes, reach, any_axis = track_bank.prepare_costs(
-        b.F, b.I, b.n, frame, r2, pad, step
+        b.F, b.I, b.n, frame, r2, pad, step, speed.SPEED_HEADROOM, speed.MAX_WIDENING
     )
     got = association.pair_costs(
         c, S=S, pred=pred, track_boxes=tboxes, axes=axes, reach=reach, any_axis=any_axis,

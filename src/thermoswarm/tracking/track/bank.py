@@ -231,12 +231,14 @@ def predict(F, I, n):
 
 
 @njit(cache=True)
-def prepare_costs(F, I, n, frame, r2, pad, step_px):
+def prepare_costs(F, I, n, frame, r2, pad, step_px, headroom=1.0, widening=1.0):
     """What :func:`~thermoswarm.tracking.track.association.pair_costs` needs of the tracks:
     innovation covariances ``S`` ``(n, 2, 2)`` (``P[:2, :2] + r2 I``), predicted body
     points ``(n, 2)``, predicted boxes ``(n, 4)``, predicted body axes (head - tail)
-    ``(n, 2)``, the gate's reach in px (``step_px`` per frame since the last detection
-    plus ``2 pad``), and whether any axis is known.
+    ``(n, 2)``, the gate's reach in px (the track's cap per frame since the last
+    detection plus ``2 pad``; the cap is ``headroom`` times the track's speed, within
+    ``step_px`` and ``widening * step_px``: :func:`~thermoswarm.tracking.track.speed.cap_px`),
+    and whether any axis is known.
 
     The predicted box is the body-centred box of the predicted pose (the last head and
     tail offsets moved to the predicted body point; as
@@ -254,7 +256,9 @@ def prepare_costs(F, I, n, frame, r2, pad, step_px):
         S[r, 0, 1] = F[r, _P + 1] + 0.0
         S[r, 1, 0] = F[r, _P + 4] + 0.0
         S[r, 1, 1] = F[r, _P + 5] + r2
-        reach[r] = step_px * float(frame - I[r, _LAST]) + 2 * pad
+        v = headroom * np.hypot(F[r, _X + 2], F[r, _X + 3])
+        cap = min(max(v, step_px), widening * step_px) if v == v else step_px
+        reach[r] = cap * float(frame - I[r, _LAST]) + 2 * pad
         known_pose = True
         for a in range(2):
             b = F[r, _X + a]

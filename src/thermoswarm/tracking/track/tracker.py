@@ -263,9 +263,9 @@ class Tracker:
             # A detection found from another track's prediction belongs to that track.
             hint_other = (hinted[None, :] != 0) & (hinted[None, :] != b.key[:, None])
         S, pred, tboxes, axes, reach, any_axis = track_bank.prepare_costs(
-            b.F, b.I, b.n, self.frame, self._r2, self.pad, self.step_px
-        )
-        reach = speed.reach_px(b.x[:, 2:], self.frame - b.last, self.step_px, self.pad)
+            b.F, b.I, b.n, self.frame, self._r2, self.pad, self.step_px,
+            speed.SPEED_HEADROOM, speed.MAX_WIDENING,
+        )  # fmt: skip
         cost = association.pair_costs(
             c,
             S=S,
