@@ -200,7 +200,7 @@ def _reads_missing_input(argv: list[str], cwd: Path) -> str | None:
         )
         if is_input and isinstance(param.type, click.Path):
             candidates += [str(v) for v in values]
-    if argv[0] in ("analyze", "convert", "track", "evaluate"):
+    if argv[0] in ("analyze", "convert", "track", "evaluate", "detect"):
         pass
     elif argv[0] != "simulate":  # simulate's argument is a scenario name
         candidates = [c for c in candidates if "." in Path(c).name or "/" in c]
