@@ -11,13 +11,13 @@ import numpy as np
 from numba import njit, prange
 
 from thermoswarm.sim.kernels_grid import SLOP, build_lists
+from thermoswarm.sim.kernels_sweep import _near_moved
 from thermoswarm.sim.kernels_walls import (
     _applied_steps,
     _apply_body_steps,
     _bodies_pass,
     _gs_pair_step,
     _movables_applied,
-    _near_moved,
     _seg_gap,
     _walls_and_bodies,
     _walls_held,

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from thermoswarm.sim.kernels_grid import (
     BODY_CONTACT_X,
@@ -559,25 +559,3 @@ def _apply_body_steps(bodies, pistons, contact, moved_b, moved_p, seg, sdisc):
         pistons[p, PISTON_CONTACT] += contact[nb + p, 0]
         any_moved = any_moved or moved_p[p] != 0
     return any_moved
-
-
-@njit(cache=True, parallel=True)
-def _near_moved(pos, bodies, moved_b, pistons, moved_p, r, reach, out):
-    """Flag robots within ``reach`` of a body or piston that moved in the last sweep."""
-    nb = bodies.shape[0]
-    npis = pistons.shape[0]
-    for i in prange(pos.shape[0]):
-        f = 0
-        for b in range(nb):
-            if moved_b[b]:
-                dx = pos[i, 0] - bodies[b, BODY_X]
-                dy = pos[i, 1] - bodies[b, BODY_Y]
-                R = bodies[b, BODY_RADIUS] + r + reach
-                if dx * dx + dy * dy < R * R:
-                    f = 1
-        for p in range(npis):
-            if moved_p[p]:
-                a = int(pistons[p, PISTON_AXIS])
-                if abs(pos[i, a] - pistons[p, PISTON_POSITION]) < r + reach:
-                    f = 1
-        out[i] = f
