@@ -39,9 +39,9 @@ from thermoswarm.sim.kernels_grid import (
 
 
 # ------------------------------------------------ contacts shared with the GPU engine
-# Scalar functions (no arrays of the CPU engine's layout): the CPU kernels call them, and
-# the GPU engine (:mod:`thermoswarm.sim.gpu.kernels`) compiles the same source for CUDA,
-# so the two engines' contact rules cannot drift apart.
+# No positions array of the CPU engine's layout (scalars, or x and y apart): the CPU
+# kernels call them, and the GPU engine (:mod:`thermoswarm.sim.gpu.kernels`) compiles the
+# same source for CUDA, so the two engines' contact rules cannot drift apart.
 @njit(cache=True, inline="always")
 def _pair_core(px, py, qx, qy, i, j, c2, d_rr, half, mx, my, w):
     """Robot ``i`` at ``(px, py)`` against robot ``j`` at ``(qx, qy)``: if they overlap
@@ -89,6 +89,45 @@ def _gs_pair_step(dx, dy, d2, L, c2, d_rr, half, omega, i, j):
     if step == 0.0:
         return 0.0, 0.0, 0.0
     return step, step * dx / d, step * dy / d
+
+
+#: Held pushes decay by ``keep`` a step; below this (mm) they are dropped: a jam ends.
+HELD_MIN = 1e-4
+
+
+@njit(cache=True)  # not inlined: parallel max reductions call it (see _walls_and_bodies)
+def _held_decay(i, px, py, qx, qy, nbr, lam, m, lamw, lamid, seg, r, keep):
+    """Both engines' warm start of robot ``i`` at ``(px, py)``: its held pushes -- the ``m``
+    pairs ``lam[i, :m]`` with robots ``nbr[i, :m]`` at ``(qx, qy)``, the walls ``lamw[:, i]``
+    (segments ``lamid[:, i]``) -- scaled by ``keep``, dropped below :data:`HELD_MIN`, in
+    place.  Returns ``(mx, my, held, top)``: ``i``'s move along their present normals (mm),
+    the pushes still held and the largest (mm)."""
+    mx, my, h, top = 0.0, 0.0, 0, 0.0
+    for kk in range(m):
+        L = np.float32(keep * lam[i, kk])
+        L = np.float32(0.0) if L < HELD_MIN else L
+        lam[i, kk] = L
+        if L != 0.0:
+            h += 1
+            top = max(top, np.float64(L))
+            j = nbr[i, kk]
+            dx, dy = px - qx[j], py - qy[j]
+            d = math.sqrt(dx * dx + dy * dy)
+            if d > 1e-12:
+                mx += L * dx / d
+                my += L * dy / d
+    for slot in range(2):
+        lw = np.float32(keep * lamw[slot, i])
+        lw = np.float32(0.0) if lw < HELD_MIN else lw
+        lamw[slot, i] = lw
+        if lw != 0.0:
+            h += 1
+            top = max(top, np.float64(lw))
+            s = lamid[slot, i]
+            _, nxs, nys = _seg_gap(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
+            mx += lw * nxs
+            my += lw * nys
+    return mx, my, h, top
 
 
 @njit(cache=True, inline="always")
