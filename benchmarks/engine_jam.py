@@ -10,7 +10,10 @@ scenario runner does, and reports per step:
 - the exact largest overlap after the step, measured independently: robot pairs by a
   KD-tree (scipy's cKDTree), robots against the arena's segments and against the object;
 - wall seconds of the run and microseconds a robot-step (timing, so it lives here and
-  not in the tests; the machine is shared: compare ratios from one command).
+  not in the tests; the machine is shared: compare ratios from one command);
+- the steps that ended holding pushes (warm-started next), and a SHA-256 of the final
+  state (positions, headings and speeds in id order, the bodies): two revisions, run
+  with ``PYTHONPATH`` at each one's ``src``, solve the jam identically if it matches.
 
 Three solves, one after the other from the same seed: ``jacobi`` (Jacobi sweeps only:
 the engine's solve before the Gauss-Seidel passes, bit for bit), ``first`` (the
@@ -30,6 +33,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import time
 
@@ -76,6 +80,7 @@ def run(overrides: list[str], duration: float, seed: int, check_every: int) -> d
     sweeps = np.zeros(total - 1, np.int64)
     worst = 0.0
     wall = 0.0
+    held_steps = 0
     for k in range(total - 1):
         before = int(state.counters[0])
         t0 = time.perf_counter()
@@ -83,6 +88,7 @@ def run(overrides: list[str], duration: float, seed: int, check_every: int) -> d
         scen.observe(sim, state, acc)
         wall += time.perf_counter() - t0
         sweeps[k] = int(state.counters[0]) - before
+        held_steps += state.held_pairs is not None
         if k % check_every == 0 or sweeps[k] >= sim.params.max_iterations:
             b = state.bodies[:, [0, 1, 2]]
             worst = max(worst, exact_overlap(state.pos, r, sim.world.segments, b))
@@ -97,7 +103,18 @@ def run(overrides: list[str], duration: float, seed: int, check_every: int) -> d
         "engine_overlap_pct": 100 * state.counters[1] / 1e6 / (2 * r),
         "wall_s": wall,
         "us_per_robot_step": 1e6 * wall / (state.n * (total - 1)),
+        "held_steps": held_steps,
+        "digest": digest(state),
     }
+
+
+def digest(state) -> str:
+    """SHA-256 of the final state: positions, headings and speeds in id order, bodies."""
+    h = hashlib.sha256()
+    for a in (state.by_id(state.pos), state.by_id(state.heading), state.by_id(state.speed)):
+        h.update(np.ascontiguousarray(a).tobytes())
+    h.update(np.ascontiguousarray(state.bodies).tobytes())
+    return h.hexdigest()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -146,6 +146,7 @@ from thermoswarm.sim.kernels_held import (  # noqa: F401  (the kernels' one name
 )
 from thermoswarm.sim.kernels_sweep import (  # noqa: F401  (the kernels' one namespace)
     _collect_marked,
+    _near_moved,
     _pair_push,
     _sweep,
     _sweep_serial,
@@ -155,7 +156,6 @@ from thermoswarm.sim.kernels_walls import (  # noqa: F401  (the kernels' one nam
     _bodies_pass,
     _bodies_vs_static,
     _move_bodies,
-    _near_moved,
     _seg_gap,
     _seg_push,
     _walls_and_bodies,

@@ -11,21 +11,18 @@ import numpy as np
 from numba import njit, prange
 
 from thermoswarm.sim.kernels_grid import SLOP, build_lists
+from thermoswarm.sim.kernels_sweep import _near_moved
 from thermoswarm.sim.kernels_walls import (
     _applied_steps,
     _apply_body_steps,
     _bodies_pass,
     _gs_pair_step,
+    _held_decay,
     _movables_applied,
-    _near_moved,
     _seg_gap,
     _walls_and_bodies,
     _walls_held,
 )
-
-#: Held pushes below this (mm) are dropped at the warm start: once a jam has dissolved,
-#: its pushes, decaying by ``keep`` a step, end and the steps are cold again.
-HELD_MIN = 1e-4
 
 
 @njit(cache=True, parallel=True)
@@ -34,12 +31,15 @@ def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, keep, big2, f
     (``lam`` along each listed pair's present normal, ``lamw`` off its held walls), the
     held pushes first scaled by ``keep`` (< 1: pushes that only cancel each other, which
     a jam can pile up without moving anything, decay instead of growing step by step;
-    below :data:`HELD_MIN` they are dropped): the starting guess of the projection
-    (pushes no longer needed are taken back by the passes).  Writes ``dst``; ``flag[i]``
-    is set where robot i would move farther than ``sqrt(big2)``.  Returns the largest
-    squared distance from ``ref``, the number of robots flagged, the number of pushes
-    still held and the largest (mm)."""
+    below ``HELD_MIN`` they are dropped; :func:`~thermoswarm.sim.kernels_walls._held_decay`,
+    which the GPU engine shares): the starting guess of the projection (pushes no longer
+    needed are taken back by the passes).  Writes ``dst``; ``flag[i]`` is set where robot
+    i would move farther than ``sqrt(big2)``.  Returns the largest squared distance from
+    ``ref``, the number of robots flagged, the number of pushes still held and the largest
+    (mm)."""
     cap = nbr.shape[1]
+    sx = src[:, 0]
+    sy = src[:, 1]
     far = 0.0
     big = 0
     held = 0
@@ -47,38 +47,9 @@ def _warm_start(src, dst, ref, nbr, nnb, lam, lamw, lamid, seg, r, keep, big2, f
     for i in prange(src.shape[0]):
         px = src[i, 0]
         py = src[i, 1]
-        mx = 0.0
-        my = 0.0
-        h = 0
-        m = nnb[i]
-        if m <= cap:
-            for kk in range(m):
-                L = np.float32(keep * lam[i, kk])
-                if L < HELD_MIN:
-                    L = np.float32(0.0)
-                lam[i, kk] = L
-                if L != 0.0:
-                    h += 1
-                    top = max(top, np.float64(L))
-                    j = nbr[i, kk]
-                    dx = px - src[j, 0]
-                    dy = py - src[j, 1]
-                    d = math.sqrt(dx * dx + dy * dy)
-                    if d > 1e-12:
-                        mx += L * dx / d
-                        my += L * dy / d
-        for slot in range(2):
-            lw = np.float32(keep * lamw[slot, i])
-            if lw < HELD_MIN:
-                lw = np.float32(0.0)
-            lamw[slot, i] = lw
-            if lw != 0.0:
-                h += 1
-                top = max(top, np.float64(lw))
-                s = lamid[slot, i]
-                _, nxs, nys = _seg_gap(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
-                mx += lw * nxs
-                my += lw * nys
+        m = nnb[i] if nnb[i] <= cap else 0
+        mx, my, h, t = _held_decay(i, px, py, sx, sy, nbr, lam, m, lamw, lamid, seg, r, keep)
+        top = max(top, t)
         x = px + mx
         y = py + my
         dst[i, 0] = x

@@ -6,7 +6,18 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from thermoswarm.sim.kernels_grid import MOVED, OVERLAPPING, SLOP, prefetch, serial_twin
+from thermoswarm.sim.kernels_grid import (
+    BODY_RADIUS,
+    BODY_X,
+    BODY_Y,
+    MOVED,
+    OVERLAPPING,
+    PISTON_AXIS,
+    PISTON_POSITION,
+    SLOP,
+    prefetch,
+    serial_twin,
+)
 from thermoswarm.sim.kernels_walls import _pair_core, _walls_and_bodies
 
 
@@ -163,3 +174,25 @@ def _collect_marked(mark, near, use_near, out):
                     k += 1
                     mark[i] = 0
     return k
+
+
+@njit(cache=True, parallel=True)
+def _near_moved(pos, bodies, moved_b, pistons, moved_p, r, reach, out):
+    """Flag robots within ``reach`` of a body or piston that moved in the last sweep."""
+    nb = bodies.shape[0]
+    npis = pistons.shape[0]
+    for i in prange(pos.shape[0]):
+        f = 0
+        for b in range(nb):
+            if moved_b[b]:
+                dx = pos[i, 0] - bodies[b, BODY_X]
+                dy = pos[i, 1] - bodies[b, BODY_Y]
+                R = bodies[b, BODY_RADIUS] + r + reach
+                if dx * dx + dy * dy < R * R:
+                    f = 1
+        for p in range(npis):
+            if moved_p[p]:
+                a = int(pistons[p, PISTON_AXIS])
+                if abs(pos[i, a] - pistons[p, PISTON_POSITION]) < r + reach:
+                    f = 1
+        out[i] = f

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from thermoswarm.sim.kernels_grid import (
     BODY_CONTACT_X,
@@ -39,9 +39,9 @@ from thermoswarm.sim.kernels_grid import (
 
 
 # ------------------------------------------------ contacts shared with the GPU engine
-# Scalar functions (no arrays of the CPU engine's layout): the CPU kernels call them, and
-# the GPU engine (:mod:`thermoswarm.sim.gpu.kernels`) compiles the same source for CUDA,
-# so the two engines' contact rules cannot drift apart.
+# No positions array of the CPU engine's layout (scalars, or x and y apart): the CPU
+# kernels call them, and the GPU engine (:mod:`thermoswarm.sim.gpu.kernels`) compiles the
+# same source for CUDA, so the two engines' contact rules cannot drift apart.
 @njit(cache=True, inline="always")
 def _pair_core(px, py, qx, qy, i, j, c2, d_rr, half, mx, my, w):
     """Robot ``i`` at ``(px, py)`` against robot ``j`` at ``(qx, qy)``: if they overlap
@@ -89,6 +89,45 @@ def _gs_pair_step(dx, dy, d2, L, c2, d_rr, half, omega, i, j):
     if step == 0.0:
         return 0.0, 0.0, 0.0
     return step, step * dx / d, step * dy / d
+
+
+#: Held pushes decay by ``keep`` a step; below this (mm) they are dropped: a jam ends.
+HELD_MIN = 1e-4
+
+
+@njit(cache=True)  # not inlined: parallel max reductions call it (see _walls_and_bodies)
+def _held_decay(i, px, py, qx, qy, nbr, lam, m, lamw, lamid, seg, r, keep):
+    """Both engines' warm start of robot ``i`` at ``(px, py)``: its held pushes -- the ``m``
+    pairs ``lam[i, :m]`` with robots ``nbr[i, :m]`` at ``(qx, qy)``, the walls ``lamw[:, i]``
+    (segments ``lamid[:, i]``) -- scaled by ``keep``, dropped below :data:`HELD_MIN`, in
+    place.  Returns ``(mx, my, held, top)``: ``i``'s move along their present normals (mm),
+    the pushes still held and the largest (mm)."""
+    mx, my, h, top = 0.0, 0.0, 0, 0.0
+    for kk in range(m):
+        L = np.float32(keep * lam[i, kk])
+        L = np.float32(0.0) if L < HELD_MIN else L
+        lam[i, kk] = L
+        if L != 0.0:
+            h += 1
+            top = max(top, np.float64(L))
+            j = nbr[i, kk]
+            dx, dy = px - qx[j], py - qy[j]
+            d = math.sqrt(dx * dx + dy * dy)
+            if d > 1e-12:
+                mx += L * dx / d
+                my += L * dy / d
+    for slot in range(2):
+        lw = np.float32(keep * lamw[slot, i])
+        lw = np.float32(0.0) if lw < HELD_MIN else lw
+        lamw[slot, i] = lw
+        if lw != 0.0:
+            h += 1
+            top = max(top, np.float64(lw))
+            s = lamid[slot, i]
+            _, nxs, nys = _seg_gap(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
+            mx += lw * nxs
+            my += lw * nys
+    return mx, my, h, top
 
 
 @njit(cache=True, inline="always")
@@ -559,25 +598,3 @@ def _apply_body_steps(bodies, pistons, contact, moved_b, moved_p, seg, sdisc):
         pistons[p, PISTON_CONTACT] += contact[nb + p, 0]
         any_moved = any_moved or moved_p[p] != 0
     return any_moved
-
-
-@njit(cache=True, parallel=True)
-def _near_moved(pos, bodies, moved_b, pistons, moved_p, r, reach, out):
-    """Flag robots within ``reach`` of a body or piston that moved in the last sweep."""
-    nb = bodies.shape[0]
-    npis = pistons.shape[0]
-    for i in prange(pos.shape[0]):
-        f = 0
-        for b in range(nb):
-            if moved_b[b]:
-                dx = pos[i, 0] - bodies[b, BODY_X]
-                dy = pos[i, 1] - bodies[b, BODY_Y]
-                R = bodies[b, BODY_RADIUS] + r + reach
-                if dx * dx + dy * dy < R * R:
-                    f = 1
-        for p in range(npis):
-            if moved_p[p]:
-                a = int(pistons[p, PISTON_AXIS])
-                if abs(pos[i, a] - pistons[p, PISTON_POSITION]) < r + reach:
-                    f = 1
-        out[i] = f

@@ -5,11 +5,12 @@ then Jacobi sweeps of mass-weighted position projection against robots, static w
 and discs, movable bodies and force-driven walls, and, in a jam, warm-started
 Gauss-Seidel passes (:mod:`thermoswarm.sim.gpu.kernels_gs`).  Every contact rule is
 the CPU engine's own function, compiled a second time for CUDA from the same Python
-source: robot pairs (``kernels_walls._pair_core``), walls, discs, bodies and pistons
-(``_walls_and_bodies``, ``_walls_held``, ``_seg_push``, ``_seg_gap``), the bodies'
-contacts, steps and moves (``_body_contact``, ``_piston_contact``, ``_body_finish``,
-``_piston_finish``, ``_apply_body_steps``, ``_move_bodies``).  What differs is the data
-layout, the neighbour search and the launch structure, chosen for a GPU:
+source: robot pairs (``kernels_walls._pair_core``, ``_gs_pair_step``), walls, discs,
+bodies and pistons (``_walls_and_bodies``, ``_walls_held``, ``_seg_push``, ``_seg_gap``),
+the warm start's held pushes (``_held_decay``), the bodies' contacts, steps and moves
+(``_body_contact``, ``_piston_contact``, ``_body_finish``, ``_piston_finish``,
+``_apply_body_steps``, ``_move_bodies``).  What differs is the data layout, the neighbour
+search and the launch structure, chosen for a GPU:
 
 - **struct of arrays, float32**: ``x``, ``y`` (two buffers each: a Jacobi sweep reads
   one and writes the other), ``heading``, ``speed``, ``timer``, ``ids``, ``group``;

@@ -77,7 +77,6 @@ from thermoswarm.sim.gpu.kernels import (
     walls_and_bodies,
     walls_held,
 )
-from thermoswarm.sim.kernels_held import HELD_MIN
 
 #: Held-push slots per robot (a disc touches at most 6 equal discs).
 CAP = 8
@@ -86,6 +85,7 @@ RESUME, WARM, COLD_START = 0, 1, 2
 
 SLOP = K.SLOP
 gs_pair_step = _twin(W._gs_pair_step, scalar=True)
+held_decay = _twin(W._held_decay)
 
 
 @cuda.jit(device=True)
@@ -249,42 +249,13 @@ def measure_robot(i, x, y, xr, yr, cell_start, cell_flag, nx, ny, geo, k, seg, s
 def warm_robot(i, sx, sy, dx_, dy_, xr, yr, seg, r, nbr, lam, lamw, lamid, keep, big2,
                flag, ctrl):  # fmt: skip
     """Robot ``i`` takes the pushes it held, scaled by ``keep`` (dropped below
-    ``HELD_MIN``), along the present normals (the CPU engine's ``_warm_start``): reads
-    ``(sx, sy)``, writes ``(dx_, dy_)``; ``flag[i]``: it would move farther than
-    ``sqrt(big2)``."""
+    ``HELD_MIN``), along the present normals (the CPU engine's ``_warm_start``, sharing
+    its ``kernels_walls._held_decay``): reads ``(sx, sy)``, writes ``(dx_, dy_)``;
+    ``flag[i]``: it would move farther than ``sqrt(big2)``."""
     px = sx[i]
     py = sy[i]
-    mx = 0.0
-    my = 0.0
-    h = 0
-    top = 0.0
-    for s in range(nbr.shape[1]):
-        L = np.float32(keep * lam[i, s])
-        if L < HELD_MIN:
-            L = np.float32(0.0)
-        lam[i, s] = L
-        if L != 0.0:
-            h += 1
-            top = max(top, np.float64(L))
-            j = nbr[i, s]
-            dx = px - sx[j]
-            dy = py - sy[j]
-            d = math.sqrt(dx * dx + dy * dy)
-            if d > 1e-12:
-                mx += L * dx / d
-                my += L * dy / d
-    for slot in range(2):
-        lw = np.float32(keep * lamw[slot, i])
-        if lw < HELD_MIN:
-            lw = np.float32(0.0)
-        lamw[slot, i] = lw
-        if lw != 0.0:
-            h += 1
-            top = max(top, np.float64(lw))
-            s = lamid[slot, i]
-            _g, nxs, nys = seg_gap(px, py, seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3], r)
-            mx += lw * nxs
-            my += lw * nys
+    mx, my, h, top = held_decay(i, px, py, sx, sy, nbr, lam, nbr.shape[1], lamw, lamid, seg,
+                                r, keep)  # fmt: skip
     qx = px + mx
     qy = py + my
     dx_[i] = qx
