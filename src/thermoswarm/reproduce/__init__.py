@@ -29,8 +29,10 @@ that the whole finishes in minutes on 2 cores; ``make run`` uses it.
 
 The package, by responsibility: :mod:`~thermoswarm.reproduce.plans` (how big each
 experiment is), :mod:`~thermoswarm.reproduce.runs` (the worker pool, the progress log,
-a scenario run that reuses a finished one), one module per group of experiments
-(:mod:`~thermoswarm.reproduce.physical`, :mod:`~thermoswarm.reproduce.transport`,
+a scenario run that reuses a finished one), :mod:`~thermoswarm.reproduce.progress` (the
+estimate of what is left: CPU seconds per step, this machine's speed and share), one
+module per group of experiments (:mod:`~thermoswarm.reproduce.physical`,
+:mod:`~thermoswarm.reproduce.transport`,
 :mod:`~thermoswarm.reproduce.studies`, :mod:`~thermoswarm.reproduce.unified`: each runs,
 computes its numbers and writes its report section), :mod:`~thermoswarm.reproduce.text`
 (numbers and figures for the report) and :mod:`~thermoswarm.reproduce.driver` (the steps

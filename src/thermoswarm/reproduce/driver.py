@@ -113,7 +113,7 @@ def reproduce(
         ("mechanism", lambda b: _mechanism(out, plan, rep, workers, b, pool)),
         ("scaling", lambda b: _scaling(out, plan, rep, workers, b, pool)),
     ]
-    log = _Log(verbose, plan, [name for name, _ in steps])
+    log = _Log(verbose, plan, [name for name, _ in steps], workers)
     log.start_up()
     overview: list[dict[str, str]] = []
     pool = _Pool(workers)
@@ -128,6 +128,7 @@ def reproduce(
         pool.shutdown(wait=True, cancel_futures=True)
     rep.section_top(glance, rep.verdicts_html(overview))
     results["seconds"] = log.times
+    results["cpu_seconds"] = log.cpu  # per step: [this process, the worker processes]
     with rep.section("Run"):
         rep.table([{"step": k, "wall time (s)": v} for k, v in log.times.items()],
                   floatfmt=".0f")  # fmt: skip

@@ -34,10 +34,11 @@ class Plan:
     gas_duration: float = 400.0
     ant_frames: int = 600
     n_bootstrap: int = 200
-    #: seconds per step on a 2-core machine (warm Numba cache; quick: the wall seconds of
-    #: the warm-cache run in docs/reproduce.md), for the estimate of what is left; only
-    #: their proportions matter (rescaled by the pace of the finished steps)
-    expected: dict[str, float] = field(default_factory=dict)
+    #: CPU seconds per step, ``(in the main process, in the worker pool)``, for the
+    #: estimate of what is left (:mod:`thermoswarm.reproduce.progress`, which rescales
+    #: them by this machine's measured speed); quick: ``results.json``'s ``cpu_seconds``
+    #: of a warm-cache run (docs/reproduce.md)
+    cost: dict[str, tuple[float, float]] = field(default_factory=dict)
 
 
 #: The quick mechanism study runs 5 of its 10 seeds: at the transport's defaults the
@@ -47,12 +48,15 @@ class Plan:
 QUICK = Plan("quick", compression_duration=1600.0, connected_seeds=3, free_seeds=3,
              study="quick", mechanism_seeds=5, regime_maps=("cold", "hot"),
              scaling_settings=("quick",), unified_duration=60.0,
-             expected={"unified_law": 12, "narrow_road": 7, "compression": 21,
-                       "transport_connected": 5, "transport_free": 58, "regime": 54,
-                       "mechanism": 146, "scaling": 19})  # fmt: skip
-FULL = Plan("full", expected={"unified_law": 60, "narrow_road": 25, "compression": 90,
-                              "transport_connected": 30, "transport_free": 200,
-                              "regime": 1000, "mechanism": 3000, "scaling": 2800})  # fmt: skip
+             cost={"unified_law": (18.7, 0.0), "narrow_road": (10.1, 0.3),
+                   "compression": (5.5, 33.6), "transport_connected": (7.6, 0.2),
+                   "transport_free": (95.0, 1.1), "regime": (1.4, 74.5),
+                   "mechanism": (0.8, 175.6), "scaling": (0.6, 31.2)})  # fmt: skip
+#: Not measured (hours): the former wall-second estimates, the studies' on two cores.
+FULL = Plan("full", cost={"unified_law": (60, 0), "narrow_road": (25, 0),
+                          "compression": (10, 160), "transport_connected": (30, 0),
+                          "transport_free": (200, 0), "regime": (5, 2000),
+                          "mechanism": (5, 6000), "scaling": (5, 5600)})  # fmt: skip
 #: Every step at a toy scale (a minute or two on 2 cores): checks that an install runs
 #: end to end; the numbers mean nothing.
 SMOKE = Plan("smoke", road_duration=40.0, compression_duration=150.0, pictures_duration=60.0,
@@ -62,7 +66,7 @@ SMOKE = Plan("smoke", road_duration=40.0, compression_duration=150.0, pictures_d
              regime_maps=("cold",), scaling_settings=("quick",), scaling_ns=(50, 150),
              unified_robots=200, unified_duration=10.0, gas_duration=20.0, ant_frames=150,
              n_bootstrap=19,
-             expected={"unified_law": 8, "narrow_road": 3, "compression": 8,
-                       "transport_connected": 3, "transport_free": 6, "regime": 6,
-                       "mechanism": 12, "scaling": 6})  # fmt: skip
+             cost={"unified_law": (8, 0), "narrow_road": (3, 0), "compression": (2, 12),
+                   "transport_connected": (3, 0), "transport_free": (6, 0), "regime": (1, 10),
+                   "mechanism": (1, 22), "scaling": (1, 10)})  # fmt: skip
 PLANS = {p.name: p for p in (SMOKE, QUICK, FULL)}

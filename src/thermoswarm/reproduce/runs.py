@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from thermoswarm.reproduce.plans import Plan
+from thermoswarm.reproduce.progress import Estimate, Usage, measure, meter
 
 
 def _duration(seconds: float) -> str:
@@ -64,18 +65,36 @@ class _Pool(Executor):
 
 class _Log:
     """One line per finished step with the time it took and an estimate of what is left
-    (the plan's expected durations, rescaled by how long the finished steps took); on a
-    terminal also a line when a step starts, and the runs' progress bars."""
+    (:class:`~thermoswarm.reproduce.progress.Estimate`: the plan's CPU seconds per step at
+    this machine's measured speed and load); on a terminal also a line when a step
+    starts, and the runs' progress bars.  ``clock`` and ``usage`` are the wall clock and
+    the CPU meter, ``cores`` the machine's (default: those this process may use)."""
 
-    def __init__(self, verbose: bool, plan: Plan, steps: list[str]) -> None:
+    def __init__(
+        self,
+        verbose: bool,
+        plan: Plan,
+        steps: list[str],
+        workers: int | None = None,
+        clock: Callable[[], float] = time.perf_counter,
+        usage: Callable[[], Usage | None] = measure,
+        cores: int | None = None,
+    ) -> None:
+        import os
         import sys
 
         self.verbose = verbose
         self.tty = verbose and sys.stdout.isatty()
-        self.t0 = time.perf_counter()
+        self.clock, self.usage = clock, usage
+        self.t0 = clock()
         self.times: dict[str, float] = {}
+        self.cpu: dict[str, list[float]] = {}  # CPU seconds: this process, the workers
         self.steps = steps
-        self.expected = {s: float(plan.expected.get(s, 1.0)) for s in steps}
+        if cores is None and hasattr(os, "sched_getaffinity"):
+            cores = len(os.sched_getaffinity(0))
+        cores = cores or os.cpu_count() or 1
+        cost = {s: plan.cost.get(s, (1.0, 0.0)) for s in steps}
+        self.estimate = Estimate(cost, cores, workers or os.cpu_count() or 1)
 
     @property
     def bars(self) -> bool | None:
@@ -85,8 +104,9 @@ class _Log:
 
     def start_up(self) -> None:
         """Import what every step needs before the first step starts, so that the first
-        step's pace (the first measure of this machine's speed) is its own work."""
-        start = time.perf_counter()
+        step's pace is its own work; the machine's load before the first step is
+        measured on these imports."""
+        since = meter(self.clock, self.usage)
         import matplotlib.pyplot  # noqa: F401
         import scipy.stats  # noqa: F401
         import xarray  # noqa: F401
@@ -95,37 +115,36 @@ class _Log:
         import thermoswarm.report.analysis_figures  # noqa: F401
         import thermoswarm.scenarios.runner  # noqa: F401
 
-        self.start_up_s = round(time.perf_counter() - start, 1)
-
-    def speed(self) -> float:
-        """This machine's pace now: wall seconds per expected second, measured on the
-        finished steps, each older step at half the weight of the next (a shared
-        machine's load changes during a run); 1 before any step has finished."""
-        done = [s for s in self.steps if s in self.times]
-        w = [0.5 ** (len(done) - 1 - i) for i in range(len(done))]
-        exp_done = sum(wi * self.expected[s] for wi, s in zip(w, done, strict=True))
-        took = sum(wi * self.times[s] for wi, s in zip(w, done, strict=True))
-        return took / exp_done if exp_done > 0 else 1.0
+        wall, used = since()
+        self.start_up_s = round(wall, 1)
+        if used is not None and used.machine_busy is not None and wall > 0:
+            others = max(0.0, used.machine_busy - used.own - used.children) / wall
+            self.estimate.start_share = max(0.1, self.estimate.cores - others)
 
     def left(self) -> float:
-        """Seconds left: the expected seconds of the steps to run at :meth:`speed`."""
-        todo = [s for s in self.steps if s not in self.times]
-        return self.speed() * sum(self.expected[s] for s in todo)
+        """Wall seconds left: the steps not finished at the measured speed and load."""
+        return self.estimate.left(self.steps)
 
     def step(self, name: str) -> Callable[[], None]:
-        start = time.perf_counter()
+        """Start step ``name``; returns the function that marks it done."""
+        since = meter(self.clock, self.usage)
         k = self.steps.index(name) + 1 if name in self.steps else 0
         if self.tty:
-            print(f"[{_duration(start - self.t0):>11s}] {k}/{len(self.steps)} {name} ... "
-                  f"(about {_duration(self.left())} left)", flush=True)  # fmt: skip
+            print(f"[{_duration(self.clock() - self.t0):>11s}] {k}/{len(self.steps)} {name} "
+                  f"... (about {_duration(self.left())} left)", flush=True)  # fmt: skip
 
         def done() -> None:
-            took = time.perf_counter() - start
+            took, used = since()
             self.times[name] = round(took, 1)
+            if used is not None:
+                self.cpu[name] = [round(used.own, 1), round(used.children, 1)]
+            self.estimate.finish(name, took, used)
             if self.verbose:
                 left = self.left()
-                tail = f"; about {_duration(left)} left" if left > 0 else ""
-                print(f"[{_duration(time.perf_counter() - self.t0):>11s}] {k}/{len(self.steps)} "
+                tail = (f"; about {_duration(left)} left (this run gets "
+                        f"{self.estimate.share():.2g} of {self.estimate.cores} cores)"
+                        if left > 0 else "")  # fmt: skip
+                print(f"[{_duration(self.clock() - self.t0):>11s}] {k}/{len(self.steps)} "
                       f"{name} done in {_duration(took)}{tail}", flush=True)  # fmt: skip
 
         return done
