@@ -177,6 +177,8 @@ STEPS = [
          title="ours, ByteTrack, OC-SORT, SORT on boxes made from real ant motion "
          "(anTraX JS16, 10 and 5 fps)"),
     Step("viewer", "bench_viewer", [], ["--sizes", "10000,100000", "--seconds", "3"]),
+    Step("split_join", "bench_split_join", [], ["--frames", "4"], needs="cv2",
+         title="duplicate detections of tiny split ants, joining off and on (drawn)"),
 ]  # fmt: skip
 #: Steps that ``--quick`` leaves out (no quick size says anything).
 FULL_ONLY = {"compression"}
