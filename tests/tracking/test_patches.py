@@ -57,17 +57,21 @@ def tray(tmp_path_factory):
     return folder, np.array(truth)
 
 
-def test_counts_on_coloured_patches(tray, tmp_path):
-    folder, truth = tray
-    out = tmp_path / "d"
-    res = CliRunner().invoke(
-        cli, ["detect", str(folder), "--out", str(out), "--regions", "color:8-45"]
-    )
+def _detect_counts(folder, out, spec: str) -> tuple[list[str], np.ndarray]:
+    """``detect FOLDER --regions SPEC``: the CSV's files and (left, right, outside)."""
+    res = CliRunner().invoke(cli, ["detect", str(folder), "--out", str(out), "--regions", spec])
     assert res.exit_code == 0, res.output
     with open(out / "tray_regions.csv") as f:
         rows = list(csv.DictReader(f))
-    assert [r["file"] for r in rows] == [f"tray_{k:03d}.png" for k in range(N)]
     got = np.array([[int(r["left"]), int(r["right"]), int(r["outside"])] for r in rows])
+    return [r["file"] for r in rows], got
+
+
+def test_counts_on_coloured_patches(tray, tmp_path):
+    folder, truth = tray
+    out = tmp_path / "d"
+    files, got = _detect_counts(folder, out, "color:8-45")
+    assert files == [f"tray_{k:03d}.png" for k in range(N)]
     # Every ant on its paper or off it, in every photo (one miss or extra in all 14).
     assert np.abs(got - truth).sum() <= 1, np.column_stack([got, truth])
     pics = sorted((out / "tray_regions").iterdir())
@@ -81,14 +85,7 @@ def test_counts_on_coloured_patches(tray, tmp_path):
 
 def test_another_hue_finds_no_patch(tray, tmp_path):
     folder, truth = tray
-    out = tmp_path / "d"
-    res = CliRunner().invoke(
-        cli, ["detect", str(folder), "--out", str(out), "--regions", "color:90-130"]
-    )
-    assert res.exit_code == 0, res.output
-    with open(out / "tray_regions.csv") as f:
-        rows = list(csv.DictReader(f))
-    got = np.array([[int(r["left"]), int(r["right"]), int(r["outside"])] for r in rows])
+    _, got = _detect_counts(folder, tmp_path / "d", "color:90-130")
     assert got[:, :2].sum() == 0 and got[:, 2].sum() == pytest.approx(truth.sum(), abs=1)
 
 
