@@ -156,3 +156,22 @@ def test_detect_takes_a_series_without_clocks_in_windows(tmp_path):
     res = CliRunner().invoke(cli, ["detect", str(folder), "--out", str(out), "--series", "no"])
     assert res.exit_code == 0, res.output
     assert json.loads((out / "summary.json").read_text())["inputs"][0]["photo_series"] is None
+
+
+def test_track_on_a_photo_series_warns_and_names_detect(tmp_path):
+    """``track`` on photos taken apart writes its outputs with a warning that names
+    the series and ``detect``; on video frames of the same scene it does not."""
+    _write(tmp_path / "tray", _photos(5, 26), [f"t1_{k:03d}.png" for k in range(26)])
+    _write(tmp_path / "clip", _video_frames(5, 26), [f"f_{k:03d}.png" for k in range(26)])
+    warned = {}
+    for name in ("tray", "clip"):
+        out = tmp_path / f"o_{name}"
+        res = CliRunner().invoke(
+            cli, ["track", str(tmp_path / name), "--out", str(out), "--fps", "10"]
+        )
+        assert res.exit_code == 0, res.output
+        warnings = json.loads((out / "summary.json").read_text())["warnings"]
+        warned[name] = [w for w in warnings if "photo series" in w]
+    assert len(warned["tray"]) == 1 and "thermoswarm detect" in warned["tray"][0]
+    assert "differ as much as images 8 apart" in warned["tray"][0]
+    assert warned["clip"] == []

@@ -27,7 +27,13 @@ from thermoswarm.tracking.pipeline.common import (
     build_detector,
     pixel_dataset,
 )
-from thermoswarm.tracking.pipeline.flood import flood_reasons, refuse_flood, warn_no_track
+from thermoswarm.tracking.pipeline.flood import (
+    add_warning,
+    flood_reasons,
+    photo_series_note,
+    refuse_flood,
+    warn_no_track,
+)
 from thermoswarm.tracking.track.tracker import Tracker, TrackerConfig, TrackResult
 
 
@@ -177,15 +183,17 @@ def _detect_and_associate(
 
 def _register(
     src: Any, camera: str, max_frames: int | None, prepare_s: float, rate: float
-) -> tuple[Any, Any, int, tuple[set[int], int]]:
+) -> tuple[Any, Any, int, tuple[set[int], int], str | None]:
     """The source (registered when the camera moves), its path, the frames the detector
-    is prepared on (the first scene's only) and the scene cuts with that count."""
+    is prepared on (the first scene's only), the scene cuts with that count, and
+    :func:`photo_series_note`'s warning (a photo series: the camera taken as still)."""
+    note, camera = photo_series_note(getattr(src, "path", None), camera)
     src, path = register_source(src, camera, max_frames=max_frames)
     n_prep = _prep_frames(prepare_s, rate, max_frames)
     cuts = set(path.cuts) if path is not None else set()
     if cuts:
         n_prep = min(n_prep, min(cuts))
-    return src, path, n_prep, (cuts, n_prep)
+    return src, path, n_prep, (cuts, n_prep), note
 
 
 def _to_first_frame(src: Any, result: TrackResult, dets: np.ndarray, out: Path) -> TrackResult:
@@ -260,7 +268,7 @@ def track_video(
     src = open_video(video)
     rate = _check_video_args(video, src, fps, max_frames, overlay, overlay_scale)
     t0 = time.perf_counter()
-    src, path, n_prep, cuts = _register(src, camera, max_frames, prepare_s, rate)
+    src, path, n_prep, cuts, note = _register(src, camera, max_frames, prepare_s, rate)
     det, scale = build_detector(
         src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model, options=detector_options
     )
@@ -279,7 +287,7 @@ def track_video(
     return _write_video_outputs(
         result, out, run, px_per_mm=px_per_mm, fps_source="user" if fps is not None else "video",
         tracker=tcfg, detector=detector, model=model, detector_options=detector_options,
-        timing=(elapsed, t_prep), overlay=writer is not None,
+        timing=(elapsed, t_prep), overlay=writer is not None, series_note=note,
     )  # fmt: skip
 
 
@@ -296,6 +304,7 @@ def _write_video_outputs(
     detector_options: dict[str, Any] | None,
     timing: tuple[float, float],
     overlay: bool,
+    series_note: str | None = None,
 ) -> dict[str, Any]:
     """Write tracks.nc, tracks_mot.txt, detections.txt and summary.json; return the summary.
 
@@ -354,6 +363,7 @@ def _write_video_outputs(
         per_frame, src.size, scale["length_px"], dets if still_bg else None, fps=rate
     )
     summary["warnings"] = reasons or warn_no_track(result.n_tracks, per_frame, rate, tracker, out)
+    summary["warnings"] += add_warning(out, series_note)
     atomic_write_json(out / "summary.json", summary)
     if reasons:
         refuse_flood(str(video), out, reasons)
