@@ -14,14 +14,15 @@ every step got 0.41-0.56 cores; docs/reproduce.md), so a pace measured on one-pr
 steps misjudges the two-process studies by up to 2x.
 
 After each step both are measured: the slowness from the CPU seconds that the step and
-its worker processes used (``/proc``), the share from the wall time the step took for
+its worker processes used (:mod:`psutil`), the share from the wall time the step took for
 that CPU work (the share for which the model gives that wall time) or, where the step
 got every core it asked for, from the cores the machine's other processes left
-(``/proc/stat``); recent steps weigh most (a shared machine's load changes).  Without
-``/proc`` (not Linux) the share is taken as every core and the slowness is the pace of
-the finished steps.  Where the load runs in this run's own session (or autogroup is
-off), the kernel shares by process and the two-process studies get more than a
-one-process step: the estimate of the studies is then up to 2x long.
+(:func:`psutil.cpu_times`); recent steps weigh most (a shared machine's load changes).
+Where the system gives no machine-wide CPU times the share is taken as every core and
+the slowness is the pace of the finished steps.  Where the load runs in this run's own
+session (or autogroup is off), the kernel shares by process and the two-process
+studies get more than a one-process step: the estimate of the studies is then up to
+2x long.
 """
 
 from __future__ import annotations
@@ -29,9 +30,8 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 
-_TICK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+import psutil
 
 
 def cores_got(k: float, share: float) -> float:
@@ -46,7 +46,7 @@ class Usage:
 
     own: float
     children: float
-    machine_busy: float | None  # every process's CPU seconds since boot (/proc/stat)
+    machine_busy: float | None  # every process's CPU seconds since boot
 
     def __sub__(self, other: Usage) -> Usage:
         busy = None
@@ -55,56 +55,34 @@ class Usage:
         return Usage(self.own - other.own, self.children - other.children, busy)
 
 
-def _stat_fields(pid: str) -> list[str] | None:
-    try:
-        text = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return None
-    return text[text.rindex(")") + 2 :].split()  # after the command, which may hold spaces
-
-
-def _descendants_cpu(root: int) -> float | None:
-    """CPU seconds of the live descendants of ``root`` (with the children they reaped);
-    None without ``/proc``."""
-    try:
-        pids = [p for p in os.listdir("/proc") if p.isdigit()]
-    except OSError:
-        return None
-    parent: dict[int, int] = {}
-    cpu: dict[int, float] = {}
-    for p in pids:
-        f = _stat_fields(p)
-        if f is None:
+def _descendants_cpu() -> float:
+    """CPU seconds of the live descendants of this process (with the children they
+    reaped)."""
+    total = 0.0
+    for child in psutil.Process().children(recursive=True):
+        try:
+            t = child.cpu_times()
+        except psutil.Error:  # ended since it was listed: os.times() counts it once reaped
             continue
-        parent[int(p)] = int(f[1])  # fields 4 (ppid) and 14-17 (utime .. cstime)
-        cpu[int(p)] = sum(int(x) for x in f[11:15]) / _TICK
-    total, todo = 0.0, [root]
-    while todo:
-        me = todo.pop()
-        kids = [p for p, pp in parent.items() if pp == me]
-        total += sum(cpu[k] for k in kids)
-        todo.extend(kids)
+        total += t.user + t.system + t.children_user + t.children_system
     return total
 
 
 def _machine_busy() -> float | None:
-    """CPU seconds every process of the machine used since boot; None without /proc."""
+    """CPU seconds every process of the machine used since boot; None where the system
+    does not say."""
     try:
-        first = Path("/proc/stat").read_text().split("\n", 1)[0].split()
-    except OSError:
+        t = psutil.cpu_times()
+    except (psutil.Error, OSError):
         return None
-    if first[0] != "cpu":
-        return None
-    v = [int(x) for x in first[1:9]]  # user nice system idle iowait irq softirq steal
-    return (v[0] + v[1] + v[2] + v[5] + v[6]) / _TICK
+    return float(sum(getattr(t, k, 0.0) for k in ("user", "nice", "system", "irq", "softirq")))
 
 
 def measure() -> Usage:
     """CPU seconds so far (s): this process (every thread), its descendants (live ones
-    from ``/proc``, reaped ones from :func:`os.times`), the whole machine since boot."""
+    from :mod:`psutil`, reaped ones from :func:`os.times`), the whole machine since boot."""
     t = os.times()
-    live = _descendants_cpu(os.getpid())
-    children = t.children_user + t.children_system + (live or 0.0)
+    children = t.children_user + t.children_system + _descendants_cpu()
     return Usage(t.user + t.system, children, _machine_busy())
 
 
