@@ -231,7 +231,7 @@ def predict(F, I, n):
 
 
 @njit(cache=True)
-def prepare_costs(F, I, n, frame, r2, pad, step_px, headroom=1.0, widening=1.0):
+def prepare_costs(F, I, n, frame, r2, pad, step_px, headroom, widening):
     """What :func:`~thermoswarm.tracking.track.association.pair_costs` needs of the tracks:
     innovation covariances ``S`` ``(n, 2, 2)`` (``P[:2, :2] + r2 I``), predicted body
     points ``(n, 2)``, predicted boxes ``(n, 4)``, predicted body axes (head - tail)
