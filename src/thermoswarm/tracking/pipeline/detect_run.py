@@ -275,16 +275,15 @@ def _series_record(evidence: dict, scale: dict, *, forced: bool) -> dict[str, An
     return rec
 
 
-def _write_picture(
-    path: Path, frame: np.ndarray, regions: list, d: Any, px_per_mm: float | None
-) -> None:
+def _write_jpeg(path: Path, rgb: np.ndarray) -> None:
+    """An RGB picture as a JPEG, written atomically."""
     import cv2
 
     from thermoswarm.fsutil import atomic_write_bytes
 
-    counts = count_regions(regions, [d], px_per_mm)[0]
-    img = draw_counts(frame, regions, d, counts, px_per_mm)
-    ok, buf = cv2.imencode(".jpg", cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+    ok, buf = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+    if not ok:
+        raise InputError(f"{path}: the picture could not be encoded as JPEG")
     atomic_write_bytes(path, buf.tobytes())
 
 
@@ -314,7 +313,8 @@ def _camera_and_counts(
             pics = out / f"{name}_regions"
             pics.mkdir(exist_ok=True)
             for k, frame in enumerate(src.frames(len(dets), prefetch=4)):
-                _write_picture(pics / f"{files[k].stem}.jpg", frame, regions, dets[k], px_per_mm)
+                img = draw_counts(frame, regions, dets[k], counts[k], px_per_mm)
+                _write_jpeg(pics / f"{files[k].stem}.jpg", img)
             written.append(f"{name}_regions/")
     return written
 
@@ -330,10 +330,6 @@ def _patch_counts(
 ) -> list[str]:
     """Count the detections on each frame's coloured patches (``--regions color:...``):
     ``NAME_regions.csv`` and, for photos, a picture each in ``NAME_regions/``."""
-    import cv2
-
-    from thermoswarm.fsutil import atomic_write_bytes
-
     pics = out / f"{name}_regions" if src.files is not None else None
     if pics is not None:
         pics.mkdir(exist_ok=True)
@@ -345,8 +341,7 @@ def _patch_counts(
         counts.append(c)
         if pics is not None:
             img = draw_patches(frame, spec, masks, bodies, side, c)
-            ok, buf = cv2.imencode(".jpg", cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
-            atomic_write_bytes(pics / f"{src.files[k].stem}.jpg", buf.tobytes())
+            _write_jpeg(pics / f"{src.files[k].stem}.jpg", img)
     names = [img["file_name"] for img in images]
     regions = [SimpleNamespace(name=n) for n in spec.names]
     atomic_write_text(out / f"{name}_regions.csv", counts_csv(names, regions, np.array(counts)))

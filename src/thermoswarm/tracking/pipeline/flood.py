@@ -175,20 +175,16 @@ def warn_no_track(
     return [text]
 
 
-def photo_series_note(video: Any, camera: str) -> tuple[str | None, str]:
-    """Where ``video`` is a folder of still photos taken a while apart
-    (:func:`~thermoswarm.tracking.pipeline.series.series_evidence`): a warning that
-    tracks link photos far apart (identities are guesses; ``detect`` counts them per
-    photo), and the camera ``"still"`` in place of ``"auto"`` (photos minutes apart
-    never register to each other: a fixed camera is the series' premise).  Else
-    ``(None, camera)``."""
+def photo_series_note(files: list[Path] | None, label: Any, camera: str) -> tuple[str | None, str]:
+    """Where ``files`` (a source's image files, in file order; None for a video file)
+    are still photos taken a while apart
+    (:func:`~thermoswarm.tracking.pipeline.series.series_evidence`): a warning naming
+    ``label`` that tracks link photos far apart (identities are guesses; ``detect``
+    counts them per photo), and the camera ``"still"`` in place of ``"auto"`` (photos
+    minutes apart never register to each other: a fixed camera is the series'
+    premise).  Else ``(None, camera)``."""
     from thermoswarm.tracking.pipeline.series import series_evidence
-    from thermoswarm.tracking.video import IMAGE_EXTS
 
-    if video is None or not Path(video).is_dir():
-        return None, camera
-    video = Path(video)
-    files = sorted(p for p in video.iterdir() if p.suffix.lower() in IMAGE_EXTS)
     ev = series_evidence(files)
     if not ev["series"]:
         return None, camera
@@ -199,10 +195,10 @@ def photo_series_note(video: Any, camera: str) -> tuple[str | None, str]:
         f"(ratio {ev['change_ratio']:.2f})"
     )
     text = (
-        f"{video}: these {len(files)} images are a photo series ({why}), not video frames: "
+        f"{label}: these {len(files)} images are a photo series ({why}), not video frames: "
         "tracks link photos taken far apart, so their identities are guesses and their "
         "speeds mean nothing (the camera is taken as still); to count the animals per "
-        f"photo (and per region) use `thermoswarm detect {video} --out DIR`"
+        f"photo (and per region) use `thermoswarm detect {label} --out DIR`"
     )
     return text, ("still" if camera == "auto" else camera)
 

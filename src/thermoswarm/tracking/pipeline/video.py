@@ -187,7 +187,7 @@ def _register(
     """The source (registered when the camera moves), its path, the frames the detector
     is prepared on (the first scene's only), the scene cuts with that count, and
     :func:`photo_series_note`'s warning (a photo series: the camera taken as still)."""
-    note, camera = photo_series_note(getattr(src, "path", None), camera)
+    note, camera = photo_series_note(src.files, src.path, camera)
     src, path = register_source(src, camera, max_frames=max_frames)
     n_prep = _prep_frames(prepare_s, rate, max_frames)
     cuts = set(path.cuts) if path is not None else set()
