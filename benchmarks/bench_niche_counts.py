@@ -67,7 +67,12 @@ from xml.etree import ElementTree
 
 import numpy as np
 
-from thermoswarm.tracking.pipeline.patches import ColorRegions, count_patches, on_patch
+from thermoswarm.tracking.pipeline.patches import (
+    ColorPatch,
+    ColorRegions,
+    count_patches,
+    on_patch,
+)
 from thermoswarm.tracking.pipeline.series import SERIES_WINDOW
 
 #: The food papers (yellow and orange): ``detect --regions color:8-45``
@@ -256,7 +261,7 @@ def count_photo(photo: Photo, bodies: np.ndarray, length: float, margin: float) 
     import cv2
 
     rgb = cv2.cvtColor(cv2.imread(str(photo.path)), cv2.COLOR_BGR2RGB)
-    spec = ColorRegions(hue=PAPER_HUE, margin_bl=margin)
+    spec = ColorRegions((ColorPatch(hue=PAPER_HUE, margin_bl=margin),))
     counts, masks, _ = count_patches(spec, rgb, bodies, length)
     photo.counts = {k: int(c) for k, c in zip(spec.names, counts, strict=False)}
     return masks

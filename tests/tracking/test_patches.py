@@ -90,7 +90,18 @@ def test_another_hue_finds_no_patch(tray, tmp_path):
 
 
 @pytest.mark.parametrize(
-    "spec", ["color:8", "color:45-8", "color:8-45,sat=300", "color:8-45,foo=1", "colr:8-45"]
+    "spec",
+    [
+        "color:8",
+        "color:45-8",
+        "color:8-45,sat=300",
+        "color:8-45,foo=1",
+        "colr:8-45",
+        "color:8-45,split=diag",
+        "color:8-45+color:90-130",  # both would be left and right
+        "color:8-45,name=outside",
+        "color:8-45,name=2x",
+    ],
 )
 def test_bad_colour_spec_is_a_one_line_error(tray, tmp_path, spec):
     folder, _ = tray
@@ -103,7 +114,80 @@ def test_bad_colour_spec_is_a_one_line_error(tray, tmp_path, spec):
 
 
 def test_colour_spec_options():
-    spec = parse_color_regions("color:8-45,sat=120,margin=0.25")
+    (spec,) = parse_color_regions("color:8-45,sat=120,margin=0.25").patches
     assert (spec.hue, spec.min_sat, spec.min_val, spec.margin_bl) == ((8, 45), 120, 100, 0.25)
+    assert spec.names == ("left", "right")
+    two = parse_color_regions("color:8-45,name=sucrose+color:95-130,name=peptone,split=tb")
+    assert two.names == ("sucrose", "peptone_top", "peptone_bottom")
+    quad = parse_color_regions("color:8-45,split=quad").names
+    assert quad == ("top_left", "top_right", "bottom_left", "bottom_right")
+    assert parse_color_regions("color:8-45,split=none").names == ("patch",)
     with pytest.raises(InputError, match="margin"):
         parse_color_regions("color:8-45,margin=x")
+
+
+#: Four baits in the four quarters: orange papers top left and bottom right, blue ones
+#: top right and bottom left (x0, y0, x1, y1, BGR).
+BAITS = [
+    (40, 30, 150, 120, (20, 165, 250)),
+    (250, 30, 360, 120, (220, 120, 30)),
+    (40, 170, 150, 260, (220, 120, 30)),
+    (250, 170, 360, 260, (20, 165, 250)),
+]
+
+
+@pytest.fixture(scope="module")
+def four_baits(tmp_path_factory):
+    """6 photos of a tray with four baits in two colours, ants on each; the truth per
+    photo is the ants on each bait, in BAITS' order, then those on none."""
+    rng = np.random.default_rng(5)
+    folder = tmp_path_factory.mktemp("baits") / "quad"
+    folder.mkdir()
+    truth = []
+    for k in range(6):
+        img = np.full((H, W, 3), 190, np.uint8) + rng.integers(0, 6, (H, W, 3), dtype=np.uint8)
+        ants, t = [], []
+        for x0, y0, x1, y1, bgr in BAITS:
+            cv2.rectangle(img, (x0, y0), (x1, y1), bgr, -1)
+            n = int(rng.integers(0, 4))
+            cells = rng.permutation(6)[:n]  # 3 x 2 cells of the paper, one ant each
+            ants += [(x0 + 20 + 35 * (c % 3), y0 + 25 + 40 * (c // 3)) for c in cells]
+            t.append(n)
+        off = int(rng.integers(0, 3))
+        ants += [(200, 40 + 110 * j) for j in range(off)]  # the cross between the baits
+        t.append(off)
+        for j, (x, y) in enumerate(ants):
+            cv2.ellipse(img, (int(x), int(y)), (10, 3), 30 + 40 * j, 0, 360, (25, 30, 40), -1)
+        assert cv2.imwrite(str(folder / f"quad_{k:03d}.png"), img)
+        truth.append(t)
+    return folder, np.array(truth)
+
+
+QUARTERS = ("top_left", "top_right", "bottom_left", "bottom_right")
+
+
+def _detect_columns(folder, out, spec: str, columns: list[str]) -> np.ndarray:
+    """``detect FOLDER --regions SPEC``: the CSV's columns (checked) then ``outside``."""
+    res = CliRunner().invoke(cli, ["detect", str(folder), "--out", str(out), "--regions", spec])
+    assert res.exit_code == 0, res.output
+    with open(out / "quad_regions.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert list(rows[0])[2:] == [*columns, "outside"], list(rows[0])
+    return np.array([[int(r[c]) for c in [*columns, "outside"]] for r in rows])
+
+
+def test_baits_told_apart_by_colour_and_by_quarter(four_baits, tmp_path):
+    folder, truth = four_baits
+    spec = "color:8-45,name=sugar+color:95-130,name=protein"
+    got = _detect_columns(folder, tmp_path / "c", spec, ["sugar", "protein"])
+    by_colour = truth[:, [0, 1, 4]] + truth[:, [3, 2, 4]] * [1, 1, 0]
+    assert np.abs(got - by_colour).sum() <= 1, np.column_stack([got, by_colour])
+    spec = "color:8-45,name=sugar,split=quad+color:95-130,name=protein,split=quad"
+    names = [f"{c}_{q}" for c in ("sugar", "protein") for q in QUARTERS]
+    got = _detect_columns(folder, tmp_path / "q", spec, names)
+    # BAITS' order: sugar top left, protein top right, protein bottom left, sugar bottom right
+    cols = ["sugar_top_left", "protein_top_right", "protein_bottom_left", "sugar_bottom_right"]
+    picked = got[:, [names.index(c) for c in cols] + [-1]]
+    assert np.abs(picked - truth).sum() <= 1, np.column_stack([picked, truth])
+    # the quarters without a paper of that colour hold no ant
+    assert got[:, :-1].sum() == picked[:, :-1].sum()

@@ -63,8 +63,8 @@ from thermoswarm.errors import InputError
     "--regions",
     help="Regions TOML (as `analyze --regions`; px, or mm with --px-per-mm), or "
     "color:HUE_LO-HUE_HI (coloured patches found in each photo, left and right; OpenCV "
-    "hue 0-180): writes NAME_regions.csv (detections per frame and region) and, for "
-    "photos, a picture each.",
+    "hue 0-180; ,split=lr|tb|quad|none ,name=NAME, several colours joined by +): writes "
+    "NAME_regions.csv (detections per frame and region) and, for photos, a picture each.",
 )
 @click.option(
     "--series",
