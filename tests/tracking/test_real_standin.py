@@ -30,14 +30,16 @@ PATHS = [((0, 60), (80.0, 40.0), (20.0, 44.0)), ((150, 220), (50.0, 4.0), (46.0,
 N_FRAMES = 240
 
 
-def _frame(rng: np.random.Generator, k: int) -> tuple[np.ndarray, list[tuple[float, float]]]:
+def _frame(
+    rng: np.random.Generator, k: int, paths: list = PATHS
+) -> tuple[np.ndarray, list[tuple[float, float]]]:
     img = np.zeros((H, W, 3), np.uint8)
     img[:] = (150, 110, 80)  # brown ground (RGB)
     cv2.rectangle(img, (0, 30), (W, 54), (230, 215, 200), -1)  # the trail
     cv2.rectangle(img, (36, 0), (56, 30), (230, 215, 200), -1)  # its stem
     img = cv2.GaussianBlur(img, (5, 5), 1.5)
     centres = []
-    for (k0, k1), a, b in PATHS:
+    for (k0, k1), a, b in paths:
         if k0 <= k < k1:
             t = (k - k0) / (k1 - k0 - 1)
             c = (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
@@ -82,3 +84,47 @@ def test_track_trail_clip_without_scale(trail_clip, tmp_path):
     assert empty.sum() <= 6
     # Two ants crossed; a track may break once where an ant enters or leaves.
     assert 2 <= summary["n_tracks"] <= 3
+
+
+#: The same two crossings, late in a 20-s clip: the arena is empty for its first 13 s
+#: (the real ROI_1 and ROI_7 clips: the first ant after 11 and 32 s).
+LATE = [((k0 + 320, k1 + 320), a, b) for (k0, k1), a, b in PATHS[:1]]
+LATE += [((400, 470), a, b) for _, a, b in PATHS[1:]]
+
+
+def _late_clip(tmp_path, paths):
+    rng = np.random.default_rng(6)
+    frames, truth = zip(*(_frame(rng, k, paths) for k in range(480)), strict=True)
+    path = tmp_path / "late.mp4"
+    write_video(frames, path, FPS)
+    return path, truth
+
+
+def test_clip_empty_at_first_is_measured_where_the_ants_are(tmp_path):
+    path, truth = _late_clip(tmp_path, LATE)
+    out = tmp_path / "run"
+    res = CliRunner().invoke(cli, ["track", str(path), "--out", str(out), "--quiet"])
+    assert res.exit_code == 0, res.output  # was: "cannot measure the animals' size"
+    summary = json.loads((out / "summary.json").read_text())
+    first, last = summary["prepare_frames"]
+    assert last - first + 1 == 72  # 3 s at 24 frames/s, as for any clip
+    assert any(first - 1 <= k < last and truth[k] for k in range(480))  # ants in it
+    assert 0.6 * ANT[0] <= summary["length_px"] <= 1.4 * ANT[0]
+    det = np.loadtxt(out / "detections.txt", delimiter=",", ndmin=2)
+    frame = det[:, 0].astype(int) - 1
+    ant_frames = {k for k in range(480) if truth[k]}
+    # 130 ant-frames, as above: nearly all have a detection, and the empty 350 hardly any
+    assert len(ant_frames & set(frame.tolist())) >= len(ant_frames) - 7
+    assert sum(k not in ant_frames for k in frame) <= 6
+    assert 2 <= summary["n_tracks"] <= 3
+
+
+def test_clip_without_animals_names_every_window(tmp_path):
+    path, _ = _late_clip(tmp_path, [])
+    res = CliRunner().invoke(cli, ["track", str(path), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    # 9 windows spread over the clip (51 frames apart): all of it; no tile is needed
+    assert len(lines) == 1, res.output
+    assert "no moving animal in 9 windows of 72 frames covering 100% of the clip" in lines[0]
+    assert not (tmp_path / "o").exists()

@@ -138,14 +138,14 @@ class VideoSource:
             )
         return cv2.cvtColor(_check_frame_size(img, p), cv2.COLOR_BGR2RGB)
 
-    def _iter(self, stop: int | None, step: int = 1) -> Iterator[np.ndarray]:
+    def _iter(self, stop: int | None, step: int = 1, start: int = 0) -> Iterator[np.ndarray]:
         import cv2
 
         if self._files is not None:
             for k, p in enumerate(self._files):
                 if stop is not None and k >= stop:
                     return
-                if k % step:
+                if k < start or (k - start) % step:
                     continue
                 img = self._read_image(p)
                 if (img.shape[1], img.shape[0]) != self.size:
@@ -160,8 +160,11 @@ class VideoSource:
             raise InputError(f"{self.path}: cannot open as a video")
         try:
             k = 0
+            if start > 0:  # a seek (to the key frame before, then decoded forward)
+                cap.set(cv2.CAP_PROP_POS_FRAMES, start)
+                k = start
             while stop is None or k < stop:
-                if k % step:
+                if (k - start) % step:
                     # Skipped frames are decoded (grab) but not converted.
                     if not cap.grab():
                         return
@@ -178,14 +181,14 @@ class VideoSource:
             cap.release()
 
     def frames(
-        self, stop: int | None = None, *, step: int = 1, prefetch: int = 0
+        self, stop: int | None = None, *, step: int = 1, prefetch: int = 0, start: int = 0
     ) -> Iterator[np.ndarray]:
-        """Frames ``0, step, 2 step, ...`` below ``stop`` (RGB uint8), decoded ahead in a
-        thread if ``prefetch`` > 0 (that many frames are buffered)."""
-        if step < 1:
-            raise ValueError(f"step must be a positive integer, got {step}")
+        """Frames ``start, start + step, ...`` below ``stop`` (RGB uint8), decoded ahead
+        in a thread if ``prefetch`` > 0 (that many frames are buffered)."""
+        if step < 1 or start < 0:
+            raise ValueError(f"step must be positive and start >= 0, got {step}, {start}")
         if prefetch <= 0:
-            yield from self._iter(stop, step)
+            yield from self._iter(stop, step, start)
             return
         q: queue.Queue = queue.Queue(maxsize=prefetch)
         done = object()
@@ -193,7 +196,7 @@ class VideoSource:
 
         def work() -> None:
             try:
-                for f in self._iter(stop, step):
+                for f in self._iter(stop, step, start):
                     while not stop_flag.is_set():
                         try:
                             q.put(f, timeout=0.1)

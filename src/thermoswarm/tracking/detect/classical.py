@@ -111,6 +111,7 @@ __all__ = [
     "ClassicalConfig",
     "ClassicalDetector",
     "SizeEstimate",
+    "NoBlobsError",
     "estimate_length_px",
     "typical_area",
     "SPAN_PER_LENGTH",
@@ -481,6 +482,11 @@ class ClassicalDetector:
 SPAN_PER_LENGTH = 1.02
 SPAN_BLUR_PX = 2.5
 
+
+class NoBlobsError(InputError):
+    """:func:`estimate_length_px` found too few moving blobs to measure a size."""
+
+
 #: Smallest blob (working px) that counts when the animals' size is unknown.
 _MIN_BLOB = 4.0
 
@@ -559,7 +565,7 @@ def estimate_length_px(
     area = np.concatenate([b.area for b in found])
     span = np.concatenate([b.span for b in found])
     if area.size < 3:
-        raise InputError(
+        raise NoBlobsError(
             f"{source}: cannot measure the animals' size: {area.size} moving blob(s) in "
             f"the first {len(grays)} sampled frames; {NOTHING_FOUND_HINT}"
         )

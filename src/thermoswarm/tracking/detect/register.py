@@ -336,13 +336,15 @@ class RegisteredSource:
         return np.nan_to_num(mosaic, nan=0.0).astype(np.uint8)
 
     def frames(
-        self, stop: int | None = None, *, step: int = 1, prefetch: int = 0
+        self, stop: int | None = None, *, step: int = 1, prefetch: int = 0, start: int = 0
     ) -> Iterator[np.ndarray]:
-        """Warped frames ``0, step, ...`` below ``stop`` (as the source's ``frames``)."""
+        """Warped frames ``start, start + step, ...`` below ``stop`` (as the source's
+        ``frames``)."""
         total = len(self.camera.matrices)
         stop = total if stop is None else min(stop, total)
-        for i, frame in enumerate(self._src.frames(stop, step=step, prefetch=prefetch)):
-            img, valid = self._warp(frame, i * step)
+        frames = self._src.frames(stop, step=step, prefetch=prefetch, start=start)
+        for i, frame in enumerate(frames):
+            img, valid = self._warp(frame, start + i * step)
             yield np.where(valid[..., None] if img.ndim == 3 else valid, img, self._mosaic)
 
 

@@ -13,7 +13,12 @@ import numpy as np
 from thermoswarm.config import to_dict
 from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.detect.classical import estimate_length_px, make_detector
+from thermoswarm.tracking.detect.classical import (
+    NOTHING_FOUND_HINT,
+    NoBlobsError,
+    estimate_length_px,
+    make_detector,
+)
 from thermoswarm.tracking.track.tracker import TrackerConfig, TrackResult
 
 #: Smallest share of its length squared that a single animal's blob fills (lines below).
@@ -40,6 +45,70 @@ def _prep_frames(prepare_s: float, rate: float, max_frames: int | None) -> int:
     return n_prep
 
 
+#: Windows of the detector's preparation frames tried first over a clip, the first
+#: included, when its first frames show no moving animal (an arena still empty when
+#: it starts); then every window in turn, up to :data:`SCAN_BUDGET_PX`.
+SIZE_WINDOWS = 9
+#: Most pixels decoded looking for moving animals (about 1,000 full-HD frames, or
+#: every frame of a 10-min clip of 84 x 72 px, in a few seconds).
+SCAN_BUDGET_PX = 2e9
+
+
+def _size_windows(src: Any, n_prep: int, max_frames: int | None) -> tuple[list[int], int]:
+    """First frames of the windows of ``n_prep`` frames where the animals' size is
+    looked for: 0, evenly spread over the clip (below ``max_frames``), then the
+    windows that tile it, within :data:`SCAN_BUDGET_PX`; and the clip's frames."""
+    total = getattr(src, "n_frames", None)
+    if max_frames is not None:
+        total = max_frames if total is None else min(total, max_frames)
+    if not total or total < 2 * n_prep:
+        return [0], n_prep
+    spread = np.linspace(0, total - n_prep, SIZE_WINDOWS).round().astype(int).tolist()
+    tiles = [min(k, total - n_prep) for k in range(0, total, n_prep)]
+    seen = np.zeros(total, bool)
+    starts = []
+    for k in spread + tiles:  # the spread first; then the tiles that see a new frame
+        if not seen[k : k + n_prep].all():
+            starts.append(k)
+            seen[k : k + n_prep] = True
+    w, h = src.size
+    most = max(SIZE_WINDOWS, int(SCAN_BUDGET_PX // (w * h * n_prep)))
+    return starts[:most], total
+
+
+def _measure_size(
+    src: Any, n_prep: int, step: int, options: dict[str, Any] | None, max_frames: int | None
+) -> tuple[Any, int]:
+    """The animals' size (:class:`SizeEstimate`) and the first frame of the window it
+    was measured in: the first ``n_prep`` frames, else the first later window
+    (:func:`_size_windows`) where animals move; a one-line error saying how much of
+    the clip was looked at when none has them."""
+    starts, total = _size_windows(src, n_prep, max_frames)
+    for start in starts:
+        frames = src.frames(start + n_prep, step=step, prefetch=4, **_from(start))
+        try:
+            return estimate_length_px(frames, options, source=str(src.path)), start
+        except NoBlobsError as exc:
+            if len(starts) == 1:
+                raise
+            first = exc
+    seen = np.zeros(total, bool)
+    for s in starts:
+        seen[s : s + n_prep] = True
+    more = "" if seen.all() else f" (the look stops at {SCAN_BUDGET_PX:.0e} px decoded)"
+    raise InputError(
+        f"{src.path}: cannot measure the animals' size: no moving animal in "
+        f"{len(starts)} windows of {n_prep} frames covering {seen.mean():.0%} of the "
+        f"clip{more}; cut the clip where animals move, or {NOTHING_FOUND_HINT}"
+    ) from first
+
+
+def _from(start: int) -> dict[str, int]:
+    """``frames``' keyword for a window that does not start at frame 0 (sources
+    without ``start`` are only asked for first windows)."""
+    return {"start": start} if start else {}
+
+
 def build_detector(
     src: Any,
     n_prep: int,
@@ -49,26 +118,27 @@ def build_detector(
     model: str | os.PathLike | None,
     options: dict[str, Any] | None,
     step: int | None = None,
+    max_frames: int | None = None,
 ) -> tuple[Any, dict[str, Any]]:
-    """The detector for video ``src``, prepared on its first ``n_prep`` frames (every
-    ``step``-th; default every other from 32 frames, else all).
+    """The detector for video ``src``, prepared on ``n_prep`` of its frames (every
+    ``step``-th; default every other from 32 frames, else all): its first frames,
+    or, when those show no moving animal and no scale is given, the first window
+    of as many frames further into the clip (below ``max_frames``) that does.
 
     Without a scale the animals' body length is measured first from the same frames
     (:func:`~thermoswarm.tracking.detect.classical.estimate_length_px`, with the classical
     detector's options when the detector is the classical one) and the detector is
     built at the scale that makes the paper's ant that long.  Returns the detector
-    and ``{"px_per_mm", "length_px", "scale_source", "n_blobs"}`` (``px_per_mm`` the
-    scale used, ``length_px`` the body length in px).
+    and ``{"px_per_mm", "length_px", "scale_source", "n_blobs", "prepare_frames"}``
+    (``px_per_mm`` the scale used, ``length_px`` the body length in px,
+    ``prepare_frames`` the 1-based first and last frame the detector learned from).
     """
     step = step or (2 if n_prep >= 32 else 1)
     info: dict[str, Any] = {"scale_source": "user", "n_blobs": None}
+    start = 0
     if px_per_mm is None:
         classical = (detector or ("classical" if model is None else "")) == "classical"
-        est = estimate_length_px(
-            src.frames(n_prep, step=step, prefetch=4),
-            options if classical else None,
-            source=str(src.path),
-        )
+        est, start = _measure_size(src, n_prep, step, options if classical else None, max_frames)
         if est.fill < MIN_FILL:
             raise InputError(
                 f"{src.path}: the moving things are thin lines, not animals: their blobs "
@@ -82,8 +152,9 @@ def build_detector(
     det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
     prepare = getattr(det, "prepare", None)
     if prepare is not None:
-        prepare(src.frames(n_prep, step=step, prefetch=4))
+        prepare(src.frames(start + n_prep, step=step, prefetch=4, **_from(start)))
     info.update(px_per_mm=float(px_per_mm), length_px=float(anatomy.ANT_LENGTH_MM * px_per_mm))
+    info["prepare_frames"] = [start + 1, start + n_prep]
     return det, info
 
 

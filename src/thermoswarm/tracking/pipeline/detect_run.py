@@ -200,7 +200,8 @@ def _detect_source(
         dets, scale, det = detect_series(files, window=series_window, **kw)
         scale["photo_series"] = _series_record(evidence, scale, forced=series == "yes")
     else:
-        det, scale = build_detector(src, _prep_frames(prepare_s, rate, max_frames), **kw)
+        n_prep = _prep_frames(prepare_s, rate, max_frames)
+        det, scale = build_detector(src, n_prep, max_frames=max_frames, **kw)
         frames = src.frames(max_frames, prefetch=4)
         dets = [shift_detections(det.detect(f), offset) for f in frames]
     images = _coco_images(src, files, len(dets))
@@ -233,6 +234,7 @@ def _detect_source(
         "px_per_mm": px_per_mm,
         "length_px": scale["length_px"],
         "scale_source": scale["scale_source"],
+        "prepare_frames": scale.get("prepare_frames"),
         "seconds": time.perf_counter() - t0,
         "outputs": written,
         "camera": camera_summary(path, isinstance(src, RegisteredSource)),

@@ -270,8 +270,9 @@ def track_video(
     t0 = time.perf_counter()
     src, path, n_prep, cuts, note = _register(src, camera, max_frames, prepare_s, rate)
     det, scale = build_detector(
-        src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model, options=detector_options
-    )
+        src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model,
+        options=detector_options, max_frames=max_frames,
+    )  # fmt: skip
     out = prepare_output_dir(out_dir)  # only once the detector is built
     tcfg = tracker_config or TrackerConfig()
     tracker = Tracker(tcfg, px_per_mm=scale["px_per_mm"], fps=rate, frame_size=src.size)
@@ -352,6 +353,7 @@ def _write_video_outputs(
     summary.update(
         length_px=scale["length_px"],
         scale_source=scale["scale_source"],
+        prepare_frames=scale.get("prepare_frames"),
         space_unit="mm" if px_per_mm is not None else "px",
         camera=run["camera"],
     )
