@@ -25,3 +25,7 @@ class InputError(ThermoswarmError, ValueError):
 
 class OutputError(ThermoswarmError, OSError):
     """An output location cannot be written (missing parent, not a directory, ...)."""
+
+
+class NoBlobsError(InputError):
+    """Too few moving blobs in a video's frames to measure the animals' size."""

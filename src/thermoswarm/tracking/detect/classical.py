@@ -68,7 +68,7 @@ from typing import Any
 import numpy as np
 
 from thermoswarm.config import from_mapping
-from thermoswarm.errors import ConfigError, InputError
+from thermoswarm.errors import ConfigError, InputError, NoBlobsError
 from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detect.blobs import (
     _Blobs,
@@ -111,7 +111,6 @@ __all__ = [
     "ClassicalConfig",
     "ClassicalDetector",
     "SizeEstimate",
-    "NoBlobsError",
     "estimate_length_px",
     "typical_area",
     "SPAN_PER_LENGTH",
@@ -481,10 +480,6 @@ class ClassicalDetector:
 #: ``SPAN_BLUR_PX`` is the blur's widening at both ends together.
 SPAN_PER_LENGTH = 1.02
 SPAN_BLUR_PX = 2.5
-
-
-class NoBlobsError(InputError):
-    """:func:`estimate_length_px` found too few moving blobs to measure a size."""
 
 
 #: Smallest blob (working px) that counts when the animals' size is unknown.

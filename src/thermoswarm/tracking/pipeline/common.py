@@ -11,11 +11,10 @@ from typing import Any
 import numpy as np
 
 from thermoswarm.config import to_dict
-from thermoswarm.errors import InputError
+from thermoswarm.errors import InputError, NoBlobsError
 from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detect.classical import (
     NOTHING_FOUND_HINT,
-    NoBlobsError,
     estimate_length_px,
     make_detector,
 )

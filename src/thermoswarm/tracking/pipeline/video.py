@@ -271,8 +271,7 @@ def track_video(
     src, path, n_prep, cuts, note = _register(src, camera, max_frames, prepare_s, rate)
     det, scale = build_detector(
         src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model,
-        options=detector_options, max_frames=max_frames,
-    )  # fmt: skip
+        options=detector_options, max_frames=max_frames)  # fmt: skip
     out = prepare_output_dir(out_dir)  # only once the detector is built
     tcfg = tracker_config or TrackerConfig()
     tracker = Tracker(tcfg, px_per_mm=scale["px_per_mm"], fps=rate, frame_size=src.size)
