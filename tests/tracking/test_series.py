@@ -158,20 +158,94 @@ def test_detect_takes_a_series_without_clocks_in_windows(tmp_path):
     assert json.loads((out / "summary.json").read_text())["inputs"][0]["photo_series"] is None
 
 
-def test_track_on_a_photo_series_warns_and_names_detect(tmp_path):
-    """``track`` on photos taken apart writes its outputs with a warning that names
-    the series and ``detect``; on video frames of the same scene it does not."""
-    _write(tmp_path / "tray", _photos(5, 26), [f"t1_{k:03d}.png" for k in range(26)])
-    _write(tmp_path / "clip", _video_frames(5, 26), [f"f_{k:03d}.png" for k in range(26)])
-    warned = {}
-    for name in ("tray", "clip"):
-        out = tmp_path / f"o_{name}"
-        res = CliRunner().invoke(
-            cli, ["track", str(tmp_path / name), "--out", str(out), "--fps", "10"]
-        )
-        assert res.exit_code == 0, res.output
-        warnings = json.loads((out / "summary.json").read_text())["warnings"]
-        warned[name] = [w for w in warnings if "photo series" in w]
-    assert len(warned["tray"]) == 1 and "thermoswarm detect" in warned["tray"][0]
-    assert "differ as much as images 8 apart" in warned["tray"][0]
-    assert warned["clip"] == []
+def _run(*args: str) -> None:
+    res = CliRunner().invoke(cli, list(args))
+    assert res.exit_code == 0, res.output
+
+
+def test_track_on_a_photo_series_detects_as_detect_and_links_no_photos(tmp_path):
+    """``track`` on photos recognised as a series by their changes: the detections are
+    ``detect``'s, photo for photo; no photo is linked to the next (the interval is
+    unknown and the ants are elsewhere in every photo), and the summary says so."""
+    tray = tmp_path / "tray"
+    _write(tray, _photos(5, 26), [f"t1_{k:03d}.png" for k in range(26)])
+    _run("detect", str(tray), "--out", str(tmp_path / "d"))
+    _run("track", str(tray), "--out", str(tmp_path / "t"))  # no --fps: not needed
+    det_txt = (tmp_path / "d" / "tray_det.txt").read_text()
+    assert (tmp_path / "t" / "detections.txt").read_text() == det_txt
+    assert len(det_txt.splitlines()) >= 26 * N_ANTS - 1  # 8 ants in each photo
+    summary = json.loads((tmp_path / "t" / "summary.json").read_text())
+    ps = summary["photo_series"]
+    assert ps["recognised_by"] == "changes" and ps["series_window"] == 12
+    assert ps["series_options"] == {"shift_px": 1, "split_area": 2.5}
+    assert ps["interval_s"] is None and ps["fps_source"] == "assumed" and ps["fps"] == 1.0
+    assert not ps["linked"] and ps["files"] == [f"t1_{k:03d}.png" for k in range(26)]
+    assert summary["n_tracks"] == 0 and summary["n_frames"] == 26
+    assert (tmp_path / "t" / "tracks_mot.txt").read_text() == ""
+    (note,) = summary["warnings"]
+    assert note == ps["note"] == (tmp_path / "t" / "WARNING.txt").read_text().strip()
+    for words in ("interval between them is unknown", "1 photo/s (assumed)",
+                  "identities cannot be followed", "thermoswarm detect", "--regions"):  # fmt: skip
+        assert words in note, words
+    # --series no: video frames at --fps, from a still camera (photos 30 min apart
+    # never register to each other), no series record and no such warning.
+    _run("track", str(tray), "--out", str(tmp_path / "v"), "--series", "no", "--fps", "10")
+    summary = json.loads((tmp_path / "v" / "summary.json").read_text())
+    assert summary["photo_series"] is None and summary["fps"] == 10.0
+    assert not summary["camera"]["registered"]
+    assert not any("photo" in w for w in summary["warnings"])
+
+
+def test_track_links_photos_only_when_close_in_time(tmp_path):
+    """Photos whose names put them 0.1 s apart (``--series yes``) are linked into
+    tracks; photos 30 min apart by their names are not, whatever ``--fps`` says."""
+    clip = tmp_path / "clip"
+    _write(clip, _video_frames(5, 26), [f"clip_{k / 10:.1f}s.png" for k in range(26)])
+    _run("detect", str(clip), "--out", str(tmp_path / "d"), "--series", "yes")
+    _run("track", str(clip), "--out", str(tmp_path / "t"), "--series", "yes")
+    det_txt = (tmp_path / "d" / "clip_det.txt").read_text()
+    assert (tmp_path / "t" / "detections.txt").read_text() == det_txt
+    summary = json.loads((tmp_path / "t" / "summary.json").read_text())
+    ps = summary["photo_series"]
+    assert ps["recognised_by"] == "--series yes" and ps["interval_source"] == "names"
+    assert ps["interval_s"] == pytest.approx(0.1) and summary["fps"] == pytest.approx(10.0)
+    assert ps["reach_bl"] == pytest.approx(1.4) and ps["linked"] and ps["note"] is None
+    # 8 ants walking 0.86 body lengths/s, never touching for long: a track each.
+    assert N_ANTS - 1 <= summary["n_tracks"] <= N_ANTS + 1
+    assert summary["warnings"] == []
+    stamps = [f"tray_2024-05-01_{8 + k // 2:02d}-{30 * (k % 2):02d}-00.png" for k in range(26)]
+    _write(tmp_path / "named", _photos(5, 26), stamps)
+    _run("track", str(tmp_path / "named"), "--out", str(tmp_path / "n"), "--fps", "10")
+    summary = json.loads((tmp_path / "n" / "summary.json").read_text())
+    ps = summary["photo_series"]
+    assert ps["recognised_by"] == "names" and ps["interval_s"] == 1800.0
+    assert ps["reach_bl"] == pytest.approx(14 * 1800) and not ps["linked"]
+    assert summary["fps"] == pytest.approx(1 / 1800) and summary["n_tracks"] == 0
+    assert "1800 s apart (the median gap of the times in their names)" in ps["note"]
+    assert "--fps 10 not used" in ps["fps_ignored"]
+
+
+def test_series_timing_rules():
+    """The interval and the link decision without images: clocks win over ``--fps``;
+    ``--fps`` sets it for photos forced into a series; photos recognised by their
+    changes never link; the reach scales with the tracker's top speed."""
+    from thermoswarm.tracking.pipeline.series_track import MAX_REACH_BL, series_timing
+    from thermoswarm.tracking.track.tracker import TrackerConfig
+
+    cfg = TrackerConfig()
+    files = [Path(f"{k}.png") for k in range(30)]
+    clocks = {"series": True, "by": "clocks", "median_gap_s": 60.0, "files": files}
+    t = series_timing(clocks, 10.0, cfg, "x")
+    assert (t["interval_s"], t["linked"], t["fps_source"]) == (60.0, False, "clocks")
+    assert "fps_ignored" in t
+    slow = TrackerConfig(max_speed_bl_s=MAX_REACH_BL / 60.0)  # 60 s apart, just in reach
+    assert series_timing(clocks, None, slow, "x")["linked"]
+    forced = {"series": False, "by": "changes", "change_ratio": 0.3, "files": files}
+    t = series_timing(forced, 10.0, cfg, "x")
+    assert (t["interval_s"], t["interval_source"], t["linked"]) == (0.1, "--fps", True)
+    t = series_timing(forced, 2.0, cfg, "x")  # 7 body lengths between photos
+    assert not t["linked"] and "7.0 body lengths" in t["note"]
+    changes = {**forced, "series": True, "change_ratio": 0.95}
+    t = series_timing(changes, 30.0, cfg, "x")
+    assert t["interval_s"] is None and not t["linked"] and t["fps"] == 30.0
+    assert t["fps_source"] == "--fps" and "30 photos/s (--fps)" in t["note"]

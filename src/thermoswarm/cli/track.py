@@ -115,6 +115,17 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     help="Size of the overlay relative to the video (1: the video's resolution).",
 )
 @click.option("--max-frames", type=click.IntRange(min=1), help="Stop after this many frames.")
+@click.option(
+    "--series",
+    type=click.Choice(["auto", "yes", "no"]),
+    default="auto",
+    show_default=True,
+    help="A folder that is a photo series (as `detect --series`: photos a minute or more "
+    "apart by their clocks or names, or as different from one photo to the next as 8 "
+    "apart; or 'yes') is detected as `detect` does, and its photos are linked into tracks "
+    "only when close enough in time (else per-photo detections and a warning); 'no': "
+    "video frames at --fps.",
+)
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @click.option(
     "--workers",
@@ -146,7 +157,10 @@ def track(**opts: Any) -> None:
     boxes written are the detections' own, frames keep their numbering, and tracks.nc
     is in px unless --px-per-mm is given.  The tracker's settings start from --preset
     (ants: tuned on real ant boxes; pedestrians: tuned on MOT15), then --config and
-    --set tracker.KEY=VALUE.
+    --set tracker.KEY=VALUE.  A folder of photos taken a while apart (--series) is
+    detected as `thermoswarm detect` detects it and tracked only where its photos are
+    close enough in time for an ant to be followed; summary.json's photo_series says
+    which.
     """
     o = opts
     videos, out_dir, detections = o["videos"], o["out_dir"], o["detections"]
@@ -163,7 +177,7 @@ def track(**opts: Any) -> None:
     video_opts = dict(
         px_per_mm=scale, fps=o["fps"], detector=o["detector"],
         detector_options=settings.get("detector"), overlay=o["overlay"],
-        overlay_scale=o["overlay_scale"], max_frames=o["max_frames"],
+        overlay_scale=o["overlay_scale"], max_frames=o["max_frames"], series=o["series"],
     )  # fmt: skip
     model = o["model"]
     if many:

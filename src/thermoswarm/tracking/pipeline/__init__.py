@@ -27,9 +27,11 @@ keypoints head/body/tail; mm with a scale, else px with ``space_unit = "px"``),
 detection rows, to re-track without the video), ``overlay.mp4`` (unless disabled) and
 ``summary.json``; every file is written atomically.
 
-The room's modules: :mod:`.video` (:func:`track_video`), :mod:`.boxes`
-(:func:`track_detection_file`), :mod:`.detect_run` (:func:`detect_inputs`) and
-:mod:`.common` (the detector's preparation and the summary they share). The pipeline may
+The room's modules: :mod:`.video` (:func:`track_video`), :mod:`.stages` (the frame
+loop and the outputs it shares with :mod:`.series_track`, ``track`` on a photo
+series), :mod:`.boxes` (:func:`track_detection_file`), :mod:`.detect_run`
+(:func:`detect_inputs`; :mod:`.series` for photo series) and :mod:`.common` (the
+detector's preparation and the summary they share). The pipeline may
 import every room below it (``detect``, ``track``, the floor); only ``batch`` is above it.
 """
 

@@ -28,7 +28,13 @@ from thermoswarm.tracking.pipeline.patches import (
     parse_color_regions,
 )
 from thermoswarm.tracking.pipeline.region_counts import count_regions, counts_csv, draw_counts
-from thermoswarm.tracking.pipeline.series import SERIES_WINDOW, detect_series, series_evidence
+from thermoswarm.tracking.pipeline.series import (
+    SERIES_WINDOW,
+    check_series_options,
+    detect_series,
+    series_record,
+    series_source,
+)
 from thermoswarm.tracking.track.tracker import TrackerConfig
 
 
@@ -117,9 +123,8 @@ def detect_inputs(
     series_window
         Photos per background in a series (0: one background for the whole series).
     """
-    _check_args(inputs, max_frames, fps, series)
-    if isinstance(series_window, bool) or not isinstance(series_window, int) or series_window < 0:
-        raise InputError(f"series_window must be a whole number >= 0, got {series_window!r}")
+    _check_args(inputs, max_frames, fps)
+    check_series_options(series, series_window)
     wbl = TrackerConfig().width_bl if width_bl is None else float(width_bl)
     regs = _load_regions(regions)
     sources = _detect_sources([Path(p) for p in inputs])
@@ -136,15 +141,13 @@ def detect_inputs(
     return summary
 
 
-def _check_args(inputs: list, max_frames: int | None, fps: float | None, series: str) -> None:
+def _check_args(inputs: list, max_frames: int | None, fps: float | None) -> None:
     if not inputs:
         raise InputError("give at least one video, folder of frames or image")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
     if fps is not None and not (fps > 0 and np.isfinite(fps)):
         raise InputError(f"fps must be a positive number, got {fps!r}")
-    if series not in ("auto", "yes", "no"):
-        raise InputError(f"series must be auto, yes or no; got {series!r}")
 
 
 def _load_regions(regions: str | os.PathLike | None) -> list | ColorRegions | None:
@@ -193,12 +196,12 @@ def _detect_source(
         camera = "still"
     src, path = register_source(src, camera, max_frames=max_frames)
     offset = src.camera.offset if isinstance(src, RegisteredSource) else (0.0, 0.0)
-    src, evidence = _series_source(src, series, max_frames)
+    src, evidence = series_source(src, series, max_frames)
     files = src.files
     kw = dict(px_per_mm=px_per_mm, detector=detector, model=model, options=detector_options)
     if evidence is not None:
         dets, scale, det = detect_series(files, window=series_window, **kw)
-        scale["photo_series"] = _series_record(evidence, scale, forced=series == "yes")
+        scale["photo_series"] = series_record(evidence, scale, forced=series == "yes")
     else:
         n_prep = _prep_frames(prepare_s, rate, max_frames)
         det, scale = build_detector(src, n_prep, max_frames=max_frames, **kw)
@@ -251,30 +254,6 @@ def _coco_images(src: Any, files: list[Path] | None, n: int) -> list[dict[str, A
         img["file_name"] = files[k].name if files else f"{src.path.name}#{k + 1:06d}"
         images.append(img)
     return images
-
-
-def _series_source(src: Any, series: str, max_frames: int | None) -> tuple[Any, dict | None]:
-    """``(source, evidence)``: for a photo series (recognised, or ``series="yes"``) its
-    photos in the order taken and :func:`series_evidence`'s record; else ``(src, None)``."""
-    from thermoswarm.tracking.video import VideoSource
-
-    if src.files is None or series == "no":
-        return src, None
-    evidence = series_evidence(src.files)
-    if not (series == "yes" or evidence["series"]):
-        return src, None
-    files = evidence["files"][:max_frames]
-    return VideoSource.from_images(files, str(src.path)), evidence
-
-
-def _series_record(evidence: dict, scale: dict, *, forced: bool) -> dict[str, Any]:
-    """``photo_series`` of a source's summary: the window, the options and why."""
-    rec = {"series_window": scale["series_window"], "series_options": scale["series_options"]}
-    rec["recognised_by"] = "--series yes" if forced and not evidence["series"] else evidence["by"]
-    for k in ("median_gap_s", "change_ratio", "changed_share"):
-        if k in evidence:
-            rec[k] = evidence[k]
-    return rec
 
 
 def _write_jpeg(path: Path, rgb: np.ndarray) -> None:

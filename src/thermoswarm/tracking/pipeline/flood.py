@@ -175,34 +175,6 @@ def warn_no_track(
     return [text]
 
 
-def photo_series_note(files: list[Path] | None, label: Any, camera: str) -> tuple[str | None, str]:
-    """Where ``files`` (a source's image files, in file order; None for a video file)
-    are still photos taken a while apart
-    (:func:`~thermoswarm.tracking.pipeline.series.series_evidence`): a warning naming
-    ``label`` that tracks link photos far apart (identities are guesses; ``detect``
-    counts them per photo), and the camera ``"still"`` in place of ``"auto"`` (photos
-    minutes apart never register to each other: a fixed camera is the series'
-    premise).  Else ``(None, camera)``."""
-    from thermoswarm.tracking.pipeline.series import series_evidence
-
-    ev = series_evidence(files)
-    if not ev["series"]:
-        return None, camera
-    why = (
-        f"a median {ev['median_gap_s']:g} s apart by their {ev['by']}"
-        if "median_gap_s" in ev
-        else "consecutive images differ as much as images 8 apart "
-        f"(ratio {ev['change_ratio']:.2f})"
-    )
-    text = (
-        f"{label}: these {len(files)} images are a photo series ({why}), not video frames: "
-        "tracks link photos taken far apart, so their identities are guesses and their "
-        "speeds mean nothing (the camera is taken as still); to count the animals per "
-        f"photo (and per region) use `thermoswarm detect {label} --out DIR`"
-    )
-    return text, ("still" if camera == "auto" else camera)
-
-
 def add_warning(out: Path, text: str | None) -> list[str]:
     """``[text]`` appended to ``out/WARNING.txt`` (``[]`` for None)."""
     if text is None:

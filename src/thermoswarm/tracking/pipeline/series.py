@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 
+from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detect.classical import estimate_length_px
 from thermoswarm.tracking.pipeline.common import build_detector
@@ -58,12 +59,15 @@ __all__ = [
     "SERIES_OPTIONS",
     "SERIES_WINDOW",
     "change_shares",
+    "check_series_options",
     "detect_series",
     "is_photo_series",
     "name_times",
     "photo_times",
     "sequence_order",
     "series_evidence",
+    "series_record",
+    "series_source",
 ]
 
 #: Photos per background window (tuned on the Niche-Lab train photos).
@@ -299,3 +303,38 @@ def detect_series(
     assert scale is not None
     scale = {**scale, "scale_source": source, "series_window": window, "series_options": opts}
     return dets, scale, det
+
+
+def check_series_options(series: str, window: int) -> None:
+    """:class:`~thermoswarm.errors.InputError` unless ``series`` is ``"auto"``,
+    ``"yes"`` or ``"no"`` and ``window`` (photos per background) a whole number >= 0."""
+    if series not in ("auto", "yes", "no"):
+        raise InputError(f"series must be auto, yes or no; got {series!r}")
+    if isinstance(window, bool) or not isinstance(window, int) or window < 0:
+        raise InputError(f"series_window must be a whole number >= 0, got {window!r}")
+
+
+def series_source(src: Any, series: str, max_frames: int | None) -> tuple[Any, dict | None]:
+    """``(source, evidence)``: for a photo series (recognised, or ``series="yes"``) its
+    photos in the order taken (the first ``max_frames``) and :func:`series_evidence`'s
+    record; else ``(src, None)`` (a video file, ``series="no"``, or not a series)."""
+    from thermoswarm.tracking.video import VideoSource
+
+    if src.files is None or series == "no":
+        return src, None
+    evidence = series_evidence(src.files)
+    if not (series == "yes" or evidence["series"]):
+        return src, None
+    files = evidence["files"][:max_frames]
+    return VideoSource.from_images(files, str(src.path)), evidence
+
+
+def series_record(evidence: dict, scale: dict, *, forced: bool) -> dict[str, Any]:
+    """``photo_series`` of a summary: the window and options (``scale``, as
+    :func:`detect_series` returns it) and why (``evidence``; ``forced``: ``series="yes"``)."""
+    rec = {"series_window": scale["series_window"], "series_options": scale["series_options"]}
+    rec["recognised_by"] = "--series yes" if forced and not evidence["series"] else evidence["by"]
+    for k in ("median_gap_s", "change_ratio", "changed_share"):
+        if k in evidence:
+            rec[k] = evidence[k]
+    return rec

@@ -3,7 +3,6 @@ track VIDEO`` runs (see the package's docstring for the stages)."""
 
 from __future__ import annotations
 
-import collections
 import dataclasses
 import os
 import time
@@ -13,72 +12,35 @@ from typing import Any
 import numpy as np
 
 from thermoswarm.errors import InputError
-from thermoswarm.fsutil import atomic_write_json, atomic_write_text, prepare_output_dir
-from thermoswarm.tracking.detect.classical import NOTHING_FOUND_HINT, FrameDetections
+from thermoswarm.fsutil import atomic_write_text, prepare_output_dir
 from thermoswarm.tracking.detect.register import (
     RegisteredSource,
     camera_summary,
     register_source,
 )
-from thermoswarm.tracking.pipeline.common import (
-    _detector_info,
-    _prep_frames,
-    _summary,
-    build_detector,
-    pixel_dataset,
+from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector
+from thermoswarm.tracking.pipeline.series import (
+    SERIES_WINDOW,
+    check_series_options,
+    is_photo_series,
+    series_source,
 )
-from thermoswarm.tracking.pipeline.flood import (
-    add_warning,
-    flood_reasons,
-    photo_series_note,
-    refuse_flood,
-    warn_no_track,
+from thermoswarm.tracking.pipeline.series_track import track_series
+from thermoswarm.tracking.pipeline.stages import (
+    detect_and_associate,
+    frame_stream,
+    write_video_outputs,
 )
 from thermoswarm.tracking.track.tracker import Tracker, TrackerConfig, TrackResult
 
 
-def _write_outputs(
-    result: TrackResult,
-    out: Path,
-    *,
-    px_per_mm: float | None,
-    fps: float,
-    source: str,
-    det_rows: np.ndarray | None,
-    attrs: dict[str, Any],
-) -> list[str]:
-    from thermoswarm.io.mot import write_mot_table
-    from thermoswarm.io.netcdf import write as write_nc
-
-    if px_per_mm is None:
-        ds = pixel_dataset(result, fps=fps, source=source, attrs=attrs)
-    else:
-        ds = result.dataset(px_per_mm=px_per_mm, fps=fps, source_file=source, attrs=attrs)
-    write_nc(ds, out / "tracks.nc")
-    write_mot_table(out / "tracks_mot.txt", result.mot_table())
-    names = ["tracks.nc", "tracks_mot.txt"]
-    if det_rows is not None:
-        write_mot_table(out / "detections.txt", det_rows)
-        names.append("detections.txt")
-    return names
-
-
-def _det_rows(frame: int, d: FrameDetections, pad: float) -> np.ndarray:
-    rows = np.full((len(d), 10), -1.0)
-    rows[:, 0] = frame + 1
-    rows[:, 2:6] = d.box_array(pad)
-    rows[:, 6] = d.scores
-    return rows
-
-
 def _check_video_args(
-    video: Any, src: Any, fps: float | None, max_frames: int | None, overlay: bool, scale: float
-) -> float:
-    """The frame rate to use; :class:`InputError` for a bad rate, frame count or scale."""
+    src: Any, fps: float | None, max_frames: int | None, overlay: bool, scale: float
+) -> float | None:
+    """The frame rate to use (``None``: unknown); :class:`InputError` for a bad rate,
+    frame count or scale."""
     rate = fps if fps is not None else src.fps
-    if rate is None:
-        raise InputError(f"{video}: the frame rate is unknown (a folder of frames?); pass --fps")
-    if not (rate > 0 and np.isfinite(rate)):
+    if rate is not None and not (rate > 0 and np.isfinite(rate)):
         raise InputError(f"fps must be a positive number, got {rate!r}")
     if max_frames is not None and max_frames < 1:
         raise InputError(f"max_frames must be a positive integer, got {max_frames!r}")
@@ -87,113 +49,17 @@ def _check_video_args(
     return rate
 
 
-def _draw_final(writer: Any, ring: collections.deque, final: Any) -> None:
-    """Draw the frames whose tracks are final into the overlay; drop older ring frames."""
-    for f, rows in final:
-        while ring and ring[0][0] < f:
-            ring.popleft()
-        if ring and ring[0][0] == f:
-            writer.write(ring.popleft()[1], rows, shrunk=True)
-
-
-def _frame_stream(src: Any, max_frames: int | None, progress: bool) -> Any:
-    """Read frames: decoded in a background thread, with a progress bar if asked."""
-    total = max_frames if max_frames is not None else src.n_frames
-    frames = src.frames(max_frames, prefetch=4)
-    if progress:
-        from tqdm import tqdm
-
-        frames = tqdm(frames, total=total, unit="frame", desc="track", disable=None)
-    return frames
-
-
-def _with_cuts(frames: Any, cuts: set[int], look: int) -> Any:
-    """``(k, frame, ahead)``: ``ahead`` is the frame and up to ``look`` frames after
-    it where frame ``k`` starts a new scene, else ``None``."""
-    it = iter(frames)
-    buf: collections.deque[np.ndarray] = collections.deque()
-    k = 0
-    while True:
-        frame = buf.popleft() if buf else next(it, None)
-        if frame is None:
-            return
-        ahead = None
-        if k in cuts:
-            while len(buf) < look and (f := next(it, None)) is not None:
-                buf.append(f)
-            ahead = [frame, *buf]
-        yield k, frame, ahead
-        k += 1
-
-
-def _detect_and_associate(
-    video: Any,
-    frames: Any,
-    det: Any,
-    tracker: Tracker,
-    writer: Any,
-    takes_hints: bool,
-    cuts: tuple[set[int], int] = (set(), 0),
-) -> tuple[int, np.ndarray]:
-    """Detect each frame, associate its detections with the tracks, draw final frames.
-
-    At a scene cut (``cuts``: the 0-based frames that start a new scene, and how many
-    frames the detector's new background is learned from) every track ends and the
-    detector learns the new scene's background (its ``rebase``, where it has one).
-    Returns the number of detections and their MOT rows; :class:`InputError` when no
-    frame is decoded or nothing is detected.  The overlay is closed here (aborted on
-    any error), as the tracker's lag means the last frames are drawn after the loop.
-    """
-    ring: collections.deque[tuple[int, np.ndarray]] = collections.deque()
-    det_rows = []
-    n_det = 0
-    k = -1
-    rebase = getattr(det, "rebase", None)
-    try:
-        for k, frame, ahead in _with_cuts(frames, *cuts):
-            if ahead is not None:
-                tracker.cut()
-                if rebase is not None:
-                    rebase(ahead)
-            hints = tracker.predict()
-            d = det.detect(frame, hints=hints) if takes_hints else det.detect(frame)
-            tracker.update(d)
-            n_det += len(d)
-            det_rows.append(_det_rows(k, d, tracker.pad))
-            if writer is not None:
-                ring.append((k, writer.shrink(frame)))  # small frames wait for the lag
-                _draw_final(writer, ring, tracker.pop_final())
-        if k < 0:
-            raise InputError(f"{video}: no frame could be decoded")
-        if n_det == 0:
-            raise InputError(
-                f"{video}: no animals detected in {k + 1} frames "
-                f"({getattr(det, 'name', 'the')} detector); nothing written; {NOTHING_FOUND_HINT}"
-            )
-        if writer is not None:
-            _draw_final(writer, ring, tracker.flush())
-            writer.close()
-    except BaseException:
-        if writer is not None:
-            writer.abort()
-        raise
-    dets = np.concatenate(det_rows) if det_rows else np.zeros((0, 10))
-    return n_det, dets
-
-
 def _register(
     src: Any, camera: str, max_frames: int | None, prepare_s: float, rate: float
-) -> tuple[Any, Any, int, tuple[set[int], int], str | None]:
+) -> tuple[Any, Any, int, tuple[set[int], int]]:
     """The source (registered when the camera moves), its path, the frames the detector
-    is prepared on (the first scene's only), the scene cuts with that count, and
-    :func:`photo_series_note`'s warning (a photo series: the camera taken as still)."""
-    note, camera = photo_series_note(src.files, src.path, camera)
+    is prepared on (the first scene's only), and the scene cuts with that count."""
     src, path = register_source(src, camera, max_frames=max_frames)
     n_prep = _prep_frames(prepare_s, rate, max_frames)
     cuts = set(path.cuts) if path is not None else set()
     if cuts:
         n_prep = min(n_prep, min(cuts))
-    return src, path, n_prep, (cuts, n_prep), note
+    return src, path, n_prep, (cuts, n_prep)
 
 
 def _to_first_frame(src: Any, result: TrackResult, dets: np.ndarray, out: Path) -> TrackResult:
@@ -226,10 +92,12 @@ def track_video(
     progress: bool = False,
     hints: bool = True,
     camera: str = "auto",
+    series: str = "auto",
+    series_window: int = SERIES_WINDOW,
 ) -> dict[str, Any]:
     """Track the ants of a video; write the outputs; return the summary.  The stages:
-    read frames (:func:`_frame_stream`), detect and associate (:func:`_detect_and_associate`),
-    smooth and gap-fill (the tracker's ``finish``), write (:func:`_write_video_outputs`).
+    read frames (:func:`frame_stream`), detect and associate (:func:`detect_and_associate`),
+    smooth and gap-fill (the tracker's ``finish``), write (:func:`write_video_outputs`).
 
     Parameters
     ----------
@@ -256,6 +124,9 @@ def track_video(
     camera
         ``"auto"``, ``"moving"`` or ``"still"`` (:mod:`~.detect.register`): registered
         tracks are in the first frame's px (``camera_path.csv``); cuts end every track.
+    series, series_window
+        As for :func:`.detect_inputs`; a photo series is tracked by
+        :func:`.series_track.track_series` (unless ``camera="moving"``).
 
     Raises
     ------
@@ -263,12 +134,68 @@ def track_video(
         Bad input, nothing detected (nothing written), a camera that cannot be
         followed, or detections that are not animals (:mod:`~.flood`).
     """
-    from thermoswarm.tracking.video import OverlayWriter, open_video
+    from thermoswarm.tracking.video import open_video
 
     src = open_video(video)
-    rate = _check_video_args(video, src, fps, max_frames, overlay, overlay_scale)
+    rate = _check_video_args(src, fps, max_frames, overlay, overlay_scale)
+    photos, evidence, camera = _series_of(src, series, series_window, max_frames, camera)
+    opts = dict(
+        px_per_mm=px_per_mm, detector=detector, model=model, detector_options=detector_options,
+        tracker_config=tracker_config, overlay=overlay, overlay_scale=overlay_scale,
+        progress=progress,
+    )  # fmt: skip
+    if evidence is not None:
+        return track_series(video, photos, evidence, out_dir, forced=series == "yes", fps=fps,
+                            series_window=series_window, **opts)  # fmt: skip
+    if rate is None:
+        raise InputError(f"{video}: the frame rate is unknown (a folder of frames?); pass --fps")
+    return _track_frames(video, src, out_dir, rate, "user" if fps is not None else "video",
+                         max_frames=max_frames, prepare_s=prepare_s, hints=hints, camera=camera,
+                         **opts)  # fmt: skip
+
+
+def _series_of(
+    src: Any, series: str, window: int, max_frames: int | None, camera: str
+) -> tuple[Any, dict | None, str]:
+    """``(photos, evidence, camera)``: a photo series' photos in the order taken and
+    :func:`~.series.series_evidence`'s record (``None``: not a series, or a camera
+    to register), and the camera, ``"still"`` in place of ``"auto"`` for a series taken
+    as frames (``series="no"``): photos a while apart never register to each other."""
+    check_series_options(series, window)
+    if camera == "moving":
+        return src, None, camera
+    photos, evidence = series_source(src, series, max_frames)
+    if series == "no" and camera == "auto" and is_photo_series(src.files):
+        camera = "still"
+    return photos, evidence, camera
+
+
+def _track_frames(
+    video: str | os.PathLike,
+    src: Any,
+    out_dir: str | os.PathLike,
+    rate: float,
+    fps_source: str,
+    *,
+    px_per_mm: float | None,
+    detector: str | None,
+    model: str | os.PathLike | None,
+    detector_options: dict[str, Any] | None,
+    tracker_config: TrackerConfig | None,
+    overlay: bool,
+    overlay_scale: float,
+    max_frames: int | None,
+    prepare_s: float,
+    progress: bool,
+    hints: bool,
+    camera: str,
+) -> dict[str, Any]:
+    """:func:`track_video` on a video or frames (not a photo series) at ``rate``
+    frames/s (``fps_source``: ``"user"`` or ``"video"``)."""
+    from thermoswarm.tracking.video import OverlayWriter
+
     t0 = time.perf_counter()
-    src, path, n_prep, cuts, note = _register(src, camera, max_frames, prepare_s, rate)
+    src, path, n_prep, cuts = _register(src, camera, max_frames, prepare_s, rate)
     det, scale = build_detector(
         src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model,
         options=detector_options, max_frames=max_frames)  # fmt: skip
@@ -278,94 +205,14 @@ def track_video(
     t_prep = time.perf_counter() - t0
     takes_hints = hints and bool(getattr(det, "accepts_hints", False))
     writer = OverlayWriter(out / "overlay.mp4", rate, scale=overlay_scale) if overlay else None
-    frames = _frame_stream(src, max_frames, progress)
-    n_det, dets = _detect_and_associate(video, frames, det, tracker, writer, takes_hints, cuts)
+    frames = frame_stream(src, max_frames, progress)
+    n_det, dets = detect_and_associate(video, frames, det, tracker, writer, takes_hints, cuts)
     result = _to_first_frame(src, tracker.finish(), dets, out)
     elapsed = time.perf_counter() - t0
     run = dict(video=video, src=src, det=det, scale=scale, dets=dets, n_det=n_det, rate=rate)
     run["camera"] = camera_summary(path, isinstance(src, RegisteredSource))
-    return _write_video_outputs(
-        result, out, run, px_per_mm=px_per_mm, fps_source="user" if fps is not None else "video",
+    return write_video_outputs(
+        result, out, run, px_per_mm=px_per_mm, fps_source=fps_source,
         tracker=tcfg, detector=detector, model=model, detector_options=detector_options,
-        timing=(elapsed, t_prep), overlay=writer is not None, series_note=note,
+        timing=(elapsed, t_prep), overlay=writer is not None,
     )  # fmt: skip
-
-
-def _write_video_outputs(
-    result: TrackResult,
-    out: Path,
-    run: dict[str, Any],
-    *,
-    px_per_mm: float | None,
-    fps_source: str,
-    tracker: TrackerConfig,
-    detector: str | None,
-    model: Any,
-    detector_options: dict[str, Any] | None,
-    timing: tuple[float, float],
-    overlay: bool,
-    series_note: str | None = None,
-) -> dict[str, Any]:
-    """Write tracks.nc, tracks_mot.txt, detections.txt and summary.json; return the summary.
-
-    ``run`` holds the run's ``video``, ``src`` (its source), ``det`` (the detector),
-    ``scale`` (:func:`build_detector`'s), ``dets`` (MOT detection rows), ``n_det`` and
-    ``rate`` (frames/s); ``timing`` is ``(elapsed, prepare)`` in s; ``overlay`` says
-    overlay.mp4 was written.
-    """
-    video, src, det, scale, rate = (run[k] for k in ("video", "src", "det", "scale", "rate"))
-    det_name = getattr(det, "name", detector or "classical")
-    attrs = {
-        "detector": str(det_name),
-        "frame_width": src.size[0],
-        "frame_height": src.size[1],
-        "body_length_px": scale["length_px"],
-        "scale_source": scale["scale_source"],
-    }
-    names = _write_outputs(
-        result,
-        out,
-        px_per_mm=px_per_mm,
-        fps=rate,
-        source=str(video),
-        det_rows=run["dets"],
-        attrs=attrs,
-    )
-    if overlay:
-        names.append("overlay.mp4")
-    summary = _summary(
-        result,
-        source=str(video),
-        fps=rate,
-        fps_source=fps_source,
-        px_per_mm=px_per_mm,
-        tracker=tracker,
-        detector=str(det_name),
-        model=model,
-        n_det=run["n_det"],
-        elapsed=timing[0],
-        prepare=timing[1],
-        size=src.size,
-        outputs=names + ["summary.json"],
-        detector_options=_detector_info(det, detector_options),
-    )
-    summary.update(
-        length_px=scale["length_px"],
-        scale_source=scale["scale_source"],
-        prepare_frames=scale.get("prepare_frames"),
-        space_unit="mm" if px_per_mm is not None else "px",
-        camera=run["camera"],
-    )
-    summary["outputs"][-1:-1] = run["camera"]["outputs"]
-    dets = run["dets"]
-    per_frame = np.bincount(dets[:, 0].astype(np.int64) - 1, minlength=result.n_frames)
-    still_bg = det_name == "classical"  # finds what moves: specks flickering in place are not
-    reasons = flood_reasons(
-        per_frame, src.size, scale["length_px"], dets if still_bg else None, fps=rate
-    )
-    summary["warnings"] = reasons or warn_no_track(result.n_tracks, per_frame, rate, tracker, out)
-    summary["warnings"] += add_warning(out, series_note)
-    atomic_write_json(out / "summary.json", summary)
-    if reasons:
-        refuse_flood(str(video), out, reasons)
-    return summary
