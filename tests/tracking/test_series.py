@@ -249,3 +249,15 @@ def test_series_timing_rules():
     t = series_timing(changes, 30.0, cfg, "x")
     assert t["interval_s"] is None and not t["linked"] and t["fps"] == 30.0
     assert t["fps_source"] == "--fps" and "30 photos/s (--fps)" in t["note"]
+
+
+@pytest.mark.parametrize("flag", [["--series", "yes"], ["--series", "no"], ["--detector", "unet"]])
+def test_video_options_with_a_detections_file_are_refused(tmp_path, flag):
+    det = tmp_path / "det.txt"
+    det.write_text("1,-1,10,10,8,3,1,-1,-1,-1\n2,-1,12,10,8,3,1,-1,-1,-1\n")
+    args = ["track", "--detections", str(det), "--fps", "10", "--out", str(tmp_path / "o")]
+    res = CliRunner().invoke(cli, [*args, *flag])
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "not to --detections" in lines[0], res.output
+    assert not (tmp_path / "o").exists()

@@ -192,7 +192,7 @@ def track(**opts: Any) -> None:
             fps=o["fps"],
             tracker_config=tcfg,
             settings=settings,
-            uses_detector=model is not None or o["detector"] is not None,
+            uses_detector=model is not None or o["detector"] is not None or o["series"] != "auto",
             fmt=o["det_format"],
             image_size=o["image_size"],
             first_frame=o["first_frame"],
@@ -324,7 +324,9 @@ def _track_detections(
     from thermoswarm.tracking.pipeline import track_detection_file
 
     if uses_detector:
-        raise InputError("--model and --detector apply to videos, not to --detections")
+        raise InputError(
+            "--model, --detector and --series apply to videos and folders, not to --detections"
+        )
     if settings.get("detector"):
         raise InputError("[detector] options apply to videos, not to --detections")
     if fps is None:
