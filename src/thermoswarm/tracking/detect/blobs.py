@@ -11,14 +11,14 @@ predictions); :func:`measure_singles` places one pose per single-ant blob
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
 
 from thermoswarm.tracking import anatomy
 
-__all__ = ["typical_area"]
+__all__ = ["typical_area", "axis_lengths", "median_length"]
 
 #: One measured part: points, head confidence, span, area, peak, split flag, hint.
 Part = tuple[np.ndarray, ...]
@@ -240,6 +240,46 @@ def measure_splits(
             )
         )
     return parts
+
+
+def axis_lengths(px: _Pixels, floor: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    """Working-resolution areas and body lengths (px) of the blobs of ``px``.
+
+    ``px`` must be gathered with ``peak_fraction=0`` (:func:`blob_pixels`), so that
+    its weights are the pixels' relative contrast; pixels below ``floor`` times their
+    blob's peak (noise, the blur's far tails) are left out.  A blob's length is
+    ``sqrt(l1 - l2) / sqrt(a**2 - b**2)``, ``l1 >= l2`` the eigenvalues of the
+    contrast-weighted covariance of its pixels and ``a, b`` the anatomy's silhouette
+    standard deviations along and across (:func:`~thermoswarm.tracking.anatomy.silhouette_sd`):
+    the moments of the image are those of the animal's darkness, the blur (optics,
+    pixels) adds the same variance along and across, and the difference cancels it;
+    no threshold sets where the ends are.  For the blobs with ``px.good``.
+    """
+    keep = px.w > floor * px.peak[px.lab]
+    lab, w, x, y = px.lab[keep], px.w[keep], px.fx[keep], px.fy[keep]
+    n, bc = px.n, np.bincount
+    m0 = bc(lab, w, n)
+    s0 = np.where(m0 > 0, m0, 1.0)
+    dx, dy = x - (bc(lab, w * x, n) / s0)[lab], y - (bc(lab, w * y, n) / s0)[lab]
+    cxx, cyy = bc(lab, w * dx * dx, n) / s0, bc(lab, w * dy * dy, n) / s0
+    cxy = bc(lab, w * dx * dy, n) / s0
+    half_diff = np.sqrt(0.25 * (cxx - cyy) ** 2 + cxy**2)  # (l1 - l2) / 2
+    a, b = anatomy.silhouette_sd()
+    length = np.sqrt(2 * half_diff / (a * a - b * b))
+    ok = px.good & (bc(lab, None, n) >= 3)
+    return px.area[ok], length[ok]
+
+
+def median_length(
+    pixels: Iterable[_Pixels | None], areas: tuple[float, float], floor: float
+) -> float:
+    """The median body length (px) of the blobs of ``pixels`` (frames gathered with
+    ``peak_fraction=0``) whose area lies within ``areas`` (working px^2, exclusive;
+    all blobs when none does), by :func:`axis_lengths`."""
+    got = [np.stack(axis_lengths(p, floor)) for p in pixels if p is not None]
+    a, length = np.concatenate(got, axis=1) if got else np.zeros((2, 0))
+    typical = (a > areas[0]) & (a < areas[1])
+    return float(np.median(length[typical] if typical.any() else length))
 
 
 def typical_area(area: np.ndarray) -> float:
