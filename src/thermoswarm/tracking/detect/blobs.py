@@ -271,11 +271,12 @@ def axis_lengths(px: _Pixels, floor: float = 0.1) -> tuple[np.ndarray, np.ndarra
 
 
 def median_length(
-    pixels: Iterable[_Pixels | None], areas: tuple[float, float], floor: float
+    pixels: Iterable[_Pixels | None], areas: tuple[float, float], floor: float = 0.1
 ) -> float:
     """The median body length (px) of the blobs of ``pixels`` (frames gathered with
     ``peak_fraction=0``) whose area lies within ``areas`` (working px^2, exclusive;
-    all blobs when none does), by :func:`axis_lengths`."""
+    all blobs when none does), by :func:`axis_lengths` (pixels below ``floor`` of
+    their blob's peak contrast left out)."""
     got = [np.stack(axis_lengths(p, floor)) for p in pixels if p is not None]
     a, length = np.concatenate(got, axis=1) if got else np.zeros((2, 0))
     typical = (a > areas[0]) & (a < areas[1])

@@ -466,9 +466,6 @@ class ClassicalDetector:
         )
 
 
-#: Pixels below this fraction of their blob's peak do not count in its length (axis_lengths).
-LENGTH_FLOOR = 0.1
-
 #: Smallest blob (working px) that counts when the animals' size is unknown.
 _MIN_BLOB = 4.0
 
@@ -504,7 +501,9 @@ def estimate_length_px(
     touching animals or clutter fall outside).  The body length is the median of those
     blobs' lengths from their contrast-weighted second moments (:func:`~.blobs.axis_lengths`).
     Animals small enough for a finer working resolution (unless ``downsample`` is
-    given; :meth:`~.config.ClassicalConfig.for_animals`) are measured again at it.
+    given; :meth:`~.config.ClassicalConfig.for_animals`) are measured again at it,
+    unless that finds under 3/4 of the length: ants split at the waist there, as
+    separate halves (most of the ants split), and the coarser measurement stands.
 
     Parameters
     ----------
@@ -532,7 +531,8 @@ def estimate_length_px(
     if fine.downsample < cfg.downsample and "downsample" not in (options or {}):
         det = ClassicalDetector(1.0, fine)
         det._background(grays)
-        est = _size(det, grays, source)
+        again = _size(det, grays, source)
+        est = again if again.length_px > 0.75 * est.length_px else est
     return est
 
 
@@ -567,7 +567,7 @@ def _size(det: ClassicalDetector, grays: list[np.ndarray], source: str) -> SizeE
     # The same blobs again, weighted by their contrast alone (peak_fraction 0).
     px = (blob_pixels(g, *m, thr, _MIN_BLOB, cfg.downsample, det._offsets, 0.0, det._contrast)
           for g, m in gm)  # fmt: skip
-    length = median_length(px, (ref / 2.5, ref * 2.5), LENGTH_FLOOR)
+    length = median_length(px, (ref / 2.5, ref * 2.5))
     fill = float(np.median(area[sel] * cfg.downsample**2 / np.maximum(span[sel], 1.0) ** 2))
     return SizeEstimate(length, int(area.size), int(sel.sum()), float(thr), fill)
 
