@@ -180,7 +180,7 @@ def test_pairs_of_small_ants_lose_nothing_to_joining(detector10, detector10_off,
 
 def test_duplicates_on_a_scene_of_tiny_ants():
     """60 ants 6-7 px long, a third split at the waist, the size measured from such
-    frames without a scale (as ``track`` does; 5.5 px): at most 3 % duplicates, 95 %
+    frames without a scale (as ``track`` does; 6.77 px): at most 3 % duplicates, 95 %
     found (issue 32's goal), over 4 frames of 60 (without joining: 45 duplicates)."""
     det = prepared(None, (6.0, 7.0), 1 / 3)
     rng = np.random.default_rng(60)

@@ -18,6 +18,8 @@ evaluation all use :func:`pose_boxes`, so a perfect pose gives IoU 1.
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 KEYPOINTS: tuple[str, str, str] = ("head", "body", "tail")
@@ -37,6 +39,30 @@ KEYPOINT_OFFSETS = np.array([HEAD[0], 0.0, GASTER[0]])
 #: Front and back extremities of the silhouette (units of body length).
 FRONT = HEAD[0] + HEAD[1]
 BACK = GASTER[0] - GASTER[1]
+
+
+@cache
+def silhouette_sd() -> tuple[float, float]:
+    """Standard deviations of the silhouette's area along and across the body axis,
+    in body lengths (the union of the head, mesosoma and gaster ellipses, uniform).
+
+    Measured on a grid of 1/1000 body length; about ``(0.281, 0.074)``.  The length
+    of an animal follows from its image's second moments: a blur adds the same
+    variance along and across, so ``sqrt(var_along - var_across) / sqrt(along**2 -
+    across**2)`` is the body length (as ``sd * sqrt(12)`` is a thin uniform rod's;
+    :func:`thermoswarm.tracking.detect.blobs.axis_lengths`).
+    """
+    t = np.arange(BACK - 0.01, FRONT + 0.01, 1e-3)
+    s = np.arange(0.0, 0.2, 1e-3) + 5e-4  # one side; the silhouette is symmetric
+    tt, ss = np.meshgrid(t, s, indexing="ij")
+    inside = np.zeros(tt.shape, bool)
+    for at, a, b in (HEAD, MESOSOMA, GASTER):
+        inside |= ((tt - at) / a) ** 2 + (ss / b) ** 2 <= 1.0
+    n = inside.sum()
+    mean = tt[inside].sum() / n
+    along = np.sqrt(((tt[inside] - mean) ** 2).sum() / n)
+    across = np.sqrt((ss[inside] ** 2).sum() / n)
+    return float(along), float(across)
 
 
 def pose_boxes(

@@ -58,7 +58,6 @@ The options are :class:`~.config.ClassicalConfig`.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -76,6 +75,7 @@ from thermoswarm.tracking.detect.blobs import (
     blob_pixels,
     measure_singles,
     measure_splits,
+    median_length,
     split_counts,
     typical_area,
 )
@@ -113,7 +113,6 @@ __all__ = [
     "SizeEstimate",
     "estimate_length_px",
     "typical_area",
-    "SPAN_PER_LENGTH",
     "NOTHING_FOUND_HINT",
 ]
 
@@ -125,14 +124,8 @@ def _classical_factory(
         cfg = from_mapping(ClassicalConfig, options, source="detector options")
     except ConfigError as exc:
         raise InputError(str(exc)) from None
-    if "downsample" not in options:
-        # Tiny animals (a phone or field video of small ants, 2-3 px wide) keep at
-        # least 2 px of width at the working resolution: at 1 px, blob areas jump by
-        # half from frame to frame and single ants are split.
-        f = cfg.downsample
-        while f > 1 and cfg.ant_width_mm * px_per_mm / f < 2.0:
-            f -= 1
-        cfg = dataclasses.replace(cfg, downsample=f)
+    if "downsample" not in options:  # tiny animals: a finer working resolution
+        cfg = cfg.for_animals(px_per_mm)
     return ClassicalDetector(px_per_mm, cfg)
 
 
@@ -473,15 +466,6 @@ class ClassicalDetector:
         )
 
 
-#: Median silhouette span of a single ant, as the classical detector measures it
-#: (pixels above ``peak_fraction`` of the blob's peak contrast), is
-#: ``SPAN_PER_LENGTH * length + SPAN_BLUR_PX``: fitted on our rendered ants at 2, 3.04
-#: and 5 px/mm (spans 17.4, 24.6 and 39.2 px for lengths 14.3, 21.7 and 35.7 px);
-#: ``SPAN_BLUR_PX`` is the blur's widening at both ends together.
-SPAN_PER_LENGTH = 1.02
-SPAN_BLUR_PX = 2.5
-
-
 #: Smallest blob (working px) that counts when the animals' size is unknown.
 _MIN_BLOB = 4.0
 
@@ -514,8 +498,12 @@ def estimate_length_px(
     single animal is the mode of the blob areas, found by trimming to a factor 2.5
     around the median until it settles, starting from the area-weighted median (so
     that specks of texture or noise do not outvote a few animals, and clumps of
-    touching animals or clutter fall outside), and its body length follows from the median
-    silhouette span of those blobs (:data:`SPAN_PER_LENGTH`, :data:`SPAN_BLUR_PX`).
+    touching animals or clutter fall outside).  The body length is the median of those
+    blobs' lengths from their contrast-weighted second moments (:func:`~.blobs.axis_lengths`).
+    Animals small enough for a finer working resolution (unless ``downsample`` is
+    given; :meth:`~.config.ClassicalConfig.for_animals`) are measured again at it,
+    unless that finds under 3/4 of the length: ants split at the waist there, as
+    separate halves (most of the ants split), and the coarser measurement stands.
 
     Parameters
     ----------
@@ -536,17 +524,27 @@ def estimate_length_px(
         cfg = from_mapping(ClassicalConfig, dict(options or {}), source="detector options")
     except ConfigError as exc:
         raise InputError(str(exc)) from None
-    det = ClassicalDetector(1.0, cfg)  # the scale is unused: background and spans only
+    det = ClassicalDetector(1.0, cfg)  # the scale is unused: background and blobs only
     grays = det._background(frames)
+    est = _size(det, grays, source)
+    fine = cfg.for_animals(est.length_px / cfg.ant_length_mm)
+    if fine.downsample < cfg.downsample and "downsample" not in (options or {}):
+        det = ClassicalDetector(1.0, fine)
+        det._background(grays)
+        again = _size(det, grays, source)
+        est = again if again.length_px > 0.75 * est.length_px else est
+    return est
+
+
+def _size(det: ClassicalDetector, grays: list[np.ndarray], source: str) -> SizeEstimate:
+    """:func:`estimate_length_px` on the full frames ``grays``, background learned."""
+    cfg = det.config
     smalls = [det._small(g) for g in grays]
-    maps = [det._contrast_map(s) for s in smalls]
+    gm = [(g, det._contrast_map(s)) for g, s in zip(grays, smalls, strict=True)]
     thr = det._noise_threshold(smalls)
 
     def blobs(t: float) -> list[_Blobs]:
-        return [
-            det._measure(g, con, exp, t, _MIN_BLOB, split=False)
-            for g, (con, exp) in zip(grays, maps, strict=True)
-        ]
+        return [det._measure(g, *m, t, _MIN_BLOB, split=False) for g, m in gm]
 
     if cfg.threshold is not None:
         thr = cfg.threshold
@@ -566,8 +564,10 @@ def estimate_length_px(
         )
     ref = typical_area(area)
     sel = (area > ref / 2.5) & (area < ref * 2.5)
-    span_px = float(np.median(span[sel]))
-    length = max(span_px - SPAN_BLUR_PX, 0.5 * span_px) / SPAN_PER_LENGTH
+    # The same blobs again, weighted by their contrast alone (peak_fraction 0).
+    px = (blob_pixels(g, *m, thr, _MIN_BLOB, cfg.downsample, det._offsets, 0.0, det._contrast)
+          for g, m in gm)  # fmt: skip
+    length = median_length(px, (ref / 2.5, ref * 2.5))
     fill = float(np.median(area[sel] * cfg.downsample**2 / np.maximum(span[sel], 1.0) ** 2))
     return SizeEstimate(length, int(area.size), int(sel.sum()), float(thr), fill)
 

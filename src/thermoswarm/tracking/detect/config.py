@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -94,3 +95,14 @@ class ClassicalConfig:
         check(0 <= self.bg_rate <= 1, "bg_rate", "in [0, 1]", self.bg_rate)
         check(self.gain_grid >= 0, "gain_grid", "a non-negative integer", self.gain_grid)
         check(0 <= self.shift_px <= 4, "shift_px", "an integer in [0, 4]", self.shift_px)
+
+    def for_animals(self, px_per_mm: float) -> ClassicalConfig:
+        """This configuration with ``downsample`` lowered until animals of
+        ``ant_width_mm`` at ``px_per_mm`` are at least 2 px wide at the working
+        resolution: tiny animals (small ants in a phone or field video, 2-3 px wide)
+        at 1 px have blob areas that jump by half from frame to frame, and single ants
+        are split."""
+        f = self.downsample
+        while f > 1 and self.ant_width_mm * px_per_mm / f < 2.0:
+            f -= 1
+        return dataclasses.replace(self, downsample=f)
