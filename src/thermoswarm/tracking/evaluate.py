@@ -2,8 +2,8 @@
 
 Our own implementation on :func:`scipy.optimize.linear_sum_assignment`, following the
 definitions of TrackEval (Luiten et al.; ``trackeval.metrics.CLEAR`` and ``Identity``)
-so that the numbers are TrackEval's: the same counts, the floats to ~1e-15 (the tests
-and ``benchmarks/*.py --check-trackeval`` check this).  We do not use
+so that the numbers are TrackEval's: the same counts, the same floats (the tests check
+them to 1e-12, ``benchmarks/*.py --check-trackeval`` to 1e-9).  We do not use
 ``motmetrics`` (its last release calls ``np.asfarray``, removed in NumPy 2).
 
 Matching (per frame): similarity is the IoU of MOT boxes; a ground-truth object and a
