@@ -305,17 +305,45 @@ def _gmean(x: list[float]) -> float:
     return float(np.exp(np.mean(np.log(x))))
 
 
+#: Our keys and TrackEval's (metric, field): counts compared exactly, floats to
+#: :data:`TRACKEVAL_TOL` (HOTA's fields are TrackEval's means over its 19 thresholds).
+TRACKEVAL_COUNTS = {
+    "idsw": ("CLEAR", "IDSW"), "fp": ("CLEAR", "CLR_FP"), "fn": ("CLEAR", "CLR_FN"),
+    "tp": ("CLEAR", "CLR_TP"), "mt": ("CLEAR", "MT"), "pt": ("CLEAR", "PT"),
+    "ml": ("CLEAR", "ML"), "frag": ("CLEAR", "Frag"),
+}  # fmt: skip
+TRACKEVAL_FLOATS = {
+    "mota": ("CLEAR", "MOTA"), "motp": ("CLEAR", "MOTP"), "idf1": ("Identity", "IDF1"),
+    "idp": ("Identity", "IDP"), "idr": ("Identity", "IDR"), "hota": ("HOTA", "HOTA"),
+    "deta": ("HOTA", "DetA"), "assa": ("HOTA", "AssA"), "loca": ("HOTA", "LocA"),
+}  # fmt: skip
+TRACKEVAL_TOL = 1e-9
+
+
+def _write_exact(path: Path, table: np.ndarray) -> None:
+    """A MOT file of ``table``'s rows in their own order, every number written so that
+    it reads back as the same float64 (``%.17g``): TrackEval then reads exactly the
+    tables we scored (``write_mot_table`` sorts rows and rounds boxes to 1e-3 px)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    t = np.asarray(table, dtype=np.float64)
+    if t.shape[1] < 10:
+        pad = np.full((t.shape[0], 10 - t.shape[1]), -1.0)
+        if t.shape[1] == 6:
+            pad[:, 0] = 1.0
+        t = np.hstack([t, pad])
+    lines = [f"{int(r[0])},{int(r[1])}," + ",".join(f"{v:.17g}" for v in r[2:10]) for r in t]
+    path.write_text("".join(line + "\n" for line in lines))
+
+
 def _trackeval_check(gt: np.ndarray, pred: np.ndarray, ours: dict, tmp: Path) -> None:
-    """TrackEval on the same tables; raise if any reported number differs."""
+    """TrackEval (CLEAR, Identity, HOTA) on exactly the tables ``ours`` scored (same
+    rows, same order, same float64 values); raise AssertionError naming every field
+    that differs: counts must be equal, floats within :data:`TRACKEVAL_TOL`."""
     import trackeval
 
-    from thermoswarm.io.mot import write_mot_table
-
     n = int(max(gt[:, 0].max(), pred[:, 0].max(initial=1)))
-    (tmp / "gt" / "s" / "gt").mkdir(parents=True, exist_ok=True)
-    (tmp / "tr" / "t" / "data").mkdir(parents=True, exist_ok=True)
-    write_mot_table(tmp / "gt" / "s" / "gt" / "gt.txt", gt)
-    write_mot_table(tmp / "tr" / "t" / "data" / "s.txt", pred)
+    _write_exact(tmp / "gt" / "s" / "gt" / "gt.txt", gt)
+    _write_exact(tmp / "tr" / "t" / "data" / "s.txt", pred)
     cfg = dict(GT_FOLDER=str(tmp / "gt"), TRACKERS_FOLDER=str(tmp / "tr"), SKIP_SPLIT_FOL=True,
                SEQ_INFO={"s": n}, TRACKERS_TO_EVAL=["t"], PRINT_CONFIG=False,
                OUTPUT_FOLDER=str(tmp / "o"))  # fmt: skip
@@ -323,22 +351,26 @@ def _trackeval_check(gt: np.ndarray, pred: np.ndarray, ours: dict, tmp: Path) ->
               OUTPUT_SUMMARY=False, OUTPUT_DETAILED=False, PLOT_CURVES=False,
               DISPLAY_LESS_PROGRESS=True)  # fmt: skip
     with contextlib.redirect_stdout(io.StringIO()):
-        res, _ = trackeval.Evaluator(ev).evaluate(
+        res, msg = trackeval.Evaluator(ev).evaluate(
             [trackeval.datasets.MotChallenge2DBox(cfg)],
             [trackeval.metrics.CLEAR({"PRINT_CONFIG": False}),
              trackeval.metrics.Identity({"PRINT_CONFIG": False}),
              trackeval.metrics.HOTA({"PRINT_CONFIG": False})],
         )  # fmt: skip
-    # Ours again on the same written (rounded) tables that TrackEval read.
-    from thermoswarm.tracking.evaluate import evaluate_files
-
-    ours = evaluate_files(tmp / "gt" / "s" / "gt" / "gt.txt", tmp / "tr" / "t" / "data" / "s.txt")
+    if msg["MotChallenge2DBox"]["t"] != "Success":  # TrackEval reports its errors here
+        raise AssertionError(f"TrackEval failed: {msg['MotChallenge2DBox']['t']}")
     r = res["MotChallenge2DBox"]["t"]["s"]["pedestrian"]
-    te = {"mota": r["CLEAR"]["MOTA"], "idf1": r["Identity"]["IDF1"],
-          "hota": float(np.mean(r["HOTA"]["HOTA"])), "idsw": r["CLEAR"]["IDSW"]}  # fmt: skip
-    for k, v in te.items():
-        if abs(ours[k] - v) > 1e-4:
-            raise AssertionError(f"{k}: ours {ours[k]} != TrackEval {v}")
+    bad = [
+        f"{k}: ours {ours[k]} != TrackEval {r[m][f]}"
+        for k, (m, f) in TRACKEVAL_COUNTS.items()
+        if ours[k] != int(r[m][f])
+    ]
+    for k, (m, f) in TRACKEVAL_FLOATS.items():
+        v = float(np.mean(r[m][f]))
+        if not abs(ours[k] - v) <= TRACKEVAL_TOL:
+            bad.append(f"{k}: ours {ours[k]!r} != TrackEval {v!r}")
+    if bad:
+        raise AssertionError("scores differ from TrackEval's: " + "; ".join(bad))
 
 
 def main(argv: list[str] | None = None) -> int:

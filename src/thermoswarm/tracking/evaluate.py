@@ -2,21 +2,28 @@
 
 Our own implementation on :func:`scipy.optimize.linear_sum_assignment`, following the
 definitions of TrackEval (Luiten et al.; ``trackeval.metrics.CLEAR`` and ``Identity``)
-so that the numbers agree with it (the tests check this to 1e-4).  We do not use
+so that the numbers are TrackEval's: the same counts, the same floats (the tests check
+them to 1e-12, ``benchmarks/*.py --check-trackeval`` to 1e-9).  We do not use
 ``motmetrics`` (its last release calls ``np.asfarray``, removed in NumPy 2).
 
 Matching (per frame): similarity is the IoU of MOT boxes; a ground-truth object and a
 prediction may match when IoU >= ``iou``.  Among those, pairs that continue the
 previous frame's match get priority, then the assignment maximises total IoU
-(TrackEval's ``1000 * continuing + IoU`` score).  An identity switch is counted when a
-ground-truth object is matched to a different predicted id than the last time it was
-matched (however long ago).  Identity metrics (IDF1, IDP, IDR) come from the one global
-one-to-one assignment of ground-truth ids to predicted ids that maximises the number of
-frames where the pair overlaps by IoU >= ``iou``.
+(TrackEval's ``1000 * continuing + IoU`` score).  The IoU is computed in TrackEval's
+arithmetic, bit for bit (:func:`_iou`), and a frame's rows are taken in the tables'
+order, as TrackEval reads a file: assignments that tie exactly (two ground-truth
+objects on one box) are broken by the Hungarian step on the last bits.  An identity
+switch is counted when a ground-truth object is matched to a different predicted id
+than the last time it was matched (however long ago).  Identity metrics (IDF1, IDP,
+IDR) come from the one global one-to-one assignment of ground-truth ids to predicted
+ids that maximises the number of frames where the pair overlaps by IoU >= ``iou``.
 
 Ground-truth rows with ``conf == 0`` (MOTChallenge "do not consider") are ignored, as
 are predictions that match a ground-truth row of a distractor class (2, 7, 8, 12), as
-TrackEval's MOT17 preprocessing does.  Class -1 (absent) counts as class 1.
+TrackEval's MOT17 preprocessing does.  Class -1 (absent) counts as class 1.  (One
+difference on purpose: TrackEval reads ``conf`` as an integer, so it would also ignore
+rows with ``0 < |conf| < 1``; we keep them, so that a tracker's output, whose ``conf``
+is a score, can be the reference.)
 
 Definitions: ``mota = 1 - (fn + fp + idsw) / n_gt``; ``motp`` = mean IoU of the
 matches; ``idsw_rate = idsw / n_gt`` (ID switches per ground-truth detection, the
@@ -24,7 +31,7 @@ paper's "ID switch rate"); ``idf1 = 2 idtp / (n_gt + n_pred)``.
 
 HOTA (:func:`_hota`): ``hota``, ``deta``, ``assa`` and ``loca``, each the mean over the
 IoU thresholds 0.05, 0.10, ..., 0.95 as TrackEval reports them (independent of
-``iou``); equal to TrackEval's to 1e-6 on the test fixtures.
+``iou``), TrackEval's sums in TrackEval's order.
 """
 
 from __future__ import annotations
@@ -38,7 +45,6 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from thermoswarm.errors import InputError
-from thermoswarm.tracking.anatomy import box_iou
 
 __all__ = ["evaluate_tables", "evaluate_files", "METRIC_KEYS", "HOTA_ALPHAS"]
 
@@ -54,6 +60,29 @@ HOTA_ALPHAS = np.arange(0.05, 0.99, 0.05)
 
 _DISTRACTORS = (2, 7, 8, 12)
 _EPS = np.finfo(float).eps
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """IoU matrix of MOT boxes ``(left, top, width, height)``, in TrackEval's arithmetic
+    (``_BaseDataset._calculate_box_ious``): right = left + width, area = (right - left)
+    x (bottom - top).  Bit-identical values matter: ground truth with two objects on
+    one box makes assignments that tie exactly, which the Hungarian step breaks by the
+    last bits (``anatomy.box_iou``'s width x height area differs there by ~1e-15)."""
+    a = np.array(a, dtype=np.float64).reshape(-1, 4)
+    b = np.array(b, dtype=np.float64).reshape(-1, 4)
+    a[:, 2:] += a[:, :2]
+    b[:, 2:] += b[:, :2]
+    lo = np.minimum(a[:, None, :], b[None, :, :])
+    hi = np.maximum(a[:, None, :], b[None, :, :])
+    inter = np.maximum(lo[..., 2] - hi[..., 0], 0) * np.maximum(lo[..., 3] - hi[..., 1], 0)
+    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
+    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    union = area_a[:, None] + area_b[None, :] - inter
+    inter[area_a <= _EPS, :] = 0
+    inter[:, area_b <= _EPS] = 0
+    inter[union <= _EPS] = 0
+    union[union <= _EPS] = 1
+    return inter / union
 
 
 def _frames(table: np.ndarray, numbers: np.ndarray) -> list[np.ndarray]:
@@ -149,7 +178,7 @@ def _hota(
             fn[a] += g.size - k
             fp[a] += p.size - k
             if k:
-                loc[a] += ms[ok].sum()
+                loc[a] += sum(ms[ok])  # summed in order, as TrackEval
                 matches[a, g[r[ok]], p[c[ok]]] += 1
     assa = np.empty(A)
     for a in range(A):
@@ -190,7 +219,7 @@ def _per_frame(
     per_frame = []
     for g, p in zip(gt_rows, pr_rows, strict=True):
         if len(g) and len(p) and distractor[g].any():
-            sim = box_iou(gt[g, 2:6], pred[p, 2:6])
+            sim = _iou(gt[g, 2:6], pred[p, 2:6])
             score = np.where(sim < 0.5 - _EPS, 0.0, sim)
             r, c = linear_sum_assignment(-score)
             ok = score[r, c] > _EPS
@@ -255,7 +284,7 @@ def _clear_mot(
             k.fp += len(p)
             k.fn += len(g)
             continue
-        sim = box_iou(gt[g, 2:6], pred[p, 2:6])
+        sim = _iou(gt[g, 2:6], pred[p, 2:6])
         k.hota_frames.append((gi, pi, sim))
         mi, mj = np.nonzero(sim >= iou)
         np.add.at(k.potential, (gi[mi], pi[mj]), 1)
@@ -276,7 +305,7 @@ def _clear_mot(
         k.tp += r.size
         k.fn += len(g) - r.size
         k.fp += len(p) - r.size
-        k.motp_sum += float(sim[r, c].sum())
+        k.motp_sum += float(sum(sim[r, c]))  # summed in order, as TrackEval
     return k
 
 
