@@ -179,6 +179,8 @@ STEPS = [
     Step("viewer", "bench_viewer", [], ["--sizes", "10000,100000", "--seconds", "3"]),
     Step("split_join", "bench_split_join", [], ["--frames", "4"], needs="cv2",
          title="duplicate detections of tiny split ants, joining off and on (drawn)"),
+    Step("body_length", "bench_body_length", [], [], needs="cv2",
+         title="body length measured without a scale, rendered and drawn ants of 4-40 px"),
 ]  # fmt: skip
 #: Steps that ``--quick`` leaves out (no quick size says anything).
 FULL_ONLY = {"compression"}

@@ -108,6 +108,35 @@ def _from(start: int) -> dict[str, int]:
     return {"start": start} if start else {}
 
 
+#: Working px by which a registered frame may sit off the background (the registration's
+#: residual; ECC runs on a copy at most 400 px wide): a background edge within it is not
+#: foreground (``ClassicalConfig.shift_px``).  Without it the moved fly clip's hole grid
+#: gave 110-262 speck tracks; with it, the same frames are refused (no animal moves).
+REGISTERED_SHIFT_PX = 1
+
+
+def _registered_options(src: Any, options: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The classical detector's ``options`` for ``src``: on a registered source (the
+    camera moved) ``shift_px`` is :data:`REGISTERED_SHIFT_PX` unless the user set it."""
+    from thermoswarm.tracking.detect.register import RegisteredSource
+
+    if not isinstance(src, RegisteredSource) or "shift_px" in (options or {}):
+        return options
+    return {**(options or {}), "shift_px": REGISTERED_SHIFT_PX}
+
+
+def _edges_note(src: Any) -> str:
+    """On a registered source: that thin lines may be the edges registration leaves."""
+    from thermoswarm.tracking.detect.register import RegisteredSource
+
+    if not isinstance(src, RegisteredSource):
+        return ""
+    return (
+        " (the camera moved: edges that its registration leaves look like this, "
+        "and animals that do not move are not found)"
+    )
+
+
 def build_detector(
     src: Any,
     n_prep: int,
@@ -135,14 +164,16 @@ def build_detector(
     step = step or (2 if n_prep >= 32 else 1)
     info: dict[str, Any] = {"scale_source": "user", "n_blobs": None}
     start = 0
+    classical = (detector or ("classical" if model is None else "")) == "classical"
+    options = _registered_options(src, options) if classical else options
     if px_per_mm is None:
-        classical = (detector or ("classical" if model is None else "")) == "classical"
         est, start = _measure_size(src, n_prep, step, options if classical else None, max_frames)
         if est.fill < MIN_FILL:
             raise InputError(
                 f"{src.path}: the moving things are thin lines, not animals: their blobs "
                 f"fill {est.fill:.2f} of their length squared (an animal's 0.25-0.5); a "
-                "plot or a drawing has nothing to track; give --px-per-mm to track anyway"
+                f"plot or a drawing has nothing to track{_edges_note(src)}; give "
+                "--px-per-mm to track anyway"
             )
         px_per_mm = est.length_px / anatomy.ANT_LENGTH_MM
         info.update(scale_source="measured", n_blobs=est.n_blobs)
