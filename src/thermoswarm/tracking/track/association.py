@@ -276,6 +276,8 @@ def within_body(a: np.ndarray, b: np.ndarray, along: float, across: float) -> np
     """
     ax = b[:, 0] - b[:, 2]
     norm = np.hypot(ax[:, 0], ax[:, 1])
+    if not np.any(norm > 1e-9):  # box-only detections: nothing to compare
+        return np.zeros((len(a), len(b)), bool)
     with np.errstate(invalid="ignore", divide="ignore"):
         u = ax / norm[:, None]
     d = a[:, None, 1, :] - b[None, :, 1, :]
