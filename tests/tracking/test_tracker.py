@@ -314,3 +314,38 @@ def test_a_fragment_inside_an_object_starts_no_track_but_a_close_neighbour_does(
     assert np.all(np.bincount(res.frames) == 2)
     old = TrackerConfig(duplicate_radius=0.5, duplicate_overlap=1.0)
     assert np.unique(track_detections(_sized_boxes(frames), fps=10, config=old).ids).size == 1
+
+
+def _poses(bodies: list[np.ndarray], heading: float, length: float) -> np.ndarray:
+    """Poses ``(n, 3, 2)`` of ants ``length`` px long at body points ``bodies`` ``(n, 2)``,
+    all at ``heading`` rad (head, body and tail by the anatomy)."""
+    from thermoswarm.tracking import anatomy
+
+    u = np.array([np.cos(heading), np.sin(heading)])
+    off = anatomy.KEYPOINT_OFFSETS[None, :, None] * length * u[None, None, :]
+    return np.asarray(bodies, float)[:, None, :] + off
+
+
+@pytest.mark.parametrize(
+    ("second", "n_tracks"),
+    [((-0.6, 0.0), 1), ((0.0, 0.5), 2), ((-1.1, 0.0), 2)],
+    ids=["piece-0.6-behind", "side-by-side-0.5", "head-to-tail"],
+)
+def test_the_pieces_of_one_split_ant_start_no_second_track(second, n_tracks):
+    # An ant 21.7 px long walks on the 30 degree diagonal at 3 body lengths a second
+    # (30 fps) and, in every frame, a second pose lies ``second`` (along, across its
+    # heading; body lengths) from it, both scored 0.6 (a split blob's parts): 0.6
+    # body lengths behind on its own axis it is a piece of the same ant (the blob of
+    # one ant cut in two, the classical detector's over-split; before oriented
+    # duplicates: a second track), 0.5 body lengths to its side or one body length
+    # behind it is another ant (tracked).
+    L, h, n = 21.7, np.pi / 6, 40
+    u, v = np.array([np.cos(h), np.sin(h)]), np.array([-np.sin(h), np.cos(h)])
+    dets = []
+    for k in range(n):
+        a = np.array([100.0, 100.0]) + 3 * L / 30 * k * u
+        b = a + L * (second[0] * u + second[1] * v)
+        dets.append(FrameDetections(_poses([a, b], h, L), np.full(2, 0.6)))
+    res = track_detections(dets, fps=30, length_px=L)
+    assert np.unique(res.ids).size == n_tracks
+    assert res.ids.size >= n_tracks * (n - 7)  # each track from its confirmation on

@@ -6,7 +6,8 @@ pixels weighted by their contrast above ``peak_fraction`` of the blob's peak;
 :func:`split_counts` decides how many ants each blob holds (its area, the tracker's
 predictions); :func:`measure_singles` places one pose per single-ant blob
 (:func:`_moments_pose`) and :func:`measure_splits` splits the others
-(:func:`_split`, k-means with segments) and places a pose per part.
+(:func:`_split`, k-means with segments) and places a pose per part (a part cut
+short where it touches another ant from its whole end: :func:`_from_free_end`).
 """
 
 from __future__ import annotations
@@ -224,6 +225,7 @@ def measure_splits(
             gl[gi] = j
         p2, h2, s2, v2 = _moments_pose(xy[:, 0], xy[:, 1], w[idx], gl, m, length, widen)
         v2 &= np.bincount(gl, minlength=m) >= 3
+        p2 = _from_free_end(xy, gl, p2, v2, length, widen)
         # Segment j started from hint js[j]: it continues that predicted ant.
         src = np.full(m, -1, np.int64)
         if init is not None:
@@ -442,3 +444,51 @@ def _split(
         ang = 0.5 * np.arctan2(2 * b, a - cc)
         dirs[elong, 0], dirs[elong, 1] = np.cos(ang[elong]), np.sin(ang[elong])
     return [np.flatnonzero(lab == j) for j in range(k)]
+
+
+#: A split part's end is in contact with another ant of the blob when another part's
+#: pixel lies within this many body lengths of it (a quarter body length: the gap
+#: between two touching ants' silhouettes is a pixel or two, while the far end of an
+#: ant lying end to end with another is a body length away from it).
+FREE_END_RADIUS = 0.25
+
+
+def _from_free_end(
+    xy: np.ndarray, gl: np.ndarray, p: np.ndarray, valid: np.ndarray, length: float, widen: float
+) -> np.ndarray:
+    """The poses ``p`` ``(m, 3, 2)`` of a split blob's parts, each part with exactly one
+    end in contact with another part re-placed from its other (free) end.
+
+    Where two ants touch, the pixels at the contact go to one of them, so the other's
+    silhouette is cut short at that end; :func:`_moments_pose` places the body point
+    from both ends of the silhouette, which moves it by half the cut along the body
+    axis (on the synthetic 1080p video, the along-axis error of split parts: median
+    0.9 px, 90th percentile 3.6 px, against 0.45 / 1.1 px for single ants).  The free
+    end is whole: the part is placed from it with the expected ``length`` (px; the
+    silhouette reaching ``widen`` px beyond the ant).  Parts with both ends or neither
+    in contact (side by side, crossing at the middle) keep their pose.  ``xy``
+    ``(n, 2)``: the blob's pixels (px), ``gl`` their part, ``valid`` the parts measured.
+    """
+    out = p.copy()
+    offsets = anatomy.KEYPOINT_OFFSETS[:, None] * length
+    r2 = (FREE_END_RADIUS * length) ** 2
+    for j in np.flatnonzero(valid):
+        axis = p[j, 0] - p[j, 2]  # tail to head: the front of the silhouette
+        norm = float(np.hypot(axis[0], axis[1]))
+        mine = gl == j
+        others = xy[~mine]
+        if not (norm > 1e-9 and others.size):
+            continue
+        u = axis / norm
+        t = (xy[mine] - p[j, 1]) @ u
+        hi, lo = float(t.max()) + 0.5, float(t.min()) - 0.5  # as _moments_pose
+        near_front = bool(np.any(((others - (p[j, 1] + hi * u)) ** 2).sum(1) < r2))
+        near_back = bool(np.any(((others - (p[j, 1] + lo * u)) ** 2).sum(1) < r2))
+        if near_front == near_back:
+            continue
+        if near_front:  # the back is free: back = body + BACK length - widen
+            body = lo - (anatomy.BACK * length - widen)
+        else:  # the front is free: front = body + FRONT length + widen
+            body = hi - (anatomy.FRONT * length + widen)
+        out[j] = p[j, 1] + (body + offsets) * u
+    return out

@@ -21,7 +21,15 @@ import numpy as np
 from numba import njit
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["BIG", "pair_costs", "assign", "orient_matched", "orient_new", "overlap_of_smaller"]
+__all__ = [
+    "BIG",
+    "pair_costs",
+    "assign",
+    "orient_matched",
+    "orient_new",
+    "overlap_of_smaller",
+    "within_body",
+]
 
 #: Cost of a pair outside the gate (never matched; larger than any sum of real costs).
 BIG = 1e6
@@ -249,3 +257,31 @@ def overlap_of_smaller(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     small = np.minimum((a[:, 2] * a[:, 3])[:, None], (b[:, 2] * b[:, 3])[None, :])
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(small > 0, inter / small, 0.0)
+
+
+def within_body(a: np.ndarray, b: np.ndarray, along: float, across: float) -> np.ndarray:
+    """``(len(a), len(b))``: whether pose ``a[i]``'s body point lies inside the ellipse
+    of semi-axes ``along`` (px, on ``b[j]``'s head-tail axis) and ``across`` (px,
+    across it) centred on ``b[j]``'s body point: the two bodies overlap along their
+    length, as the pieces of one ant split in two do, and two ants side by side or
+    end to end do not.  False where ``b[j]``'s head or tail is unknown (box-only
+    detections) or a body point is.
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (n, 3, 2) and (m, 3, 2)
+        Poses (head, body, tail; px).
+    along, across : float
+        Semi-axes of the ellipse (px), both positive.
+    """
+    ax = b[:, 0] - b[:, 2]
+    norm = np.hypot(ax[:, 0], ax[:, 1])
+    if not np.any(norm > 1e-9):  # box-only detections: nothing to compare
+        return np.zeros((len(a), len(b)), bool)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = ax / norm[:, None]
+    d = a[:, None, 1, :] - b[None, :, 1, :]
+    t = d[..., 0] * u[None, :, 0] + d[..., 1] * u[None, :, 1]
+    s = d[..., 0] * u[None, :, 1] - d[..., 1] * u[None, :, 0]
+    inside = (t / along) ** 2 + (s / across) ** 2 <= 1.0
+    return inside & (norm > 1e-9)[None, :]

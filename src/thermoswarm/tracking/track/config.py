@@ -71,10 +71,15 @@ class TrackerConfig:
     nor a detector's own boxes overlapping the predicted box less than ``min_iou``.
 
     Births: no birth from a detection whose body point is within ``duplicate_radius``
-    body lengths of a matched or better-scored one, or (when ``duplicate_overlap`` is
-    below 1) whose box intersection covers that share of the smaller box; none below
-    ``min_score``.  ``width_bl``: object width, half of which pads body-centred pose
-    boxes.
+    body lengths of a matched or better-scored one, or (posed detections) within
+    ``duplicate_body`` of that one's oriented body: inside the ellipse of semi-axes
+    ``duplicate_body`` body lengths along its head-tail axis and ``duplicate_body``
+    body widths across it (0: off; 0.7: bodies that overlap by about a third or more,
+    as the pieces of one ant cut in two by a detector's split do; two ants side by
+    side 0.5 body lengths apart or end to end are outside it), or (when
+    ``duplicate_overlap`` is below 1) whose box intersection covers that share of the
+    smaller box; none below ``min_score``.  ``width_bl``: object width, half of which
+    pads body-centred pose boxes.
 
     Output: ``smooth`` smooths each finished track's box centres
     (:mod:`~thermoswarm.tracking.track.smooth`: a fixed-interval Kalman smoother whose
@@ -105,6 +110,7 @@ class TrackerConfig:
     coast_last: bool = False
     min_score: float = 0.5
     duplicate_radius: float = 0.3
+    duplicate_body: float = 0.7
     duplicate_overlap: float = 1.0
     interpolate: bool = True
     fix_jumps: bool = True
@@ -116,7 +122,13 @@ class TrackerConfig:
     smooth: bool = True
 
     def __post_init__(self) -> None:
-        for name in ("confirm_s", "tentative_gap_s", "max_gap_s", "duplicate_radius"):
+        for name in (
+            "confirm_s",
+            "tentative_gap_s",
+            "max_gap_s",
+            "duplicate_radius",
+            "duplicate_body",
+        ):
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, name, "a non-negative number (s or L)", v)
         # the track bank keeps the confirming detections of each tentative track and a

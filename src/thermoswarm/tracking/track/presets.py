@@ -44,6 +44,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         relink_gate=True,
         min_score=0.0,
         duplicate_radius=0.0,
+        duplicate_body=0.0,
         duplicate_overlap=0.3,
         smooth=False,
     ),

@@ -21,9 +21,10 @@ Each frame:
    tentative tracks with the detections left; pairs costing more than ``max_cost`` are
    not matched.
 4. **Birth and death with hysteresis**: an unmatched detection (not within
-   ``duplicate_radius`` body lengths of a matched or better-scored one) starts a
-   tentative track, confirmed once detected over ``confirm_s`` (and dropped if it
-   misses more than ``tentative_gap_s`` before that); a confirmed track survives
+   ``duplicate_radius`` body lengths, nor ``duplicate_body`` of the oriented body, of a
+   matched or better-scored one) starts a tentative track, confirmed once detected
+   over ``confirm_s`` (and dropped if it misses more than ``tentative_gap_s``); a
+   confirmed track survives
    ``max_gap_s`` without detections (coasting on its prediction).  Every time is in
    seconds, converted with the frame rate (:func:`~thermoswarm.tracking.track.config.frames`).
    A track whose ant walks out of the frame (its prediction leaves the image)
@@ -383,12 +384,15 @@ class Tracker:
         self, pts: np.ndarray, boxes: np.ndarray, a: np.ndarray, b: np.ndarray
     ) -> np.ndarray:
         """``(len(a), len(b))``: whether detection ``a[i]`` duplicates ``b[j]``: body
-        points within ``duplicate_radius`` body lengths, or boxes whose intersection
-        covers at least ``duplicate_overlap`` of the smaller one (when that is below 1:
-        a fragment inside an object's box, or a doubled box)."""
-        c = self.config
-        dd = np.linalg.norm(pts[b, 1][None, :, :] - pts[a, 1][:, None, :], axis=-1)
-        dup = dd < c.duplicate_radius * self.length_px
+        points within ``duplicate_radius`` body lengths or ``duplicate_body`` of ``b[j]``'s
+        oriented body (:func:`.association.within_body`), or boxes whose intersection
+        covers ``duplicate_overlap`` of the smaller one (below 1: a fragment, a doubled box)."""
+        c, L = self.config, self.length_px
+        d = pts[b, 1][None] - pts[a, 1][:, None]
+        dup = np.hypot(d[..., 0], d[..., 1]) < c.duplicate_radius * L
+        if c.duplicate_body > 0:
+            k = c.duplicate_body * L
+            dup |= association.within_body(pts[a], pts[b], k, k * c.width_bl)
         if c.duplicate_overlap < 1:
             dup |= association.overlap_of_smaller(boxes[a], boxes[b]) >= c.duplicate_overlap
         return dup
