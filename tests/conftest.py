@@ -30,7 +30,15 @@ HEAVY = (
 
 
 def pytest_collection_modifyitems(config, items):
-    """Mark the :data:`HEAVY` tests ``heavy`` (they are ``slow`` too)."""
+    """Mark the :data:`HEAVY` tests ``heavy`` (they are ``slow`` too).  When the whole
+    suite is collected, every HEAVY id must name a test: an id that no longer matches
+    (a docs example moved to another line) would send that test to CI's share."""
+    ids = {item.nodeid for item in items}
     for item in items:
         if item.nodeid in HEAVY:
             item.add_marker(pytest.mark.heavy)
+    files = {i.split("::")[0] for i in ids}
+    gone = [h for h in HEAVY if h.split("::")[0] in files and h not in ids]
+    whole = all(h.split("::")[0] in files for h in HEAVY) and not config.option.keyword
+    if gone and whole:
+        raise pytest.UsageError(f"tests/conftest.py HEAVY names no test: {gone}")
