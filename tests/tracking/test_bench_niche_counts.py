@@ -5,9 +5,7 @@ in docs/real_footage.md)."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 import zipfile
 from pathlib import Path
 
@@ -15,10 +13,10 @@ import cv2
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from tracking_fixtures import bench_module
 
 from thermoswarm.cli import cli
 
-ROOT = Path(__file__).resolve().parents[2]
 W, H = 400, 300
 L = 24.0  # drawn ant length, px
 LEFT_PAPER = (40, 60, 150, 200)  # x0, y0, x1, y1
@@ -27,13 +25,7 @@ RIGHT_PAPER = (250, 80, 360, 220)
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location(
-        "bench_niche_counts", ROOT / "benchmarks" / "bench_niche_counts.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # its dataclass looks its module up
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("bench_niche_counts")
 
 
 def _tray(ants: list[tuple[float, float]]) -> np.ndarray:

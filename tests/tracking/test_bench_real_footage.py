@@ -4,32 +4,23 @@ need real labelled frames, see docs/tracking_unet.md)."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 import sleap_io as sio  # noqa: E402
-from tracking_fixtures import small_video  # noqa: E402
+from tracking_fixtures import bench_module, small_video  # noqa: E402
 
 from thermoswarm.tracking.detect import unet  # noqa: E402
 from thermoswarm.tracking.train import fit as tr  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
-
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location(
-        "bench_real_footage", ROOT / "benchmarks" / "bench_real_footage.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("bench_real_footage")
 
 
 def _frames(keys, n_ants=1):

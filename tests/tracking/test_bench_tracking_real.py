@@ -3,21 +3,12 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
-
-ROOT = Path(__file__).resolve().parents[2]
+from tracking_fixtures import bench_module
 
 
 def _bench():
-    spec = importlib.util.spec_from_file_location(
-        "bench_tracking_real", ROOT / "benchmarks" / "bench_tracking_real.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("bench_tracking_real")
 
 
 def test_ground_truth_drops_ignored_rows_and_reads_mot15_world_columns():

@@ -8,16 +8,12 @@ compute IoU in TrackEval's arithmetic (right = left + width, area = (right - lef
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from tracking_fixtures import bench_module
 
 from thermoswarm.tracking.anatomy import box_iou
 from thermoswarm.tracking.evaluate import evaluate_tables
-
-ROOT = Path(__file__).resolve().parents[2]
 
 #: Ground-truth objects 1 and 2 share box X in frame 3; predictions 11 and 12 overlap
 #: it by IoU 0.593 and 0.831.
@@ -43,12 +39,7 @@ def _tie_tables() -> tuple[np.ndarray, np.ndarray]:
 
 
 def _bench():
-    spec = importlib.util.spec_from_file_location(
-        "bench_tracking_real", ROOT / "benchmarks" / "bench_tracking_real.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("bench_tracking_real")
 
 
 def test_tied_assignment_is_broken_as_trackeval_breaks_it():

@@ -6,27 +6,21 @@ numbers on the real files are in docs/real_footage.md."""
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 import pytest
 import sleap_io as sio
+from tracking_fixtures import bench_module
 
 from thermoswarm.tracking.train import fit as tr
 
-ROOT = Path(__file__).resolve().parents[2]
 L_PX = 100.0  # body length of the tests, px
 
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location(
-        "bench_real_footage", ROOT / "benchmarks" / "bench_real_footage.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return bench_module("bench_real_footage")
 
 
 def _ant(x: float, y: float) -> np.ndarray:
