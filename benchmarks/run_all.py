@@ -181,6 +181,9 @@ STEPS = [
          title="duplicate detections of tiny split ants, joining off and on (drawn)"),
     Step("body_length", "bench_body_length", [], [], needs="cv2",
          title="body length measured without a scale, rendered and drawn ants of 4-40 px"),
+    Step("tiny_clip", "bench_tiny_clip", [], ["--seconds", "3"], needs="cv2",
+         title="track on a drawn clip of 66 small dark ants on white: share tracked, "
+         "duplicates"),
 ]  # fmt: skip
 #: Steps that ``--quick`` leaves out (no quick size says anything).
 FULL_ONLY = {"compression"}

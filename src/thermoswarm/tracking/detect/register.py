@@ -45,6 +45,7 @@ __all__ = [
     "RegisteredSource",
     "camera_path",
     "register_source",
+    "still_fits_better",
     "shift_detections",
     "camera_summary",
 ]
@@ -373,7 +374,57 @@ def register_source(
         )
     if mode == "auto" and path.reach_px() <= still_px:
         return src, path  # a still camera: the frames as they are (the path for its cuts)
+    if mode == "auto" and still_fits_better(src, path):
+        return src, path  # the animals, not the camera, moved (a plain floor)
     return RegisteredSource(src, path), path
+
+
+def still_fits_better(src: Any, path: CameraPath, n: int = 9) -> bool:
+    """Whether a still background explains ``n`` frames spread over the clip at least
+    as well as the registered one: on a plain floor the only texture is the animals,
+    and a path measured from them is the animals' motion, not the camera's (66 ants
+    walking on white: "moved up to 37 px"; tracks then land in the wrong place).
+
+    Each way, the frames' grey copies (largest side at most 400 px) against their median (the
+    registered ones warped by ``path``, on the pixels they show); a pixel is
+    unexplained when it is off by over 5 robust sds of the still residual (at least 10
+    grey levels).  The camera moved when registration leaves under 0.9 of the still
+    model's unexplained share and at least 0.2 % of the picture fewer.  Measured: 66
+    drawn ants walking on white, still 1.1 % unexplained, registered 1.4 % (still);
+    SLEAP's fly clip moved 166 px, 4.7 % and 0.02 %; its walking frames moved 190 px
+    with a path 34 px off, 4.8 % and 3.2 % (registered, both).
+    """
+    import cv2
+
+    total = len(path.matrices)
+    picks = np.unique(np.linspace(0, total - 1, min(n, total)).round().astype(int))
+    w, h = path.size
+    s = min(1.0, 400 / max(w, h))
+    size = (max(1, int(round(w * s))), max(1, int(round(h * s))))
+    scale = np.diag([s, s, 1.0])
+    raw, warped, valid = [], [], []
+    for k in picks:
+        frame = next(iter(src.frames(k + 1, start=k) if k else src.frames(1)), None)
+        if frame is None:
+            return False
+        g = cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY) if frame.ndim == 3 else frame
+        g = cv2.resize(g, size, interpolation=cv2.INTER_AREA).astype(np.float32)
+        m = (scale @ np.vstack([path.matrices[k], [0, 0, 1]]) @ np.linalg.inv(scale))[:2]
+        raw.append(g)
+        warped.append(cv2.warpAffine(g, m, size, flags=cv2.INTER_LINEAR))
+        seen = cv2.warpAffine(np.ones_like(g), m, size, flags=cv2.INTER_NEAREST)
+        valid.append(cv2.erode(seen, np.ones((5, 5), np.uint8)) > 0.5)
+    raw_res = np.abs(np.stack(raw) - np.median(np.stack(raw), axis=0))
+    stack = np.where(np.stack(valid), np.stack(warped), np.nan)
+    with warnings.catch_warnings():  # px no picked frame shows: NaN
+        warnings.simplefilter("ignore", RuntimeWarning)
+        reg_res = np.abs(stack - np.nanmedian(stack, axis=0))
+    med = float(np.median(raw_res))
+    t = max(10.0, med + 5 * 1.4826 * float(np.median(np.abs(raw_res - med))))
+    still = float(np.mean(raw_res > t))
+    seen = np.isfinite(reg_res)
+    moved = float(np.mean(reg_res[seen] > t)) if seen.any() else 1.0
+    return not (moved < 0.9 * still and still - moved > 0.002)
 
 
 def shift_detections(d: FrameDetections, offset: tuple[float, float]) -> FrameDetections:
