@@ -190,3 +190,40 @@ def test_ants_walking_on_a_plain_floor_do_not_move_the_camera(tmp_path):
     same, _ = register_source(src)
     assert p.reach_px() > 3.0  # the path alone would have registered it
     assert same is src
+
+
+def _ants_on_white(rng, n_frames: int, cut_at: int | None):
+    """30 small dark ants walking on a plain white floor (still camera); at ``cut_at``
+    every ant is drawn somewhere else (an edited clip's cut)."""
+    from test_split_join import H, W, draw_ant
+
+    pos = rng.uniform([30, 30], [W - 30, H - 30], (30, 2))
+    head = rng.uniform(-np.pi, np.pi, 30)
+    frames = []
+    for k in range(n_frames):
+        if k == cut_at:
+            pos = rng.uniform([30, 30], [W - 30, H - 30], (30, 2))
+        head += rng.normal(0, 0.1, 30)
+        pos = np.clip(pos + 1.5 * np.c_[np.cos(head), np.sin(head)], 15, [W - 15, H - 15])
+        img = np.full((H, W), 235, np.uint8)
+        for c, h in zip(pos, head, strict=True):
+            draw_ant(img, c, float(h), 6.5)
+        noisy = np.clip(img + rng.normal(0, 2.0, img.shape), 0, 255).astype(np.uint8)
+        frames.append(np.repeat(noisy[..., None], 3, axis=2))
+    return frames
+
+
+@pytest.mark.parametrize("cut_at", [None, 30])
+def test_a_cut_seen_only_in_the_detections_ends_every_track(tmp_path, cut_at):
+    """The same white floor before and after the cut: registration sees no jump, the
+    detections do (was: ids carried over onto other ants); no cut where there is none."""
+    path = tmp_path / "clip.mp4"
+    write_video(_ants_on_white(np.random.default_rng(3), 60, cut_at), path, 30.0)
+    s = track_video(path, tmp_path / "o", overlay=False)
+    cuts = s["camera"].get("scene_cuts", [])
+    assert cuts == ([] if cut_at is None else [cut_at + 1])
+    rows = read_mot_table(tmp_path / "o" / "tracks_mot.txt")
+    if cut_at is not None:
+        before = set(rows[rows[:, 0] == cut_at, 1])
+        after = set(rows[rows[:, 0] == cut_at + 1, 1])
+        assert before and after and not before & after
