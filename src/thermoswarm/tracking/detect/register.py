@@ -404,7 +404,7 @@ def still_fits_better(src: Any, path: CameraPath, n: int = 9) -> bool:
     scale = np.diag([s, s, 1.0])
     raw, warped, valid = [], [], []
     for k in picks:
-        frame = next(iter(src.frames(k + 1, start=k) if k else src.frames(1)), None)
+        frame = next(src.frames(k + 1, start=int(k)), None)
         if frame is None:
             return False
         g = cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY) if frame.ndim == 3 else frame
@@ -436,18 +436,23 @@ def shift_detections(d: FrameDetections, offset: tuple[float, float]) -> FrameDe
     return dataclasses.replace(d, points=d.points - off, boxes=boxes)
 
 
-def camera_summary(path: CameraPath | None, registered: bool) -> dict[str, Any]:
+def camera_summary(
+    path: CameraPath | None, registered: bool, more_cuts: list[int] | tuple = ()
+) -> dict[str, Any]:
     """The camera's record for ``summary.json``: whether the frames were registered,
-    the motion, the scene cuts (1-based frames) and the frame the outputs are in."""
+    the motion, the scene cuts (1-based frames: the path's and ``more_cuts``, 0-based
+    frames found otherwise) and the frame the outputs are in."""
+    cuts = sorted({*(k + 1 for k in (path.cuts if path else ())), *(k + 1 for k in more_cuts)})
     if path is None:
-        return {"registered": False, "measured": False, "outputs": []}
+        out = {"registered": False, "measured": False, "outputs": []}
+        return {**out, "scene_cuts": cuts} if cuts else out
     return {
         "registered": registered,
         "measured": True,
         "motion": path.describe(),
         "reach_px": path.reach_px(),
         "max_angle_deg": float(np.max(np.abs(path.angle_deg))),
-        "scene_cuts": [k + 1 for k in path.cuts],
+        "scene_cuts": cuts,
         "coordinates": "first frame's px" if registered else "image px",
         "canvas_size": list(path.canvas_size) if registered else None,
         "outputs": ["camera_path.csv"] if registered else [],

@@ -18,6 +18,7 @@ from thermoswarm.tracking.detect.classical import (
     estimate_length_px,
     make_detector,
 )
+from thermoswarm.tracking.detect.register import RegisteredSource
 from thermoswarm.tracking.track.tracker import TrackerConfig, TrackResult
 
 #: Smallest share of its length squared that a single animal's blob fills (lines below).
@@ -115,26 +116,11 @@ def _from(start: int) -> dict[str, int]:
 REGISTERED_SHIFT_PX = 1
 
 
-def _registered_options(src: Any, options: dict[str, Any] | None) -> dict[str, Any] | None:
-    """The classical detector's ``options`` for ``src``: on a registered source (the
-    camera moved) ``shift_px`` is :data:`REGISTERED_SHIFT_PX` unless the user set it."""
-    from thermoswarm.tracking.detect.register import RegisteredSource
-
-    if not isinstance(src, RegisteredSource) or "shift_px" in (options or {}):
-        return options
-    return {**(options or {}), "shift_px": REGISTERED_SHIFT_PX}
-
-
-def _edges_note(src: Any) -> str:
-    """On a registered source: that thin lines may be the edges registration leaves."""
-    from thermoswarm.tracking.detect.register import RegisteredSource
-
-    if not isinstance(src, RegisteredSource):
-        return ""
-    return (
-        " (the camera moved: edges that its registration leaves look like this, "
-        "and animals that do not move are not found)"
-    )
+#: Why thin lines may be found on a registered source (appended to the refusal).
+_EDGES_NOTE = (
+    " (the camera moved: edges that its registration leaves look like this, "
+    "and animals that do not move are not found)"
+)
 
 
 def build_detector(
@@ -165,14 +151,16 @@ def build_detector(
     info: dict[str, Any] = {"scale_source": "user", "n_blobs": None}
     start = 0
     classical = (detector or ("classical" if model is None else "")) == "classical"
-    options = _registered_options(src, options) if classical else options
+    registered = isinstance(src, RegisteredSource)
+    if classical and registered and "shift_px" not in (options or {}):
+        options = {**(options or {}), "shift_px": REGISTERED_SHIFT_PX}
     if px_per_mm is None:
         est, start = _measure_size(src, n_prep, step, options if classical else None, max_frames)
         if est.fill < MIN_FILL:
             raise InputError(
                 f"{src.path}: the moving things are thin lines, not animals: their blobs "
                 f"fill {est.fill:.2f} of their length squared (an animal's 0.25-0.5); a "
-                f"plot or a drawing has nothing to track{_edges_note(src)}; give "
+                f"plot or a drawing has nothing to track{_EDGES_NOTE if registered else ''}; give "
                 "--px-per-mm to track anyway"
             )
         px_per_mm = est.length_px / anatomy.ANT_LENGTH_MM

@@ -212,10 +212,8 @@ def _track_frames(
     result = _to_first_frame(src, tracker.finish(), dets, out)
     elapsed = time.perf_counter() - t0
     run = dict(video=video, src=src, det=det, scale=scale, dets=dets, n_det=n_det, rate=rate)
-    run["camera"] = camera_summary(path, isinstance(src, RegisteredSource))
-    if seen:  # cuts seen in the detections alone (stages.DetectionCuts), 1-based
-        cam = run["camera"]
-        cam["scene_cuts"] = sorted({*cam.get("scene_cuts", []), *(k + 1 for k in seen)})
+    # the path's cuts and those seen in the detections alone (stages.DetectionCuts)
+    run["camera"] = camera_summary(path, isinstance(src, RegisteredSource), seen)
     return write_video_outputs(
         result, out, run, px_per_mm=px_per_mm, fps_source=fps_source,
         tracker=tcfg, detector=detector, model=model, detector_options=detector_options,
