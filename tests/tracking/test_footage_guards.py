@@ -130,12 +130,16 @@ def test_flood_reasons():
     # px^2 each: 91 %; 50 of them cover 2 %.
     assert any("would cover" in r for r in flood_reasons(np.full(20, 2000), (320, 240), 10.0))
     assert flood_reasons(np.full(20, 50), (320, 240), 10.0) == []
-    # Stillness at 10 frames/s: 30 specks that jitter in place (0.5 px) are not
-    # animals; 30 that walk 1.5 px a frame (1.5 body lengths a second) are.
+    # Flicker at 10 frames/s: 30 specks that jitter in place (0.5 px), each shown in a
+    # random half of the frames, are not animals; the same 30 shown in every frame
+    # (animals standing still) are, and so are 30 that walk 1.5 px a frame (1.5 body
+    # lengths a second).
     still = rng.uniform(20, 300, (1, 30, 2)) + rng.normal(0, 0.5, (40, 30, 2))
     walk = still + np.arange(40)[:, None, None] * np.array([1.5, 0.0])
-    reasons = flood_reasons(np.full(40, 30), (320, 240), 10.0, _rows(still), fps=10.0)
+    shown = rng.random(40 * 30) < 0.5
+    reasons = flood_reasons(np.full(40, 15), (320, 240), 10.0, _rows(still)[shown], fps=10.0)
     assert len(reasons) == 1 and "do not move like animals" in reasons[0]
+    assert flood_reasons(np.full(40, 30), (320, 240), 10.0, _rows(still), fps=10.0) == []
     assert flood_reasons(np.full(40, 30), (320, 240), 10.0, _rows(walk), fps=10.0) == []
 
 

@@ -37,6 +37,9 @@ IMAGE_EXTS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 #: Smallest frame side (px) anything can be detected in, and most pixels of a frame.
 MIN_SIDE = 8
 MAX_PIXELS = 2**30
+#: Frames apart beyond which ``frames`` seeks instead of decoding every frame between
+#: (a seek decodes from the key frame before: up to 250 frames with x264's defaults).
+SEEK_STEP = 250
 
 
 def _check_frame_size(img: np.ndarray, where: Path) -> np.ndarray:
@@ -165,6 +168,12 @@ class VideoSource:
                 k = start
             while stop is None or k < stop:
                 if (k - start) % step:
+                    if step > SEEK_STEP:  # far apart: a seek decodes fewer frames
+                        k += step - (k - start) % step
+                        if stop is not None and k >= stop:
+                            return
+                        cap.set(cv2.CAP_PROP_POS_FRAMES, k)
+                        continue
                     # Skipped frames are decoded (grab) but not converted.
                     if not cap.grab():
                         return

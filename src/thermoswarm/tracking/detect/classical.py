@@ -16,8 +16,8 @@ Interface (defined in :mod:`thermoswarm.tracking.detection`, re-exported here)
     ``detect(frame) -> FrameDetections`` for one frame, ``reset()`` to forget any state
     between videos.  Frames are ``uint8`` arrays, ``(H, W, 3)`` RGB or ``(H, W)`` grey,
     given in time order.  A detector may also have ``prepare(frames)``, which the
-    pipeline calls once with the first frames of a video before ``detect`` (the
-    classical detector learns its background there).
+    pipeline calls once with frames of a video before ``detect`` (spread over its first
+    minute, or its first seconds: the classical detector learns its background there).
 Registry (:mod:`.registry`, re-exported here)
     :func:`register_detector` adds a detector by name with a lazily imported factory
     ``factory(*, px_per_mm, model, options) -> Detector``; :func:`make_detector` builds
@@ -138,8 +138,8 @@ _DARK_CELL = 8.0
 class ClassicalDetector:
     """Background subtraction + blob moments; no training (see the module docstring).
 
-    Call :meth:`prepare` with the first frames of a video (a few seconds) before
-    :meth:`detect`; otherwise the first frame given to :meth:`detect` becomes the
+    Call :meth:`prepare` with frames of a video (a few seconds' worth, or spread over
+    it) before :meth:`detect`; otherwise the first frame given to :meth:`detect` becomes the
     background, and ants in it are missed until they move away.
 
     ``detect(frame, hints=...)`` accepts the tracker's predicted poses ``(m, 3, 2)``
@@ -578,8 +578,8 @@ NOTHING_FOUND_HINT = (
     "leave it out to measure the size from the video), the contrast (animals must "
     "differ from the background: try --set detector.polarity=light for light "
     "animals on a dark ground, or --set detector.channel=gray), animals that do not "
-    "move in the first seconds (the background is learned from them), or a --model "
-    "not trained on such footage"
+    "move (the background is learned from frames spread over the clip's first minute"
+    "), or a --model not trained on such footage"
 )
 
 

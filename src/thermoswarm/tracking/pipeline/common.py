@@ -54,59 +54,98 @@ SIZE_WINDOWS = 9
 SCAN_BUDGET_PX = 2e9
 
 
-def _size_windows(src: Any, n_prep: int, max_frames: int | None) -> tuple[list[int], int]:
-    """First frames of the windows of ``n_prep`` frames where the animals' size is
-    looked for: 0, evenly spread over the clip (below ``max_frames``), then the
-    windows that tile it, within :data:`SCAN_BUDGET_PX`; and the clip's frames."""
+#: Most windows' length the sample spread over a clip covers (a minute at the default 3 s
+#: window): over longer spans the floor itself changes (beelab's 10-min ROI_7 clip, its
+#: light changing: the sample spread over all of it found 25-px "animals" filling 0.08
+#: of their length squared, where its ants are 8 px; over its first minute, none).
+SPREAD_WINDOWS = 20
+
+#: A sample of frames: ``(start, stop, step)``, 0-based, as ``frames`` takes it.
+Sample = tuple[int, int, int]
+
+
+def _samples(
+    src: Any, n_prep: int, step: int, max_frames: int | None, spread: int | None
+) -> tuple[list[Sample], int]:
+    """The frame samples where the animals' size is looked for, in order: with
+    ``spread`` (a frame count) and a clip of two windows or more, as many frames as
+    one window holds spread evenly over the clip's first ``spread`` frames (and below
+    ``max_frames`` and :data:`SPREAD_WINDOWS` windows); then windows of ``n_prep``
+    frames: the first, windows evenly spread over the clip, then the windows that tile
+    it, within :data:`SCAN_BUDGET_PX`; and the clip's frames."""
     total = getattr(src, "n_frames", None)
     if max_frames is not None:
         total = max_frames if total is None else min(total, max_frames)
     if not total or total < 2 * n_prep:
-        return [0], n_prep
-    spread = np.linspace(0, total - n_prep, SIZE_WINDOWS).round().astype(int).tolist()
+        return [(0, n_prep, step)], n_prep
+    spread_at = np.linspace(0, total - n_prep, SIZE_WINDOWS).round().astype(int).tolist()
     tiles = [min(k, total - n_prep) for k in range(0, total, n_prep)]
     seen = np.zeros(total, bool)
     starts = []
-    for k in spread + tiles:  # the spread first; then the tiles that see a new frame
+    for k in spread_at + tiles:  # the spread first; then the tiles that see a new frame
         if not seen[k : k + n_prep].all():
             starts.append(k)
             seen[k : k + n_prep] = True
     w, h = src.size
     most = max(SIZE_WINDOWS, int(SCAN_BUDGET_PX // (w * h * n_prep)))
-    return starts[:most], total
+    out = [(k, k + n_prep, step) for k in starts[:most]]
+    # A clip two windows long or more is first sampled evenly over its whole length, so
+    # that animals standing still in its first seconds are not learned as floor and
+    # their twitching legs taken for animals (SLEAP's fly clip: a 12 px "fly" measured
+    # from the first 3 s, 72 px from the spread sample; labelled head to abdomen 70 px).
+    span = min(spread or 0, total, SPREAD_WINDOWS * n_prep)
+    if span >= 2 * n_prep:
+        n = -(-n_prep // step)  # as many frames as a window gives
+        every = span // n
+        out.insert(0, (0, every * (n - 1) + 1, every))
+    return out, total
 
 
 def _measure_size(
-    src: Any, n_prep: int, step: int, options: dict[str, Any] | None, max_frames: int | None
-) -> tuple[Any, int]:
-    """The animals' size (:class:`SizeEstimate`) and the first frame of the window it
-    was measured in: the first ``n_prep`` frames, else the first later window
-    (:func:`_size_windows`) where animals move; a one-line error saying how much of
-    the clip was looked at when none has them."""
-    starts, total = _size_windows(src, n_prep, max_frames)
-    for start in starts:
-        frames = src.frames(start + n_prep, step=step, prefetch=4, **_from(start))
+    src: Any,
+    n_prep: int,
+    step: int,
+    options: dict[str, Any] | None,
+    max_frames: int | None,
+    spread: int | None,
+) -> tuple[Any, Sample]:
+    """The animals' size (:class:`SizeEstimate`) and the frame sample it was measured
+    on: the first of :func:`_samples` where animals move; a one-line error saying how
+    much of the clip was looked at when none has them."""
+    samples, total = _samples(src, n_prep, step, max_frames, spread)
+    windows = [s for s in samples if s[1] - s[0] == n_prep]
+    for sample in samples:
         try:
-            return estimate_length_px(frames, options, source=str(src.path)), start
+            est = estimate_length_px(_read(src, sample), options, source=str(src.path))
         except NoBlobsError as exc:
-            if len(starts) == 1:
+            if len(samples) == 1:
                 raise
             first = exc
+            continue
+        if est.fill >= MIN_FILL or sample in windows:  # a spread sample's lines: the floor
+            return est, sample
     seen = np.zeros(total, bool)
-    for s in starts:
-        seen[s : s + n_prep] = True
+    for start, stop, _ in windows:
+        seen[start:stop] = True
     more = "" if seen.all() else f" (the look stops at {SCAN_BUDGET_PX:.0e} px decoded)"
+    spread_note = " and a sample spread over it" if len(windows) < len(samples) else ""
     raise InputError(
         f"{src.path}: cannot measure the animals' size: no moving animal in "
-        f"{len(starts)} windows of {n_prep} frames covering {seen.mean():.0%} of the "
-        f"clip{more}; cut the clip where animals move, or {NOTHING_FOUND_HINT}"
+        f"{len(windows)} windows of {n_prep} frames covering {seen.mean():.0%} of the "
+        f"clip{spread_note}{more}; cut the clip where animals move, or {NOTHING_FOUND_HINT}"
     ) from first
 
 
-def _from(start: int) -> dict[str, int]:
-    """``frames``' keyword for a window that does not start at frame 0 (sources
-    without ``start`` are only asked for first windows)."""
-    return {"start": start} if start else {}
+def first_cut(path: Any) -> int | None:
+    """The first frame (0-based) after a scene cut of a camera ``path``, if any."""
+    return min(path.cuts, default=None) if path is not None else None
+
+
+def _read(src: Any, sample: Sample) -> Any:
+    """The frames of ``sample`` (sources without ``start`` are only asked for samples
+    from frame 0)."""
+    start, stop, every = sample
+    return src.frames(stop, step=every, prefetch=4, **({"start": start} if start else {}))
 
 
 #: Working px by which a registered frame may sit off the background (the registration's
@@ -133,11 +172,16 @@ def build_detector(
     options: dict[str, Any] | None,
     step: int | None = None,
     max_frames: int | None = None,
+    spread: bool = True,
+    scene_end: int | None = None,
 ) -> tuple[Any, dict[str, Any]]:
-    """The detector for video ``src``, prepared on ``n_prep`` of its frames (every
-    ``step``-th; default every other from 32 frames, else all): its first frames,
-    or, when those show no moving animal and no scale is given, the first window
-    of as many frames further into the clip (below ``max_frames``) that does.
+    """The detector for video ``src``, prepared on as many frames as ``n_prep`` of its
+    first frames taken every ``step``-th (default every other from 32 frames, else
+    all): with ``spread``, on a clip at least twice that long and seen by a still
+    camera, those frames spread evenly over the clip (below ``max_frames``, and over
+    its first scene: below ``scene_end``, the first frame after a scene cut); else its
+    first frames, or, when those show no moving animal and no scale is given, the
+    first window of as many frames further into the clip that does (:func:`_samples`).
 
     Without a scale the animals' body length is measured first from the same frames
     (:func:`~thermoswarm.tracking.detect.classical.estimate_length_px`, with the classical
@@ -145,17 +189,22 @@ def build_detector(
     built at the scale that makes the paper's ant that long.  Returns the detector
     and ``{"px_per_mm", "length_px", "scale_source", "n_blobs", "prepare_frames"}``
     (``px_per_mm`` the scale used, ``length_px`` the body length in px,
-    ``prepare_frames`` the 1-based first and last frame the detector learned from).
+    ``prepare_frames`` the 1-based first and last frame the detector learned from and
+    ``prepare_step`` the frames between them).
     """
     step = step or (2 if n_prep >= 32 else 1)
     info: dict[str, Any] = {"scale_source": "user", "n_blobs": None}
-    start = 0
     classical = (detector or ("classical" if model is None else "")) == "classical"
     registered = isinstance(src, RegisteredSource)
     if classical and registered and "shift_px" not in (options or {}):
         options = {**(options or {}), "shift_px": REGISTERED_SHIFT_PX}
+    # A registered source keeps its first window: its mosaic grows from the first frame.
+    reach = (scene_end or np.iinfo(np.int64).max) if spread and not registered else None
+    samples, _ = _samples(src, n_prep, step, max_frames, reach)
+    sample = samples[0]
     if px_per_mm is None:
-        est, start = _measure_size(src, n_prep, step, options if classical else None, max_frames)
+        est, sample = _measure_size(
+            src, n_prep, step, options if classical else None, max_frames, reach)  # fmt: skip
         if est.fill < MIN_FILL:
             raise InputError(
                 f"{src.path}: the moving things are thin lines, not animals: their blobs "
@@ -170,9 +219,11 @@ def build_detector(
     det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
     prepare = getattr(det, "prepare", None)
     if prepare is not None:
-        prepare(src.frames(start + n_prep, step=step, prefetch=4, **_from(start)))
+        prepare(_read(src, sample))
     info.update(px_per_mm=float(px_per_mm), length_px=float(anatomy.ANT_LENGTH_MM * px_per_mm))
-    info["prepare_frames"] = [start + 1, start + n_prep]
+    start, stop, every = sample
+    info["prepare_frames"] = [start + 1, stop]
+    info["prepare_step"] = every
     return det, info
 
 

@@ -19,7 +19,7 @@ from thermoswarm.tracking.detect.register import (
     register_source,
     shift_detections,
 )
-from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector
+from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector, first_cut
 from thermoswarm.tracking.pipeline.flood import flood_reasons, refuse_flood
 from thermoswarm.tracking.pipeline.patches import (
     ColorRegions,
@@ -204,7 +204,8 @@ def _detect_source(
         scale["photo_series"] = series_record(evidence, scale, forced=series == "yes")
     else:
         n_prep = _prep_frames(prepare_s, rate, max_frames)
-        det, scale = build_detector(src, n_prep, max_frames=max_frames, **kw)
+        det, scale = build_detector(
+            src, n_prep, max_frames=max_frames, scene_end=first_cut(path), **kw)  # fmt: skip
         frames = src.frames(max_frames, prefetch=4)
         dets = [shift_detections(det.detect(f), offset) for f in frames]
     images = _coco_images(src, files, len(dets))
@@ -237,7 +238,7 @@ def _detect_source(
         "px_per_mm": px_per_mm,
         "length_px": scale["length_px"],
         "scale_source": scale["scale_source"],
-        "prepare_frames": scale.get("prepare_frames"),
+        **{k: scale.get(k) for k in ("prepare_frames", "prepare_step")},
         "seconds": time.perf_counter() - t0,
         "outputs": written,
         "camera": camera_summary(path, isinstance(src, RegisteredSource)),

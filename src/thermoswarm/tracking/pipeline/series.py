@@ -298,6 +298,7 @@ def detect_series(
             model=model,
             options=opts,
             step=SERIES_BG_STEP,
+            spread=False,  # one background per window of photos, from that window
         )
         dets.extend(det.detect(f) for i, f in enumerate(src.frames()) if i >= k - lo)
     assert scale is not None

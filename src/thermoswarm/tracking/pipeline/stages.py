@@ -266,6 +266,7 @@ def write_video_outputs(
         length_px=scale["length_px"],
         scale_source=scale["scale_source"],
         prepare_frames=scale.get("prepare_frames"),
+        prepare_step=scale.get("prepare_step"),
         space_unit="mm" if px_per_mm is not None else "px",
         camera=run["camera"],
         photo_series=run.get("series"),

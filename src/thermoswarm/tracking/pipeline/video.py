@@ -18,7 +18,7 @@ from thermoswarm.tracking.detect.register import (
     camera_summary,
     register_source,
 )
-from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector
+from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector, first_cut
 from thermoswarm.tracking.pipeline.series import (
     SERIES_WINDOW,
     check_series_options,
@@ -198,7 +198,8 @@ def _track_frames(
     src, path, n_prep, cuts = _register(src, camera, max_frames, prepare_s, rate)
     det, scale = build_detector(
         src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model,
-        options=detector_options, max_frames=max_frames)  # fmt: skip
+        options=detector_options, max_frames=max_frames,
+        scene_end=first_cut(path))  # fmt: skip
     out = prepare_output_dir(out_dir)  # only once the detector is built
     tcfg = tracker_config or TrackerConfig()
     tracker = Tracker(tcfg, px_per_mm=scale["px_per_mm"], fps=rate, frame_size=src.size)
