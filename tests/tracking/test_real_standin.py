@@ -119,6 +119,28 @@ def test_clip_empty_at_first_is_measured_where_the_ants_are(tmp_path):
     assert 2 <= summary["n_tracks"] <= 3
 
 
+def test_clip_empty_at_first_with_a_scale_learns_where_the_ants_are(tmp_path):
+    # With the scale given, the background is learned where the ants walk too: from
+    # the empty first seconds the threshold came from the floor's noise alone (the
+    # real ROI_1 at 0.94 px/mm: 64 tracks, nearly all false; now 4, one per ant).
+    path, truth = _late_clip(tmp_path, LATE)
+    out = tmp_path / "run"
+    scale = ANT[0] / 7.14  # the drawn ant as long as the paper's
+    res = CliRunner().invoke(
+        cli, ["track", str(path), "--out", str(out), "--px-per-mm", str(scale), "--quiet"]
+    )
+    assert res.exit_code == 0, res.output
+    summary = json.loads((out / "summary.json").read_text())
+    first, last = summary["prepare_frames"]
+    assert any(first - 1 <= k < last and truth[k] for k in range(480))  # ants in it
+    det = np.loadtxt(out / "detections.txt", delimiter=",", ndmin=2)
+    frame = det[:, 0].astype(int) - 1
+    ant_frames = {k for k in range(480) if truth[k]}
+    assert len(ant_frames & set(frame.tolist())) >= len(ant_frames) - 7
+    assert sum(k not in ant_frames for k in frame) <= 6
+    assert 2 <= summary["n_tracks"] <= 3
+
+
 def test_clip_without_animals_names_every_window(tmp_path):
     path, _ = _late_clip(tmp_path, [])
     res = CliRunner().invoke(cli, ["track", str(path), "--out", str(tmp_path / "o")])
