@@ -4,6 +4,7 @@ trajectory Dataset in px."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 from typing import Any
@@ -136,26 +137,6 @@ def _measure_size(
     ) from first
 
 
-def _where_animals_move(
-    src: Any,
-    n_prep: int,
-    step: int,
-    options: dict[str, Any] | None,
-    max_frames: int | None,
-    spread: int | None,
-    default: Sample,
-) -> Sample:
-    """With a scale given too, the sample the background is learned from is the first
-    where animals move (as :func:`_measure_size` finds it), else ``default``: from
-    frames without an animal the threshold comes from the floor's noise alone (beelab
-    ROI_1 at 0.94 px/mm, its first ant after 11 s: 64 tracks from the first 3 s, 1
-    from the spread sample, 4 from the window where its ants walk)."""
-    try:
-        return _measure_size(src, n_prep, step, options, max_frames, spread)[1]
-    except InputError:  # nothing moves anywhere: detection will say so
-        return default
-
-
 def first_cut(path: Any) -> int | None:
     """The first frame (0-based) after a scene cut of a camera ``path``, if any."""
     return min(path.cuts, default=None) if path is not None else None
@@ -237,7 +218,12 @@ def build_detector(
     elif not (px_per_mm > 0 and np.isfinite(px_per_mm)):
         raise InputError(f"px_per_mm must be a positive number, got {px_per_mm!r}")
     elif classical and len(samples) > 1:
-        sample = _where_animals_move(src, n_prep, step, options, max_frames, reach, sample)
+        # With a scale too, the background comes from the first sample where animals
+        # move: from frames without one the threshold comes from the floor's noise
+        # alone (beelab ROI_1 at 0.94 px/mm, its first ant after 11 s: 64 tracks from
+        # the first 3 s, 1 from the spread sample, 4 from the window where ants walk).
+        with contextlib.suppress(InputError):  # nothing moves anywhere: detect says so
+            sample = _measure_size(src, n_prep, step, options, max_frames, reach)[1]
     det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
     prepare = getattr(det, "prepare", None)
     if prepare is not None:
