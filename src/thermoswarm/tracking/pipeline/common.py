@@ -110,6 +110,7 @@ def _measure_size(
     max_frames: int | None,
     spread: int | None,
     at: int = 0,
+    keep: dict | None = None,
 ) -> tuple[Any, Sample]:
     """The animals' size (:class:`SizeEstimate`) and the frame sample it was measured
     on: the first of :func:`_samples` where animals move; a one-line error saying how
@@ -118,7 +119,7 @@ def _measure_size(
     windows = [s for s in samples if s[1] - s[0] == n_prep]
     for sample in samples:
         try:
-            est = estimate_length_px(_read(src, sample), options, source=str(src.path))
+            est = estimate_length_px(_read(src, sample, keep), options, source=str(src.path))
         except NoBlobsError as exc:
             if len(samples) == 1:
                 raise
@@ -143,11 +144,25 @@ def first_cut(path: Any) -> int | None:
     return min(path.cuts, default=None) if path is not None else None
 
 
-def _read(src: Any, sample: Sample) -> Any:
+#: Most bytes of decoded frames kept for a second pass over the same sample (the size,
+#: then the background): 45 frames of 1024 x 1024 RGB are 142 MB; 4K frames are read twice.
+KEEP_BYTES = 2**29
+
+
+def _read(src: Any, sample: Sample, keep: dict | None = None) -> Any:
     """The frames of ``sample`` (sources without ``start`` are only asked for samples
-    from frame 0)."""
+    from frame 0); with ``keep``, the last sample's frames are kept there as a list
+    when under :data:`KEEP_BYTES`, and given again from it."""
+    if keep is not None and sample in keep:
+        return keep[sample]
     start, stop, every = sample
-    return src.frames(stop, step=every, prefetch=4, **({"start": start} if start else {}))
+    frames = src.frames(stop, step=every, prefetch=4, **({"start": start} if start else {}))
+    w, h = src.size
+    if keep is None or len(range(start, stop, every)) * w * h * 3 > KEEP_BYTES:
+        return frames
+    keep.clear()
+    keep[sample] = list(frames)
+    return keep[sample]
 
 
 #: Working px by which a registered frame may sit off the background (the registration's
@@ -211,10 +226,10 @@ def build_detector(
     # 0.999 from the spread sample).
     at = int(registered)
     samples, _ = _samples(src, n_prep, step, max_frames, reach, at)
-    sample = samples[0]
+    sample, keep = samples[0], {}  # keep: the measured sample's frames, decoded once
     if px_per_mm is None:
-        est, sample = _measure_size(
-            src, n_prep, step, options if classical else None, max_frames, reach, at)  # fmt: skip
+        opts = options if classical else None
+        est, sample = _measure_size(src, n_prep, step, opts, max_frames, reach, at, keep)
         if est.fill < MIN_FILL:
             raise InputError(
                 f"{src.path}: the moving things are thin lines, not animals: their blobs "
@@ -232,11 +247,11 @@ def build_detector(
         # alone (beelab ROI_1 at 0.94 px/mm, its first ant after 11 s: 64 tracks from
         # the first 3 s, 1 from the spread sample, 4 from the window where ants walk).
         with contextlib.suppress(InputError):  # nothing moves anywhere: detect says so
-            sample = _measure_size(src, n_prep, step, options, max_frames, reach, at)[1]
+            sample = _measure_size(src, n_prep, step, options, max_frames, reach, at, keep)[1]
     det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
     prepare = getattr(det, "prepare", None)
     if prepare is not None:
-        prepare(_read(src, sample))
+        prepare(_read(src, sample, keep))
     info.update(px_per_mm=float(px_per_mm), length_px=float(anatomy.ANT_LENGTH_MM * px_per_mm))
     start, stop, every = sample
     info["prepare_frames"] = [start + 1, stop]
