@@ -169,20 +169,24 @@ def _blobs(g: np.ndarray) -> np.ndarray:
     return cv2.dilate(big[lab], np.ones((7, 7), np.uint8))
 
 
-def _ecc(ref: np.ndarray, img: np.ndarray, init: np.ndarray, mask: np.ndarray) -> tuple:
+def _ecc(
+    ref: np.ndarray, img: np.ndarray, init: np.ndarray, mask: np.ndarray, blobs: Any = None
+) -> tuple:
     """``(cc, W)``: W ``(3, 3)`` maps ``ref``'s px to ``img``'s; cc NaN when ECC fails.
     The blobs of both (:func:`_blobs`; ``ref``'s moved by ``init``) are left out of
     the fit unless that leaves under half of ``mask``, or a floor without texture
     (under 2 grey levels sd: small ants on a plain white floor, 1.0; the fly clip's
     floor 4.7): there the fit over blank pixels gained nothing and took 7 times as
-    long."""
+    long.  ``blobs``: a function giving a frame's blobs (:func:`_blobs` by default;
+    :func:`camera_path` keeps its reference's between frames)."""
     import cv2
 
+    blobs = blobs or _blobs
     h, w_ = img.shape
     moved = cv2.warpAffine(
-        _blobs(ref), init[:2].astype(np.float32), (w_, h), flags=cv2.INTER_NEAREST
+        blobs(ref), init[:2].astype(np.float32), (w_, h), flags=cv2.INTER_NEAREST
     )
-    keep = (mask.astype(bool) & ~(_blobs(img) | moved).astype(bool)).astype(np.uint8)
+    keep = (mask.astype(bool) & ~(blobs(img) | moved).astype(bool)).astype(np.uint8)
     kept = keep.astype(bool)
     fit = keep if kept.sum() >= 0.5 * mask.sum() and img[kept].std() >= 2.0 else mask
     w = init[:2].astype(np.float32).copy()
@@ -225,7 +229,17 @@ def camera_path(
     ref_mat = np.eye(3)  # the reference's small px -> first frame's small px
     W = np.eye(3)  # last estimate: reference -> current (small px)
     s = 1.0
+    known: dict[int, np.ndarray] = {}  # the blobs of the frames in use, by id
+
+    def blobs(a: np.ndarray) -> np.ndarray:
+        if id(a) not in known:
+            known[id(a)] = _blobs(a)
+        return known[id(a)]
+
     for k, frame in enumerate(frames):
+        # only the reference's and the predecessor's blobs are kept (their arrays are
+        # alive, so their ids are not reused by the new frame)
+        known = {i: b for i, b in known.items() if i in (id(ref), id(prev))}
         if k == 0:
             h, w = frame.shape[:2]
             s = min(1.0, max_side / max(h, w))
@@ -240,12 +254,12 @@ def camera_path(
             ccs.append(1.0)
             prev = g
             continue
-        cc, W2 = _ecc(ref, g, W, mask)
+        cc, W2 = _ecc(ref, g, W, mask, blobs)
         far = not math.isnan(cc) and np.hypot(*W2[:2, 2]) > 0.2 * max(g.shape)
         if math.isnan(cc) or cc < rekey_cc or far:
             # The reference moves on to the previous frame (chained), then retried.
             prev_mat = mats[-1]
-            cc_p, Wp = _ecc(prev, g, np.eye(3), mask)
+            cc_p, Wp = _ecc(prev, g, np.eye(3), mask, blobs)
             ref, ref_mat, W2, cc = prev, _small_mat(prev_mat, s), Wp, cc_p
         if (math.isnan(cc) or cc < min_cc) and _same_place(g, prev, mask):
             # Too little texture to register (animals on a plain floor), and hardly

@@ -104,18 +104,16 @@ def _samples(
 
 def _measure_size(
     src: Any,
+    samples: list[Sample],
+    total: int,
     n_prep: int,
-    step: int,
     options: dict[str, Any] | None,
-    max_frames: int | None,
-    spread: int | None,
-    at: int = 0,
     keep: dict | None = None,
 ) -> tuple[Any, Sample]:
     """The animals' size (:class:`SizeEstimate`) and the frame sample it was measured
-    on: the first of :func:`_samples` where animals move; a one-line error saying how
-    much of the clip was looked at when none has them."""
-    samples, total = _samples(src, n_prep, step, max_frames, spread, at)
+    on: the first of ``samples`` (:func:`_samples`, over a clip of ``total`` frames)
+    where animals move; a one-line error saying how much of the clip was looked at when
+    none has them."""
     windows = [s for s in samples if s[1] - s[0] == n_prep]
     for sample in samples:
         try:
@@ -225,11 +223,11 @@ def build_detector(
     # clip, its flies still for 33 s, at its scale: MOTA 0.315 from a later window,
     # 0.999 from the spread sample).
     at = int(registered)
-    samples, _ = _samples(src, n_prep, step, max_frames, reach, at)
+    samples, total = _samples(src, n_prep, step, max_frames, reach, at)
     sample, keep = samples[0], {}  # keep: the measured sample's frames, decoded once
     if px_per_mm is None:
         opts = options if classical else None
-        est, sample = _measure_size(src, n_prep, step, opts, max_frames, reach, at, keep)
+        est, sample = _measure_size(src, samples, total, n_prep, opts, keep)
         if est.fill < MIN_FILL:
             raise InputError(
                 f"{src.path}: the moving things are thin lines, not animals: their blobs "
@@ -247,7 +245,7 @@ def build_detector(
         # alone (beelab ROI_1 at 0.94 px/mm, its first ant after 11 s: 64 tracks from
         # the first 3 s, 1 from the spread sample, 4 from the window where ants walk).
         with contextlib.suppress(InputError):  # nothing moves anywhere: detect says so
-            sample = _measure_size(src, n_prep, step, options, max_frames, reach, at, keep)[1]
+            sample = _measure_size(src, samples, total, n_prep, options, keep)[1]
     det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
     prepare = getattr(det, "prepare", None)
     if prepare is not None:
