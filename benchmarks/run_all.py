@@ -184,6 +184,8 @@ STEPS = [
     Step("tiny_clip", "bench_tiny_clip", [], ["--seconds", "3"], needs="cv2",
          title="track on a drawn clip of 66 small dark ants on white: share tracked, "
          "duplicates"),
+    Step("registration", "bench_registration", ["walkers"], ["walkers"], needs="cv2",
+         title="camera path error with large walkers in the picture (drawn floors)"),
 ]  # fmt: skip
 #: Steps that ``--quick`` leaves out (no quick size says anything).
 FULL_ONLY = {"compression"}

@@ -158,7 +158,7 @@ def _blobs(g: np.ndarray) -> np.ndarray:
     Hand-written because ECC has no robust loss: its mask is the one way to keep the
     animals out.  Large animals that walk pull a camera path measured on every pixel
     along with them (SLEAP's fly clip moved by a known path: 467 px off by its last
-    frame, within 2.2 px with them masked)."""
+    frame, within 2.1 px with them masked: ``benchmarks/bench_registration.py whole``)."""
     import cv2
 
     d = g - cv2.medianBlur(np.clip(g, 0, 255).astype(np.uint8), 21).astype(np.float32)

@@ -220,8 +220,8 @@ def build_detector(
     # background (SLEAP's flies walking, moved: 0.936 of the still clip's points found
     # again from the first window, 0.648 from the spread sample).  Its spread sample
     # comes next, where the first window shows no moving animal (the whole moved fly
-    # clip, its flies still for 33 s, at its scale: MOTA 0.315 from a later window,
-    # 0.999 from the spread sample).
+    # clip, its flies still for 33 s, at its scale: MOTA 0.315 from a later window in a
+    # scratch run, 0.999 from the spread sample: benchmarks/bench_registration.py whole).
     at = int(registered)
     samples, total = _samples(src, n_prep, step, max_frames, reach, at)
     sample, keep = samples[0], {}  # keep: the measured sample's frames, decoded once
