@@ -24,6 +24,12 @@ from thermoswarm.tracking.track.tracker import TrackerConfig, TrackResult
 
 #: Smallest share of its length squared that a single animal's blob fills (lines below).
 MIN_FILL = 0.1
+#: With a scale, the moving blobs' length as a share of the paper's ant's at that scale
+#: for a sample to show the animals (a quarter to four times: ant species of 2-28 mm).
+#: SLEAP's fly clip, first 1,100 frames (flies still until frame 1,000): its first 3 s
+#: show specks of 0.11 times it; the background from them gave MOTA 0.073, from frames
+#: 1026-1100, where the flies walk, 1.000.
+EXPECT_RANGE = (0.25, 4.0)
 
 
 def pixel_dataset(result: TrackResult, *, fps: float, source: str, attrs: dict[str, Any]) -> Any:
@@ -109,12 +115,16 @@ def _measure_size(
     n_prep: int,
     options: dict[str, Any] | None,
     keep: dict | None = None,
+    expect: float | None = None,
 ) -> tuple[Any, Sample]:
     """The animals' size (:class:`SizeEstimate`) and the frame sample it was measured
     on: the first of ``samples`` (:func:`_samples`, over a clip of ``total`` frames)
-    where animals move; a one-line error saying how much of the clip was looked at when
-    none has them."""
+    where animals move (with a body length ``expect`` known from the scale: moving
+    blobs within :data:`EXPECT_RANGE` of it, else the first where anything moves); a
+    one-line error saying how much of the clip was looked at when none has them."""
     windows = [s for s in samples if s[1] - s[0] == n_prep]
+    lo, hi = EXPECT_RANGE
+    fallback = None
     for sample in samples:
         try:
             est = estimate_length_px(_read(src, sample, keep), options, source=str(src.path))
@@ -124,7 +134,11 @@ def _measure_size(
             first = exc
             continue
         if est.fill >= MIN_FILL or sample in windows:  # a spread sample's lines: the floor
-            return est, sample
+            if expect is None or lo * expect <= est.length_px <= hi * expect:
+                return est, sample
+            fallback = fallback or (est, sample)
+    if fallback is not None:
+        return fallback
     seen = np.zeros(total, bool)
     for start, stop, _ in windows:
         seen[start:stop] = True
@@ -244,8 +258,10 @@ def build_detector(
         # move: from frames without one the threshold comes from the floor's noise
         # alone (beelab ROI_1 at 0.94 px/mm, its first ant after 11 s: 64 tracks from
         # the first 3 s, 1 from the spread sample, 4 from the window where ants walk).
+        # ... and moving specks are not animals where the scale says how long they are.
+        expect = anatomy.ANT_LENGTH_MM * px_per_mm
         with contextlib.suppress(InputError):  # nothing moves anywhere: detect says so
-            sample = _measure_size(src, samples, total, n_prep, options, keep)[1]
+            sample = _measure_size(src, samples, total, n_prep, options, keep, expect)[1]
     det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
     prepare = getattr(det, "prepare", None)
     if prepare is not None:
