@@ -186,6 +186,9 @@ STEPS = [
          "duplicates"),
     Step("registration", "bench_registration", ["walkers"], ["walkers"], needs="cv2",
          title="camera path error with large walkers in the picture (drawn floors)"),
+    Step("self_trained", "bench_self_trained", ["frozen"], ["frozen"], needs="torch",
+         title="track --detector self-trained beside the classical detector: a real fly "
+         "clip with one fly frozen in place"),
 ]  # fmt: skip
 #: Steps that ``--quick`` leaves out (no quick size says anything).
 FULL_ONLY = {"compression"}

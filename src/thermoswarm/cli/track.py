@@ -74,7 +74,12 @@ def _load_settings(config: str | None, overrides: tuple[str, ...]) -> dict[str, 
     type=click.Path(path_type=Path),
     help="Trained detector weights (selects the 'unet' detector).",
 )
-@click.option("--detector", help="Detector name (default: classical, or unet with --model).")
+@click.option(
+    "--detector",
+    help="Detector name (default: classical, or unet with --model); self-trained: a "
+    "U-Net trained first on this video's animals as the classical detector tracks them, "
+    "which finds them also where they stand still (a minute or two of training).",
+)
 @click.option(
     "--px-per-mm",
     "px_per_mm",
@@ -357,6 +362,13 @@ def _echo_summary(summary: dict[str, Any], out_dir: Path) -> None:
         f"{summary['detections_per_frame']:.1f} detections/frame, "
         f"{summary['frames_per_second']:.1f} frames/s -> {out_dir}/{main}"
     )
+    st = summary.get("self_training")
+    if st:
+        click.echo(
+            f"self-trained on {len(st['label_frames'])} frames ({st['n_labels']} animals) in "
+            f"{st['train_seconds']:.0f} s: {out_dir}/self_trained.pt; the classical pass: "
+            f"{out_dir}/classical"
+        )
     for text in summary.get("warnings") or []:
         click.echo(f"\nWARNING: {text}\n(also in {out_dir}/WARNING.txt)", err=True)
 

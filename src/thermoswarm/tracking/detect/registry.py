@@ -84,6 +84,11 @@ def make_detector(
     if name is None:
         name = default_model_detector() if model is not None else "classical"
     entry = _DETECTORS.get(name)
+    if name == "self-trained":  # pipeline.self_train: a mode of `track`, not a detector
+        raise InputError(
+            "--detector self-trained is a mode of `thermoswarm track` (it learns from its "
+            "own tracks of a video); here: classical, or unet with --model"
+        )
     if entry is None:
         raise InputError(
             f"unknown detector {name!r}; expected one of: " + ", ".join(sorted(_DETECTORS))

@@ -24,6 +24,12 @@ Nor a silent empty result: when detections were found but no track was confirmed
 :func:`no_track_warning` says why (detections, frames, the confirmation needed) and
 what to try; the outputs are written with it in ``WARNING.txt`` and
 ``summary.json``'s ``warnings``, and the CLI prints it on stderr (exit status 0).
+
+Nor animals quietly lost in the background: where a background-subtracting detector's
+tracks hold, on average over the frames, under ``FEW_FOUND`` of the most animals
+tracked at once (:func:`few_found_warning`), and the tracks begin and end inside the
+picture (not animals walking through it), the animals may have stood still part of the time;
+the warning names ``--detector self-trained``, which finds them by their look.
 """
 
 from __future__ import annotations
@@ -37,7 +43,22 @@ from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_text
 from thermoswarm.tracking import anatomy
 
-__all__ = ["flood_reasons", "refuse_flood", "no_track_warning", "warn_no_track", "FLOOD_HINT"]
+__all__ = [
+    "flood_reasons",
+    "refuse_flood",
+    "no_track_warning",
+    "warn_no_track",
+    "few_found_warning",
+    "inner_ends",
+    "FLOOD_HINT",
+]
+
+#: Animals tracked per frame, as a share of the most tracked at once (in 5 frames or
+#: more), under which :func:`few_found_warning` speaks (SLEAP's fly clip: 0.09 over
+#: its first 1,100 frames, where the flies stand still until frame 1,000; 1.00 over
+#: all 1,500; a beelab trail clip, ants passing through: 0.03, but its tracks begin and
+#: end at the picture's edges).
+FEW_FOUND = 0.5
 
 #: What to try when the output is not animals.
 FLOOD_HINT = (
@@ -203,3 +224,45 @@ def add_warning(out: Path, text: str | None) -> list[str]:
     old = (out / "WARNING.txt").read_text() if (out / "WARNING.txt").is_file() else ""
     atomic_write_text(out / "WARNING.txt", old + text + "\n")
     return [text]
+
+
+def inner_ends(
+    ids: np.ndarray, frames: np.ndarray, body: np.ndarray, size: tuple[int, int], length: float
+) -> float:
+    """Share of the tracks' first and last detected body points ``body`` ``(n, 2)`` (rows
+    of track ``ids`` at ``frames``) more than a body ``length`` from the edges of a frame
+    of ``size`` (w, h): where animals appear and vanish inside the picture rather than
+    walk in and out of it."""
+    order = np.lexsort((frames, ids))
+    ids, body = ids[order], body[order]
+    new = np.r_[True, ids[1:] != ids[:-1]]
+    ends = np.concatenate([body[new], body[np.r_[new[1:], True]]])
+    w, h = size
+    margin = np.minimum.reduce([ends[:, 0], ends[:, 1], w - ends[:, 0], h - ends[:, 1]])
+    return float(np.mean(margin > length)) if ends.size else 0.0
+
+
+def few_found_warning(per_frame: np.ndarray, inner: float = 1.0) -> str | None:
+    """The warning for a background-subtracting detector's run whose ``per_frame``
+    counts of tracked animals (detected there, not interpolated) average under
+    :data:`FEW_FOUND` of the most tracked at once (the largest count reached in 5
+    frames or more), where at least half of the tracks begin and end inside the picture
+    (``inner``: :func:`inner_ends`; animals that walk in and out of it, as on a trail,
+    are not lost); ``None`` otherwise."""
+    if inner < 0.5:
+        return None
+    reached = np.bincount(np.asarray(per_frame, np.int64))
+    often = np.flatnonzero(reached[1:] >= 5) + 1 if reached.size > 1 else []
+    if len(often) == 0:
+        return None
+    top, mean = int(often[-1]), float(np.mean(per_frame))
+    if mean >= FEW_FOUND * top:
+        return None
+    return (
+        f"the tracks hold {mean:.2f} animals a frame on average, while up to {top} "
+        f"were tracked at once ({mean / top:.0%}): the detector finds what moves, so "
+        "animals that stood still part of the time became the background then (the "
+        "tracks begin and end inside the picture). If they were there, `--detector "
+        "self-trained` learns their look from the frames where they moved and finds them "
+        "still too (a U-Net trained on this video; about a minute of training on 2 cores)"
+    )

@@ -23,7 +23,9 @@ from thermoswarm.tracking.detect.classical import NOTHING_FOUND_HINT, FrameDetec
 from thermoswarm.tracking.pipeline.common import _detector_info, _summary, pixel_dataset
 from thermoswarm.tracking.pipeline.flood import (
     add_warning,
+    few_found_warning,
     flood_reasons,
+    inner_ends,
     refuse_flood,
     warn_no_track,
 )
@@ -301,4 +303,11 @@ def _warnings(
     if series is not None and not series["linked"]:
         (out / "WARNING.txt").unlink(missing_ok=True)  # an earlier run's
         return [], add_warning(out, series["note"])
-    return [], warn_no_track(result.n_tracks, per_frame, rate, tracker, out)
+    warned = warn_no_track(result.n_tracks, per_frame, rate, tracker, out)
+    if still_bg and result.n_tracks:
+        det = result.scores > 0  # tracked and detected there
+        per = np.bincount(result.frames[det], minlength=result.n_frames)
+        ins = inner_ends(result.ids[det], result.frames[det], result.points[det, 1],
+                         run["src"].size, length)  # fmt: skip
+        warned += add_warning(out, few_found_warning(per, ins))
+    return [], warned

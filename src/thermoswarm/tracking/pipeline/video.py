@@ -13,12 +13,14 @@ import numpy as np
 
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_text, prepare_output_dir
+from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detect.register import (
     RegisteredSource,
     camera_summary,
     register_source,
 )
 from thermoswarm.tracking.pipeline.common import _prep_frames, build_detector, first_cut
+from thermoswarm.tracking.pipeline.self_train import SELF_TRAINED, track_self_trained
 from thermoswarm.tracking.pipeline.series import (
     SERIES_WINDOW,
     check_series_options,
@@ -32,6 +34,7 @@ from thermoswarm.tracking.pipeline.stages import (
     write_video_outputs,
 )
 from thermoswarm.tracking.track.tracker import Tracker, TrackerConfig, TrackResult
+from thermoswarm.tracking.video import open_video
 
 
 def _check_video_args(
@@ -94,6 +97,7 @@ def track_video(
     camera: str = "auto",
     series: str = "auto",
     series_window: int = SERIES_WINDOW,
+    length_px: float | None = None,
 ) -> dict[str, Any]:
     """Track the ants of a video; write the outputs; return the summary.  The stages:
     read frames (:func:`frame_stream`), detect and associate (:func:`detect_and_associate`),
@@ -105,14 +109,15 @@ def track_video(
         Video file or folder of frames.
     out_dir
         Output folder (created with its parents).
-    px_per_mm
-        Image scale (px per mm); ``None``: the animals' body length is measured from
-        the video (:func:`~thermoswarm.tracking.detect.classical.estimate_length_px`) and
+    px_per_mm, length_px
+        Image scale (px per mm); ``None``: the animals' body length is ``length_px``, or
+        measured from the video (:func:`~.detect.classical.estimate_length_px`), and
         ``tracks.nc`` is written in px (``space_unit = "px"``).
     fps
         Frame rate (frames/s); default the video's own (required for folders of frames).
     detector, model, detector_options
-        See :func:`thermoswarm.tracking.detect.classical.make_detector` (default: classical).
+        See :func:`.detect.classical.make_detector` (default: classical; ``"self-trained"``:
+        :func:`.self_train.track_self_trained`, a U-Net trained on the video first).
     tracker_config, overlay, overlay_scale
         :class:`~thermoswarm.tracking.track.tracker.TrackerConfig`; write
         ``overlay.mp4`` at this fraction of the video's size (1: full size).
@@ -134,8 +139,9 @@ def track_video(
         Bad input, nothing detected (nothing written), a camera that cannot be
         followed, or detections that are not animals (:mod:`~.flood`).
     """
-    from thermoswarm.tracking.video import open_video
-
+    if detector == SELF_TRAINED:  # two passes: classical, then a U-Net trained on it
+        args = {k: v for k, v in locals().items() if k not in ("video", "out_dir", "length_px")}
+        return track_self_trained(video, out_dir, track_video, **args)
     src = open_video(video)
     rate = _check_video_args(src, fps, max_frames, overlay, overlay_scale)
     photos, evidence, camera = _series_of(src, series, series_window, max_frames, camera)
@@ -151,7 +157,7 @@ def track_video(
         raise InputError(f"{video}: the frame rate is unknown (a folder of frames?); pass --fps")
     return _track_frames(video, src, out_dir, rate, "user" if fps is not None else "video",
                          max_frames=max_frames, prepare_s=prepare_s, hints=hints, camera=camera,
-                         **opts)  # fmt: skip
+                         length_px=length_px, **opts)  # fmt: skip
 
 
 def _series_of(
@@ -189,6 +195,7 @@ def _track_frames(
     progress: bool,
     hints: bool,
     camera: str,
+    length_px: float | None,
 ) -> dict[str, Any]:
     """:func:`track_video` on a video or frames (not a photo series) at ``rate``
     frames/s (``fps_source``: ``"user"`` or ``"video"``)."""
@@ -196,10 +203,14 @@ def _track_frames(
 
     t0 = time.perf_counter()
     src, path, n_prep, cuts = _register(src, camera, max_frames, prepare_s, rate)
+    # A body length known without a scale (a classical pass's) sets the detector's scale;
+    # the outputs stay in px.
+    known = None if length_px is None else length_px / anatomy.ANT_LENGTH_MM
     det, scale = build_detector(
-        src, n_prep, px_per_mm=px_per_mm, detector=detector, model=model,
-        options=detector_options, max_frames=max_frames,
-        scene_end=first_cut(path))  # fmt: skip
+        src, n_prep, px_per_mm=px_per_mm or known, detector=detector, model=model,
+        options=detector_options, max_frames=max_frames, scene_end=first_cut(path))  # fmt: skip
+    if px_per_mm is None and known is not None:
+        scale["scale_source"] = "measured"
     out = prepare_output_dir(out_dir)  # only once the detector is built
     tcfg = tracker_config or TrackerConfig()
     tracker = Tracker(tcfg, px_per_mm=scale["px_per_mm"], fps=rate, frame_size=src.size)
