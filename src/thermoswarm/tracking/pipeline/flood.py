@@ -50,6 +50,7 @@ __all__ = [
     "warn_no_track",
     "few_found_warning",
     "inner_ends",
+    "most_at_once",
     "FLOOD_HINT",
 ]
 
@@ -226,6 +227,14 @@ def add_warning(out: Path, text: str | None) -> list[str]:
     return [text]
 
 
+def most_at_once(counts: np.ndarray, min_frames: int = 5) -> int:
+    """The largest of the per-frame ``counts`` reached in ``min_frames`` frames or more
+    (0 when none is): the animals' number, not a moment's extra blobs."""
+    reached = np.bincount(np.asarray(counts, np.int64))
+    often = np.flatnonzero(reached[1:] >= min_frames) + 1 if reached.size > 1 else []
+    return int(often[-1]) if len(often) else 0
+
+
 def inner_ends(
     ids: np.ndarray, frames: np.ndarray, body: np.ndarray, size: tuple[int, int], length: float
 ) -> float:
@@ -249,14 +258,8 @@ def few_found_warning(per_frame: np.ndarray, inner: float = 1.0) -> str | None:
     frames or more), where at least half of the tracks begin and end inside the picture
     (``inner``: :func:`inner_ends`; animals that walk in and out of it, as on a trail,
     are not lost); ``None`` otherwise."""
-    if inner < 0.5:
-        return None
-    reached = np.bincount(np.asarray(per_frame, np.int64))
-    often = np.flatnonzero(reached[1:] >= 5) + 1 if reached.size > 1 else []
-    if len(often) == 0:
-        return None
-    top, mean = int(often[-1]), float(np.mean(per_frame))
-    if mean >= FEW_FOUND * top:
+    top, mean = most_at_once(per_frame), float(np.mean(per_frame))
+    if inner < 0.5 or top == 0 or mean >= FEW_FOUND * top:
         return None
     return (
         f"the tracks hold {mean:.2f} animals a frame on average, while up to {top} "

@@ -43,6 +43,7 @@ import numpy as np
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_json, prepare_output_dir
 from thermoswarm.tracking import anatomy
+from thermoswarm.tracking.pipeline.flood import most_at_once
 
 __all__ = ["SELF_TRAINED", "LABEL_FRAMES", "STEPS", "label_frames", "track_self_trained"]
 
@@ -80,11 +81,9 @@ def _pick(found: np.ndarray, n_max: int) -> tuple[np.ndarray, int]:
     reached in :data:`MIN_LABEL_FRAMES` frames or more, at most ``n_max`` of those
     frames, evenly spread."""
     count = found.sum(1)
-    reached = np.bincount(count)
-    ok = np.flatnonzero(reached[1:] >= MIN_LABEL_FRAMES) + 1 if reached.size > 1 else []
-    if len(ok) == 0:
+    top = most_at_once(count, MIN_LABEL_FRAMES)
+    if top == 0:
         return np.zeros(0, np.int64), 0
-    top = int(ok[-1])
     cand = np.flatnonzero(count >= top)
     take = np.unique(np.linspace(0, cand.size - 1, min(n_max, cand.size)).round().astype(int))
     return cand[take], top
