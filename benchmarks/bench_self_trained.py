@@ -13,6 +13,7 @@ Both: MOTA, IDF1, HOTA, misses and false positives (IoU 0.5), and the seconds ea
 run took (the self-trained one's includes its classical pass and its training).
 
     python benchmarks/bench_self_trained.py frozen [--figure docs/figures/self_trained_flies.png]
+    python benchmarks/bench_self_trained.py frozen --no-ignore   # the ablation
     python benchmarks/bench_self_trained.py cut clip.mp4 clip_gt.txt --max-frames 1100 \\
         --px-per-mm 14.94 --set detector.polarity=light
 """
@@ -89,6 +90,12 @@ def main(argv: list[str] | None = None) -> int:
     sub = ap.add_subparsers(dest="what", required=True)
     frozen = sub.add_parser("frozen", parents=[common])
     frozen.add_argument("--figure", type=Path, help="write both overlays' frame 200 here")
+    frozen.add_argument(
+        "--no-ignore",
+        action="store_true",
+        help="ablation: train without leaving the unlabelled blobs out (every place but "
+        "the labels taught as floor)",
+    )
     cut = sub.add_parser("cut", parents=[common])
     cut.add_argument("clip", type=Path)
     cut.add_argument("gt", type=Path)
@@ -100,6 +107,11 @@ def main(argv: list[str] | None = None) -> int:
         tmp = Path(d)
         if args.what == "frozen":
             from test_self_trained import PX_PER_MM, frozen_fly_clip
+
+            if args.no_ignore:
+                from thermoswarm.tracking.pipeline import self_train
+
+                self_train._unlabelled_spots = lambda frame, points: np.zeros((0, 2))
 
             video, truth, _ = frozen_fly_clip(tmp)
             rows = both(video, truth, tmp, px_per_mm=PX_PER_MM, overlay=args.figure is not None,

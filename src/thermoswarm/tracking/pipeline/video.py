@@ -139,7 +139,7 @@ def track_video(
         Bad input, nothing detected (nothing written), a camera that cannot be
         followed, or detections that are not animals (:mod:`~.flood`).
     """
-    if detector == SELF_TRAINED:  # two passes: classical, then a U-Net trained on it
+    if detector == SELF_TRAINED:  # two passes, each with this call's arguments (locals())
         args = {k: v for k, v in locals().items() if k not in ("video", "out_dir", "length_px")}
         return track_self_trained(video, out_dir, track_video, **args)
     src = open_video(video)
