@@ -177,3 +177,40 @@ def test_with_a_scale_moving_specks_do_not_choose_the_background(tmp_path):
     assert pick[None] == (0, 30, 1)  # anything that moves: the specks
     assert pick[40.0] == (120, 150, 1)  # moving blobs near 40 px: the animal
     assert pick[400.0] == (0, 30, 1)  # none near 400 px: the first, as before
+
+
+def test_faint_specks_do_not_choose_the_sample_without_a_scale(tmp_path):
+    """Drawn: faint 5-px specks (a grey level 25 below the floor's 180, relative
+    contrast 0.14: compression noise) flicker in frames 1-30 while the animal (a dark
+    40 x 12 px ellipse) stands still; it walks in frames 121-150.  Without a scale the
+    size is measured where blobs stand out of the noise (``SizeEstimate.clear`` at least
+    ``MIN_CLEAR``), the walking animal, not the specks (as on SLEAP's fly clip's first
+    1,100 frames: 12.3 px and 41 tracks of specks before, 71.8 px and 2 tracks now;
+    the flies' labels span 70.4 px)."""
+    import cv2
+
+    from thermoswarm.tracking.detect.classical import estimate_length_px
+    from thermoswarm.tracking.pipeline.common import MIN_CLEAR, _measure_size, _read
+
+    rng = np.random.default_rng(4)
+    path = tmp_path / "faint.mp4"
+    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 10, (200, 200))
+    for k in range(160):
+        img = np.full((200, 200, 3), 180, np.uint8)
+        x = 60 + 2 * max(0, k - 120)  # walks from frame 121 on
+        cv2.ellipse(img, (x, 100), (20, 6), 0, 0, 360, (40, 40, 40), -1)
+        if k < 30:
+            for cx, cy in rng.integers(20, 180, (6, 2)):
+                img[cy : cy + 5, cx : cx + 5] = 155
+        w.write(img)
+    w.release()
+    src = open_video(path)
+    samples = [(0, 30, 1), (60, 90, 1), (120, 150, 1)]
+    specks = estimate_length_px(_read(src, samples[0]))
+    walker = estimate_length_px(_read(src, samples[2]))
+    assert specks.clear < MIN_CLEAR < walker.clear, (specks, walker)
+    est, pick = _measure_size(src, samples, 160, 30, None)
+    assert pick == (120, 150, 1)
+    assert abs(est.length_px - 40.0) <= 4.0, est  # the ellipse's 40 px, within 10 %
+    # Only faint blobs anywhere: they are measured, as before (the first that moves).
+    assert _measure_size(src, samples[:2], 160, 30, None)[1] == (0, 30, 1)

@@ -486,6 +486,7 @@ class SizeEstimate:
     n_single: int
     threshold: float
     fill: float = math.nan
+    clear: float = math.nan
 
 
 def estimate_length_px(
@@ -546,6 +547,7 @@ def _size(det: ClassicalDetector, grays: list[np.ndarray], source: str) -> SizeE
     def blobs(t: float) -> list[_Blobs]:
         return [det._measure(g, *m, t, _MIN_BLOB, split=False) for g, m in gm]
 
+    clear = math.nan
     if cfg.threshold is not None:
         thr = cfg.threshold
     else:
@@ -553,7 +555,9 @@ def _size(det: ClassicalDetector, grays: list[np.ndarray], source: str) -> SizeE
         peaks = np.concatenate([b.peak for b in first])
         if peaks.size >= 3:
             w = np.concatenate([b.area for b in first])
-            thr = max(thr, cfg.peak_fraction * _weighted_median(peaks, w))
+            peak = _weighted_median(peaks, w)
+            clear = peak / thr  # thr: the noise threshold still
+            thr = max(thr, cfg.peak_fraction * peak)
     found = blobs(thr)
     area = np.concatenate([b.area for b in found])
     span = np.concatenate([b.span for b in found])
@@ -569,7 +573,7 @@ def _size(det: ClassicalDetector, grays: list[np.ndarray], source: str) -> SizeE
           for g, m in gm)  # fmt: skip
     length = median_length(px, (ref / 2.5, ref * 2.5))
     fill = float(np.median(area[sel] * cfg.downsample**2 / np.maximum(span[sel], 1.0) ** 2))
-    return SizeEstimate(length, int(area.size), int(sel.sum()), float(thr), fill)
+    return SizeEstimate(length, int(area.size), int(sel.sum()), float(thr), fill, float(clear))
 
 
 #: The likely reasons when nothing is detected (appended to the one-line error).

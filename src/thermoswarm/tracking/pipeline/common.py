@@ -24,6 +24,11 @@ from thermoswarm.tracking.track.tracker import TrackerConfig, TrackResult
 
 #: Smallest share of its length squared that a single animal's blob fills (lines below).
 MIN_FILL = 0.1
+#: Smallest typical peak contrast, over the noise threshold, of blobs taken for animals
+#: when a sample whose blobs stand out more is found (:attr:`SizeEstimate.clear`: real
+#: animals 6.6-8.9; the compression specks of SLEAP's fly clip, whose flies stand still
+#: for 40 s, 1.7-2.2, measured as 12-px "animals" in 41 tracks before).
+MIN_CLEAR = 3.0
 #: With a scale, the moving blobs' length as a share of the paper's ant's at that scale
 #: for a sample to show the animals (a quarter to four times: ant species of 2-28 mm).
 #: SLEAP's fly clip, first 1,100 frames (flies still until frame 1,000): its first 3 s
@@ -119,9 +124,10 @@ def _measure_size(
 ) -> tuple[Any, Sample]:
     """The animals' size (:class:`SizeEstimate`) and the frame sample it was measured
     on: the first of ``samples`` (:func:`_samples`, over a clip of ``total`` frames)
-    where animals move (with a body length ``expect`` known from the scale: moving
-    blobs within :data:`EXPECT_RANGE` of it, else the first where anything moves); a
-    one-line error saying how much of the clip was looked at when none has them."""
+    where animals move: moving blobs that stand out of the noise (:data:`MIN_CLEAR`)
+    and, with a body length ``expect`` known from the scale, within
+    :data:`EXPECT_RANGE` of it; else the first where anything moves.  A one-line error
+    says how much of the clip was looked at when nothing moves."""
     windows = [s for s in samples if s[1] - s[0] == n_prep]
     lo, hi = EXPECT_RANGE
     fallback = None
@@ -134,7 +140,8 @@ def _measure_size(
             first = exc
             continue
         if est.fill >= MIN_FILL or sample in windows:  # a spread sample's lines: the floor
-            if expect is None or lo * expect <= est.length_px <= hi * expect:
+            fits = expect is None or lo * expect <= est.length_px <= hi * expect
+            if fits and not est.clear < MIN_CLEAR:  # NaN (a user's threshold): clear
                 return est, sample
             fallback = fallback or (est, sample)
     if fallback is not None:
