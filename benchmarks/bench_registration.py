@@ -10,11 +10,16 @@ holes, two or four light walkers 60 or 80 px long at about 3 px a frame; seeds 1
 talmolab/sleap at 7785f660) seen through a ``--view`` px camera that drifts 0.15 and
 0.1 px a frame, turns 0.004 deg a frame and shakes (3 px, 0.4 deg) over all its frames;
 the path error, then ``track`` at ``--px-per-mm`` scored against the labelled boxes
-``GT`` (``bench_real_footage.py --gt-mot``), mapped into the first frame's px.
+``GT`` (``bench_real_footage.py --gt-mot``), mapped into the first frame's px; with
+``--max-frames N`` the clip's first N frames only, with ``--detector self-trained``
+the U-Net trained on the moved clip's classical tracks (``track --detector
+self-trained``).
 
     python benchmarks/bench_registration.py walkers
     python benchmarks/bench_registration.py whole clip.mp4 clip_gt.txt --px-per-mm 14.94 \\
         --set detector.polarity=light
+    python benchmarks/bench_registration.py whole clip.mp4 clip_gt.txt --px-per-mm 14.94 \\
+        --set detector.polarity=light --max-frames 1100 --detector self-trained
 """
 
 from __future__ import annotations
@@ -76,7 +81,15 @@ def _hand(k: int) -> np.ndarray:
     return np.array([[c, -s, tx], [s, c, ty], [0, 0, 1.0]])
 
 
-def whole(clip: str, gt: str, view: int, px_per_mm: float | None, opts: dict) -> dict:
+def whole(
+    clip: str,
+    gt: str,
+    view: int,
+    px_per_mm: float | None,
+    opts: dict,
+    max_frames: int | None = None,
+    detector: str | None = None,
+) -> dict:
     import cv2
 
     from thermoswarm.io.mot import read_mot_table
@@ -93,7 +106,7 @@ def whole(clip: str, gt: str, view: int, px_per_mm: float | None, opts: dict) ->
             cv2.warpAffine(
                 f, _hand(k)[:2], (view, view), flags=cv2.WARP_INVERSE_MAP | cv2.INTER_LINEAR
             )  # fmt: skip
-            for k, f in enumerate(src.frames())
+            for k, f in enumerate(src.frames(max_frames))
         )
         write_video(frames, moved, src.fps or 30.0)
         p = camera_path(open_video(moved).frames())
@@ -104,7 +117,7 @@ def whole(clip: str, gt: str, view: int, px_per_mm: float | None, opts: dict) ->
             "path_error_px": _corner_error(p.matrices, truth, view, view),
         }
         s = track_video(moved, Path(tmp) / "t", px_per_mm=px_per_mm, overlay=False,
-                        detector_options=opts)  # fmt: skip
+                        detector=detector, detector_options=opts)  # fmt: skip
         boxes = np.loadtxt(gt, delimiter=",", ndmin=2)
         boxes = boxes[boxes[:, 0] <= len(p.matrices)].copy()
         boxes[:, 2:4] -= _hand(0)[:2, 2]  # the first frame's px (not turned at frame 0)
@@ -127,6 +140,8 @@ def main() -> None:
     w.add_argument("--view", type=int, default=600)
     w.add_argument("--px-per-mm", type=float, default=None)
     w.add_argument("--set", dest="sets", action="append", default=[])
+    w.add_argument("--max-frames", type=int, default=None)
+    w.add_argument("--detector", choices=["classical", "self-trained"], default=None)
     a = ap.parse_args()
     if a.what == "walkers":
         rows = {}
@@ -145,7 +160,8 @@ def main() -> None:
     for item in a.sets:
         key, val = item.removeprefix("detector.").split("=", 1)
         opts[key] = val
-    print(json.dumps(whole(a.clip, a.gt, a.view, a.px_per_mm, opts), indent=1))
+    got = whole(a.clip, a.gt, a.view, a.px_per_mm, opts, a.max_frames, a.detector)
+    print(json.dumps(got, indent=1))
 
 
 if __name__ == "__main__":
