@@ -3,7 +3,10 @@
 ``frozen``: SLEAP's two-fly clip as shipped in ``tests/data/sleap_fly_clip`` (500
 frames, 10 frames/s, 256 x 256), with fly 1 frozen where it stood in frame 1
 (``tests/tracking/test_self_trained.py``'s clip): the classical detector, which finds
-what differs from a still background, never finds it.
+what differs from a still background, never finds it.  With ``--moved``, the same clip
+seen by a hand-held camera (``tests/tracking/test_still_animals.py``'s slow hand: a
+200 x 200 px view that drifts, turns and shakes), so both runs register it first;
+the truth is mapped into its first frame's px.
 
 ``cut CLIP GT``: a real clip's first ``--max-frames`` frames, scored against the
 labelled boxes ``GT`` (SLEAP's full fly clip: ``bench_real_footage.py --gt-mot``; its
@@ -14,6 +17,7 @@ run took (the self-trained one's includes its classical pass and its training).
 
     python benchmarks/bench_self_trained.py frozen [--figure docs/figures/self_trained_flies.png]
     python benchmarks/bench_self_trained.py frozen --no-ignore   # the ablation
+    python benchmarks/bench_self_trained.py frozen --moved       # a hand-held camera
     python benchmarks/bench_self_trained.py cut clip.mp4 clip_gt.txt --max-frames 1100 \\
         --px-per-mm 14.94 --set detector.polarity=light
 """
@@ -75,6 +79,27 @@ def figure(tmp: Path, path: Path, frame: int = 200, scale: int = 2) -> None:
     cv2.imwrite(str(path), np.hstack([panels[0], gap, panels[1]]))
 
 
+def moved(video: Path, truth: np.ndarray, out: Path) -> tuple[Path, np.ndarray]:
+    """``video`` seen by the slow hand of ``test_still_animals.py``, and ``truth`` in
+    its first frame's px (the hand is not turned at frame 0)."""
+    import cv2
+    from test_still_animals import VIEW, _hand
+
+    from thermoswarm.tracking.synth.clip import write_video
+    from thermoswarm.tracking.video import open_video
+
+    src = open_video(video)
+    frames = (
+        cv2.warpAffine(f, _hand(k)[:2], VIEW, flags=cv2.WARP_INVERSE_MAP | cv2.INTER_LINEAR)
+        for k, f in enumerate(src.frames())
+    )
+    path = out / "moved.mp4"
+    write_video(frames, path, src.fps or 10.0)
+    truth = truth.copy()
+    truth[:, 2:4] -= _hand(0)[:2, 2]
+    return path, truth
+
+
 def _options(sets: list[str]) -> dict:
     out = {}
     for s in sets:
@@ -96,6 +121,7 @@ def main(argv: list[str] | None = None) -> int:
         help="ablation: train without leaving the unlabelled blobs out (every place but "
         "the labels taught as floor)",
     )
+    frozen.add_argument("--moved", action="store_true", help="seen by a hand-held camera")
     cut = sub.add_parser("cut", parents=[common])
     cut.add_argument("clip", type=Path)
     cut.add_argument("gt", type=Path)
@@ -114,6 +140,8 @@ def main(argv: list[str] | None = None) -> int:
                 self_train._unlabelled_spots = lambda frame, points: np.zeros((0, 2))
 
             video, truth, _ = frozen_fly_clip(tmp)
+            if args.moved:
+                video, truth = moved(video, truth, tmp)
             rows = both(video, truth, tmp, px_per_mm=PX_PER_MM, overlay=args.figure is not None,
                         detector_options={"polarity": "light"})  # fmt: skip
             if args.figure is not None:

@@ -189,6 +189,9 @@ STEPS = [
     Step("self_trained", "bench_self_trained", ["frozen"], ["frozen"], needs="torch",
          title="track --detector self-trained beside the classical detector: a real fly "
          "clip with one fly frozen in place"),
+    Step("self_trained_moved", "bench_self_trained", ["frozen", "--moved"],
+         ["frozen", "--moved"], needs="torch",
+         title="the same clip seen by a hand-held camera (registered first)"),
 ]  # fmt: skip
 #: Steps that ``--quick`` leaves out (no quick size says anything).
 FULL_ONLY = {"compression"}
