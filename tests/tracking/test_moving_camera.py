@@ -255,3 +255,32 @@ def test_a_cut_seen_only_in_the_detections_ends_every_track(tmp_path, cut_at):
         before = set(rows[rows[:, 0] == cut_at, 1])
         after = set(rows[rows[:, 0] == cut_at + 1, 1])
         assert before and after and not before & after
+
+
+def test_a_clip_path_is_measured_once_per_file_and_frame_count(moved, monkeypatch, tmp_path):
+    """``track --detector self-trained`` registers one clip three times in a process: the
+    path is measured once, and again for another frame count or a changed file."""
+    import os
+    import shutil
+
+    from thermoswarm.tracking.detect import register
+
+    calls = []
+
+    def counted(frames, **kw):
+        calls.append(kw.get("source"))
+        return camera_path(frames, **kw)
+
+    monkeypatch.setattr(register, "camera_path", counted)
+    monkeypatch.setattr(register, "_LAST_PATH", {})
+    clip = tmp_path / "clip.mp4"
+    shutil.copy(moved[1], clip)
+    first = register_source(open_video(clip), "moving")[1]
+    again = register_source(open_video(clip), "moving")[1]
+    assert len(calls) == 1 and again is first
+    shorter = register_source(open_video(clip), "moving", max_frames=30)[1]
+    assert len(calls) == 2 and len(shorter.matrices) == 30
+    st = os.stat(clip)
+    os.utime(clip, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))  # the file changed
+    register_source(open_video(clip), "moving", max_frames=30)
+    assert len(calls) == 3
