@@ -438,6 +438,12 @@ def register_source(
     if mode == "still":
         return src, None
     path = _measured_path(src, max_frames)
+    if mode == "auto" and path.reach_px() <= still_px:
+        return src, path  # a still camera: the frames as they are (the path for its cuts)
+    # Before the size check: on a plain floor a path "measured" from animals that creep
+    # in step can reach hundreds of px (two drawn ants on white: 611 px, 131 deg).
+    if mode == "auto" and still_fits_better(src, path):
+        return src, path  # the animals, not the camera, moved (a plain floor)
     canvas = path.canvas_size[0] * path.canvas_size[1]
     if canvas > 6 * path.size[0] * path.size[1]:
         raise InputError(
@@ -445,10 +451,6 @@ def register_source(
             f"{canvas / (path.size[0] * path.size[1]):.1f} times the frame; track "
             "shorter pieces of the clip (--max-frames) or use a steadier camera"
         )
-    if mode == "auto" and path.reach_px() <= still_px:
-        return src, path  # a still camera: the frames as they are (the path for its cuts)
-    if mode == "auto" and still_fits_better(src, path):
-        return src, path  # the animals, not the camera, moved (a plain floor)
     return RegisteredSource(src, path), path
 
 

@@ -246,6 +246,7 @@ def build_detector(
     at = int(registered)
     samples, total = _samples(src, n_prep, step, max_frames, reach, at)
     sample, keep = samples[0], {}  # keep: the measured sample's frames, decoded once
+    est = None
     if px_per_mm is None:
         opts = options if classical else None
         est, sample = _measure_size(src, samples, total, n_prep, opts, keep)
@@ -268,7 +269,9 @@ def build_detector(
         # ... and moving specks are not animals where the scale says how long they are.
         expect = anatomy.ANT_LENGTH_MM * px_per_mm
         with contextlib.suppress(InputError):  # nothing moves anywhere: detect says so
-            sample = _measure_size(src, samples, total, n_prep, options, keep, expect)[1]
+            est, sample = _measure_size(src, samples, total, n_prep, options, keep, expect)
+    if est is not None and classical:  # what moved, and the same blobs in the picture
+        info.update(moved_length_px=est.length_px, picture_length_px=est.look_px)
     det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
     prepare = getattr(det, "prepare", None)
     if prepare is not None:

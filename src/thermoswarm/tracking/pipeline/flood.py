@@ -227,6 +227,33 @@ def add_warning(out: Path, text: str | None) -> list[str]:
     return [text]
 
 
+#: How many times longer than what moved the animals may look in the picture before a
+#: run says they stood still where the background was learned (whole animals that
+#: moved: 1.07-1.17 on SLEAP's flies, beelab's ants, drawn and rendered ants; SLEAP's
+#: flies standing nearly still for 6 s, their wings and legs the moving blobs, 2.0-2.3).
+STILL_LOOK = 1.5
+
+
+def still_look_warning(scale: dict[str, Any]) -> str | None:
+    """The warning for a background-subtracting detector's run whose animals look more
+    than :data:`STILL_LOOK` times longer in the picture (``scale["picture_length_px"]``)
+    than what moved in the frames its background was learned from
+    (``scale["moved_length_px"]``, ``scale["prepare_frames"]``); ``None`` otherwise."""
+    moved, look = scale.get("moved_length_px"), scale.get("picture_length_px")
+    if not moved or not look or not look > STILL_LOOK * moved:
+        return None
+    first, last = scale.get("prepare_frames") or ("?", "?")
+    return (
+        f"the animals look {look:.0f} px long in the picture, {look / moved:.1f} times the "
+        f"{moved:.1f} px of what moved in frames {first}-{last}, where the background was "
+        "learned: they stood nearly still there, so only their moving parts (legs, "
+        "wings, antennae) differ from it, and the body length, the detections and the "
+        "tracks may be pieces of animals. Track a stretch where they walk, or a longer "
+        "clip (the background is then learned from frames spread over its first minute); "
+        "--px-per-mm sets the length but not the pieces"
+    )
+
+
 def most_at_once(counts: np.ndarray, min_frames: int = 5) -> int:
     """The largest of the per-frame ``counts`` reached in ``min_frames`` frames or more
     (0 when none is): the animals' number, not a moment's extra blobs."""

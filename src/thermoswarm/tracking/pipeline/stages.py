@@ -27,6 +27,7 @@ from thermoswarm.tracking.pipeline.flood import (
     flood_reasons,
     inner_ends,
     refuse_flood,
+    still_look_warning,
     warn_no_track,
 )
 from thermoswarm.tracking.track.tracker import Tracker, TrackerConfig, TrackResult
@@ -269,6 +270,7 @@ def write_video_outputs(
         scale_source=scale["scale_source"],
         prepare_frames=scale.get("prepare_frames"),
         prepare_step=scale.get("prepare_step"),
+        picture_length_px=scale.get("picture_length_px"),
         space_unit="mm" if px_per_mm is not None else "px",
         camera=run["camera"],
         photo_series=run.get("series"),
@@ -310,4 +312,6 @@ def _warnings(
         ins = inner_ends(result.ids[det], result.frames[det], result.points[det, 1],
                          run["src"].size, length)  # fmt: skip
         warned += add_warning(out, few_found_warning(per, ins))
+    if still_bg:
+        warned += add_warning(out, still_look_warning(run["scale"]))
     return [], warned
