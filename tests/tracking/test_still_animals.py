@@ -146,18 +146,12 @@ def test_flies_standing_still_seen_by_a_moving_camera(tmp_path):
     assert m["mota"] >= 0.9 and m["idsw"] == 0, m
 
 
-def test_with_a_scale_moving_specks_do_not_choose_the_background(tmp_path):
-    """Drawn: 5-px specks flicker in frames 1-30 while the animal (a 40 x 12 px dark
-    ellipse) stands still; it walks in frames 121-150.  With a scale that makes the
-    animal about 40 px long, the sample where it walks is the one the background is
-    learned from, not the specks' (as on SLEAP's fly clip's first 1,100 frames: MOTA
-    0.073 -> 1.000); without a scale, or with one that fits neither, the first."""
+def _specks_clip(path: Path, seed: int, grey: int) -> Path:
+    """160 frames at 10 frames/s: 5-px specks of ``grey`` on a floor of 180 flicker in
+    frames 1-30 while a dark 40 x 12 px ellipse stands still; it walks from frame 121."""
     import cv2
 
-    from thermoswarm.tracking.pipeline.common import _measure_size
-
-    rng = np.random.default_rng(3)
-    path = tmp_path / "specks.mp4"
+    rng = np.random.default_rng(seed)
     w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 10, (200, 200))
     for k in range(160):
         img = np.full((200, 200, 3), 180, np.uint8)
@@ -165,10 +159,21 @@ def test_with_a_scale_moving_specks_do_not_choose_the_background(tmp_path):
         cv2.ellipse(img, (x, 100), (20, 6), 0, 0, 360, (40, 40, 40), -1)
         if k < 30:
             for cx, cy in rng.integers(20, 180, (6, 2)):
-                img[cy : cy + 5, cx : cx + 5] = 40
+                img[cy : cy + 5, cx : cx + 5] = grey
         w.write(img)
     w.release()
-    src = open_video(path)
+    return path
+
+
+def test_with_a_scale_moving_specks_do_not_choose_the_background(tmp_path):
+    """Drawn: 5-px specks flicker in frames 1-30 while the animal (a 40 x 12 px dark
+    ellipse) stands still; it walks in frames 121-150.  With a scale that makes the
+    animal about 40 px long, the sample where it walks is the one the background is
+    learned from, not the specks' (as on SLEAP's fly clip's first 1,100 frames: MOTA
+    0.073 -> 1.000); without a scale, or with one that fits neither, the first."""
+    from thermoswarm.tracking.pipeline.common import _measure_size
+
+    src = open_video(_specks_clip(tmp_path / "specks.mp4", 3, 40))
     samples = [(0, 30, 1), (60, 90, 1), (120, 150, 1)]
     pick = {
         expect: _measure_size(src, samples, 160, 30, None, None, expect)[1]
@@ -187,24 +192,10 @@ def test_faint_specks_do_not_choose_the_sample_without_a_scale(tmp_path):
     ``MIN_CLEAR``), the walking animal, not the specks (as on SLEAP's fly clip's first
     1,100 frames: 12.3 px and 41 tracks of specks before, 71.8 px and 2 tracks now;
     the flies' labels span 70.4 px)."""
-    import cv2
-
     from thermoswarm.tracking.detect.classical import estimate_length_px
     from thermoswarm.tracking.pipeline.common import MIN_CLEAR, _measure_size, _read
 
-    rng = np.random.default_rng(4)
-    path = tmp_path / "faint.mp4"
-    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 10, (200, 200))
-    for k in range(160):
-        img = np.full((200, 200, 3), 180, np.uint8)
-        x = 60 + 2 * max(0, k - 120)  # walks from frame 121 on
-        cv2.ellipse(img, (x, 100), (20, 6), 0, 0, 360, (40, 40, 40), -1)
-        if k < 30:
-            for cx, cy in rng.integers(20, 180, (6, 2)):
-                img[cy : cy + 5, cx : cx + 5] = 155
-        w.write(img)
-    w.release()
-    src = open_video(path)
+    src = open_video(_specks_clip(tmp_path / "faint.mp4", 4, 155))
     samples = [(0, 30, 1), (60, 90, 1), (120, 150, 1)]
     specks = estimate_length_px(_read(src, samples[0]))
     walker = estimate_length_px(_read(src, samples[2]))

@@ -198,6 +198,17 @@ _EDGES_NOTE = (
 )
 
 
+def _not_lines(src: Any, est: Any, registered: bool) -> None:
+    """:class:`InputError` when the measured blobs (``est``) are thin lines, not animals."""
+    if est.fill < MIN_FILL:
+        raise InputError(
+            f"{src.path}: the moving things are thin lines, not animals: their blobs "
+            f"fill {est.fill:.2f} of their length squared (an animal's 0.25-0.5); a "
+            f"plot or a drawing has nothing to track{_EDGES_NOTE if registered else ''}; give "
+            "--px-per-mm to track anyway"
+        )
+
+
 def build_detector(
     src: Any,
     n_prep: int,
@@ -250,13 +261,7 @@ def build_detector(
     if px_per_mm is None:
         opts = options if classical else None
         est, sample = _measure_size(src, samples, total, n_prep, opts, keep)
-        if est.fill < MIN_FILL:
-            raise InputError(
-                f"{src.path}: the moving things are thin lines, not animals: their blobs "
-                f"fill {est.fill:.2f} of their length squared (an animal's 0.25-0.5); a "
-                f"plot or a drawing has nothing to track{_EDGES_NOTE if registered else ''}; give "
-                "--px-per-mm to track anyway"
-            )
+        _not_lines(src, est, registered)
         px_per_mm = est.length_px / anatomy.ANT_LENGTH_MM
         info.update(scale_source="measured", n_blobs=est.n_blobs)
     elif not (px_per_mm > 0 and np.isfinite(px_per_mm)):
