@@ -238,9 +238,10 @@ def test_animals_that_stood_nearly_still_are_named(tmp_path, amp):
                     overlay=False)  # fmt: skip
     assert s["length_px"] < 0.6 * 40, s["length_px"]  # pieces: what moved
     assert abs(s["picture_length_px"] - 40) <= 4, s["picture_length_px"]
+    assert s["moved_length_px"] == s["length_px"]  # no scale: the length is what moved
     said = [w for w in s["warnings"] if "look" in w and "stood nearly still" in w]
     assert len(said) == 1 and said[0] in (tmp_path / "c" / "WARNING.txt").read_text()
     walking = track_video(_creeping(tmp_path / "walk.mp4", 0.0, True), tmp_path / "w",
                           overlay=False)  # fmt: skip
-    assert walking["picture_length_px"] < STILL_LOOK * walking["length_px"]
+    assert walking["picture_length_px"] < STILL_LOOK * walking["moved_length_px"]
     assert not any("stood nearly still" in w for w in walking["warnings"]), walking["warnings"]

@@ -270,6 +270,7 @@ def write_video_outputs(
         scale_source=scale["scale_source"],
         prepare_frames=scale.get("prepare_frames"),
         prepare_step=scale.get("prepare_step"),
+        moved_length_px=scale.get("moved_length_px"),
         picture_length_px=scale.get("picture_length_px"),
         space_unit="mm" if px_per_mm is not None else "px",
         camera=run["camera"],
