@@ -146,9 +146,10 @@ def test_flies_standing_still_seen_by_a_moving_camera(tmp_path):
     assert m["mota"] >= 0.9 and m["idsw"] == 0, m
 
 
-def _specks_clip(path: Path, seed: int, grey: int) -> Path:
+def _specks_clip(path: Path, seed: int, grey: int, body: int = 40) -> Path:
     """160 frames at 10 frames/s: 5-px specks of ``grey`` on a floor of 180 flicker in
-    frames 1-30 while a dark 40 x 12 px ellipse stands still; it walks from frame 121."""
+    frames 1-30 while a 40 x 12 px ellipse of grey ``body`` stands still; it walks from
+    frame 121."""
     import cv2
 
     rng = np.random.default_rng(seed)
@@ -156,7 +157,7 @@ def _specks_clip(path: Path, seed: int, grey: int) -> Path:
     for k in range(160):
         img = np.full((200, 200, 3), 180, np.uint8)
         x = 60 + 2 * max(0, k - 120)  # walks from frame 121 on
-        cv2.ellipse(img, (x, 100), (20, 6), 0, 0, 360, (40, 40, 40), -1)
+        cv2.ellipse(img, (x, 100), (20, 6), 0, 0, 360, (body,) * 3, -1)
         if k < 30:
             for cx, cy in rng.integers(20, 180, (6, 2)):
                 img[cy : cy + 5, cx : cx + 5] = grey
@@ -205,6 +206,21 @@ def test_faint_specks_do_not_choose_the_sample_without_a_scale(tmp_path):
     assert abs(est.length_px - 40.0) <= 4.0, est  # the ellipse's 40 px, within 10 %
     # Only faint blobs anywhere: they are measured, as before (the first that moves).
     assert _measure_size(src, samples[:2], 160, 30, None)[1] == (0, 30, 1)
+
+
+def test_with_a_scale_a_faint_animal_that_fits_beats_specks_that_do_not(tmp_path):
+    """Drawn: dark 5-px specks in frames 1-30, a faint animal (grey 150 on 180: contrast
+    0.17, under ``MIN_CLEAR`` times the noise threshold) walking from frame 121.  With a
+    scale that makes it 40 px long, its sample is chosen: the scale says it is an
+    animal; the specks stand out more but fit no animal."""
+    from thermoswarm.tracking.detect.classical import estimate_length_px
+    from thermoswarm.tracking.pipeline.common import MIN_CLEAR, _measure_size, _read
+
+    src = open_video(_specks_clip(tmp_path / "faint_animal.mp4", 5, 40, body=150))
+    samples = [(0, 30, 1), (60, 90, 1), (120, 150, 1)]
+    walker = estimate_length_px(_read(src, samples[2]))
+    assert walker.clear < MIN_CLEAR and 10 <= walker.length_px <= 160, walker
+    assert _measure_size(src, samples, 160, 30, None, None, 40.0)[1] == (120, 150, 1)
 
 
 def _creeping(path: Path, amp: float, walk: bool) -> Path:

@@ -482,7 +482,7 @@ class SizeEstimate:
     (area-weighted median) over the noise threshold, NaN with a user's ``threshold``
     (real animals 6.6-8.9: beelab's ants, SLEAP's flies; compression specks of a clip
     whose animals stand still, 1.7-2.2); ``look_px``: the same single blobs' median
-    length in the picture itself (:func:`_look_length`), 1.10-1.16 times ``length_px``
+    length in the picture itself (:func:`_look_length`), 1.07-1.17 times ``length_px``
     where whole animals moved, twice or more where they stood nearly still and only
     their moving parts differ from the background.
     """
@@ -563,7 +563,7 @@ def _size(det: ClassicalDetector, grays: list[np.ndarray], source: str) -> SizeE
         if peaks.size >= 3:
             w = np.concatenate([b.area for b in first])
             peak = _weighted_median(peaks, w)
-            clear = peak / thr  # thr: the noise threshold still
+            clear = peak / thr if thr > 0 else math.inf  # thr: the noise threshold still
             thr = max(thr, cfg.peak_fraction * peak)
     found = blobs(thr)
     area = np.concatenate([b.area for b in found])
@@ -587,6 +587,12 @@ def _size(det: ClassicalDetector, grays: list[np.ndarray], source: str) -> SizeE
     )
 
 
+#: Grey levels by which blobs must stand out of their spatial background (median at
+#: their centres) to be measured in the picture (:func:`_look_length`): below it the
+#: mask at half their response is the floor's texture.
+_LOOK_MIN_GREY = 4.0
+
+
 def _look_length(
     smalls: list[np.ndarray], centres: list[np.ndarray], length: float, cfg: ClassicalConfig
 ) -> float:
@@ -598,14 +604,17 @@ def _look_length(
     hold each centre, 4 standard deviations along their major axis.  Hand-written: no
     library measures a blob's length in a picture from a point inside it.
 
-    NaN when no centre is found.  Measured (the ratio to the length from the
-    background): SLEAP's flies walking, beelab's ants, drawn and rendered ants, 1.10-1.16;
-    SLEAP's flies standing nearly still for 6 s (their moving wings and legs were the
-    blobs: 32.5 px against 70 px), 2.0-2.4."""
+    NaN when no centre is found, or none stands out of the picture by
+    :data:`_LOOK_MIN_GREY`.  Measured (the ratio to the length from the background):
+    SLEAP's flies walking, beelab's ants, drawn and rendered ants, 1.07-1.17; SLEAP's
+    flies standing nearly still for 6 s (their moving wings and legs were the blobs:
+    32.5 px against 70 px), 2.0-2.6."""
     import cv2
 
     # At most a 41-px disc: the frames shrunk further for large animals (the cost of a
     # grey opening grows with the disc).
+    if not (math.isfinite(length) and length > 0):
+        return math.nan
     f = cfg.downsample * max(1.0, 3 * length / cfg.downsample / 41)
     k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(3 * length / f) | 1,) * 2)
     op = cv2.MORPH_TOPHAT if cfg.polarity == "light" else cv2.MORPH_BLACKHAT
@@ -618,8 +627,10 @@ def _look_length(
             small = cv2.resize(small, None, fx=shrink, fy=shrink, interpolation=cv2.INTER_AREA)
         resp = cv2.morphologyEx(small.astype(np.float32), op, k)
         at = np.clip((c / f).astype(int), 0, np.array(resp.shape[::-1]) - 1)
-        own = resp[at[:, 1], at[:, 0]]
-        mask = (resp > 0.5 * float(np.median(own))).astype(np.uint8)
+        own = float(np.median(resp[at[:, 1], at[:, 0]]))
+        if own < _LOOK_MIN_GREY:  # blobs that do not stand out in the picture: no look
+            continue
+        mask = (resp > 0.5 * own).astype(np.uint8)
         _, lab = cv2.connectedComponents(mask, connectivity=8)
         for label in np.unique(lab[at[:, 1], at[:, 0]]):
             ys, xs = np.nonzero(lab == label) if label else ((), ())

@@ -405,14 +405,13 @@ _LAST_PATH: dict[tuple[Any, ...], CameraPath] = {}
 
 def _measured_path(src: Any, max_frames: int | None) -> CameraPath:
     """:func:`camera_path` of ``src``'s frames (below ``max_frames``), measured once
-    per file and frame count in a process."""
-    try:
+    per video file and frame count in a process."""
+    key: tuple[Any, ...] | None = None
+    # Video files only: a list of images (or a folder of them) is named by a folder, or
+    # by a made-up name, whose mtime does not follow its frames.
+    if getattr(src, "_files", None) is None and os.path.isfile(getattr(src, "path", "")):
         st = os.stat(src.path)
-        key: tuple[Any, ...] | None = (
-            os.path.realpath(src.path), st.st_mtime_ns, st.st_size, max_frames
-        )  # fmt: skip
-    except (AttributeError, TypeError, OSError):
-        key = None
+        key = (os.path.realpath(src.path), st.st_mtime_ns, st.st_size, max_frames)
     if key is not None and key in _LAST_PATH:
         return _LAST_PATH[key]
     path = camera_path(src.frames(max_frames, prefetch=4), source=str(src.path))

@@ -126,11 +126,12 @@ def _measure_size(
     on: the first of ``samples`` (:func:`_samples`, over a clip of ``total`` frames)
     where animals move: moving blobs that stand out of the noise (:data:`MIN_CLEAR`)
     and, with a body length ``expect`` known from the scale, within
-    :data:`EXPECT_RANGE` of it; else the first where anything moves.  A one-line error
-    says how much of the clip was looked at when nothing moves."""
+    :data:`EXPECT_RANGE` of it; else (with ``expect``) the first whose blobs fit it,
+    faint or not; else the first where anything moves.  A one-line error says how much
+    of the clip was looked at when nothing moves."""
     windows = [s for s in samples if s[1] - s[0] == n_prep]
     lo, hi = EXPECT_RANGE
-    fallback = None
+    fallback = faint = None  # the first where anything moves; the first that fits
     for sample in samples:
         try:
             est = estimate_length_px(_read(src, sample, keep), options, source=str(src.path))
@@ -144,8 +145,10 @@ def _measure_size(
             if fits and not est.clear < MIN_CLEAR:  # NaN (a user's threshold): clear
                 return est, sample
             fallback = fallback or (est, sample)
-    if fallback is not None:
-        return fallback
+            if fits and expect is not None:  # faint animals the scale says are animals
+                faint = faint or (est, sample)
+    if faint is not None or fallback is not None:
+        return faint or fallback
     seen = np.zeros(total, bool)
     for start, stop, _ in windows:
         seen[start:stop] = True
@@ -238,7 +241,10 @@ def build_detector(
     and ``{"px_per_mm", "length_px", "scale_source", "n_blobs", "prepare_frames"}``
     (``px_per_mm`` the scale used, ``length_px`` the body length in px,
     ``prepare_frames`` the 1-based first and last frame the detector learned from and
-    ``prepare_step`` the frames between them).
+    ``prepare_step`` the frames between them; for the classical detector, where the
+    size was measured, ``moved_length_px`` and ``picture_length_px``: what moved, and
+    the same blobs in the picture, :class:`SizeEstimate`'s ``length_px`` and
+    ``look_px``).
     """
     step = step or (2 if n_prep >= 32 else 1)
     info: dict[str, Any] = {"scale_source": "user", "n_blobs": None}

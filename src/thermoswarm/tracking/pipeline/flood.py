@@ -230,7 +230,7 @@ def add_warning(out: Path, text: str | None) -> list[str]:
 #: How many times longer than what moved the animals may look in the picture before a
 #: run says they stood still where the background was learned (whole animals that
 #: moved: 1.07-1.17 on SLEAP's flies, beelab's ants, drawn and rendered ants; SLEAP's
-#: flies standing nearly still for 6 s, their wings and legs the moving blobs, 2.0-2.3).
+#: flies standing nearly still for 6 s, their wings and legs the moving blobs, 2.0-2.6).
 STILL_LOOK = 1.5
 
 
