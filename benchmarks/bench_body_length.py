@@ -26,7 +26,7 @@ from test_footage_guards import _exact_frame  # noqa: E402
 from test_split_join import frame, scene  # noqa: E402
 from tracking_fixtures import small_video  # noqa: E402
 
-from thermoswarm.tracking.detect.classical import estimate_length_px  # noqa: E402
+from thermoswarm.tracking.detect.size import estimate_length_px  # noqa: E402
 
 
 def main() -> int:

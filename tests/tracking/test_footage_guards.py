@@ -17,8 +17,8 @@ from thermoswarm.cli import cli
 from thermoswarm.errors import InputError
 from thermoswarm.io.mot import read_mot_table
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.detect.classical import estimate_length_px
 from thermoswarm.tracking.detect.register import camera_path
+from thermoswarm.tracking.detect.size import estimate_length_px
 from thermoswarm.tracking.pipeline import track_video
 from thermoswarm.tracking.pipeline.flood import flood_reasons
 from thermoswarm.tracking.synth.clip import write_video

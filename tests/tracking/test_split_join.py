@@ -19,7 +19,8 @@ import pytest
 from scipy.optimize import linear_sum_assignment
 
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.detect.classical import estimate_length_px, make_detector
+from thermoswarm.tracking.detect.classical import make_detector
+from thermoswarm.tracking.detect.size import estimate_length_px
 
 cv2 = pytest.importorskip("cv2")
 
@@ -86,7 +87,7 @@ def prepared(
     """A classical detector that has learned the background and size from 12 frames of
     30 ants (``lengths``, ``split`` as in :func:`scene`), told the body length
     ``length`` px or, when ``None``, measuring it as ``track`` does without a scale
-    (:func:`~thermoswarm.tracking.detect.classical.estimate_length_px`); ``join``:
+    (:func:`~thermoswarm.tracking.detect.size.estimate_length_px`); ``join``:
     its ``join_split``."""
     rng = np.random.default_rng(seed)
     frames = [frame(rng, scene(rng, 30, lengths, split)) for _ in range(12)]

@@ -193,7 +193,7 @@ def test_faint_specks_do_not_choose_the_sample_without_a_scale(tmp_path):
     ``MIN_CLEAR``), the walking animal, not the specks (as on SLEAP's fly clip's first
     1,100 frames: 12.3 px and 41 tracks of specks before, 71.8 px and 2 tracks now;
     the flies' labels span 70.4 px)."""
-    from thermoswarm.tracking.detect.classical import estimate_length_px
+    from thermoswarm.tracking.detect.size import estimate_length_px
     from thermoswarm.tracking.pipeline.common import MIN_CLEAR, _measure_size, _read
 
     src = open_video(_specks_clip(tmp_path / "faint.mp4", 4, 155))
@@ -213,7 +213,7 @@ def test_with_a_scale_a_faint_animal_that_fits_beats_specks_that_do_not(tmp_path
     0.17, under ``MIN_CLEAR`` times the noise threshold) walking from frame 121.  With a
     scale that makes it 40 px long, its sample is chosen: the scale says it is an
     animal; the specks stand out more but fit no animal."""
-    from thermoswarm.tracking.detect.classical import estimate_length_px
+    from thermoswarm.tracking.detect.size import estimate_length_px
     from thermoswarm.tracking.pipeline.common import MIN_CLEAR, _measure_size, _read
 
     src = open_video(_specks_clip(tmp_path / "faint_animal.mp4", 5, 40, body=150))

@@ -60,14 +60,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from thermoswarm.config import from_mapping
-from thermoswarm.errors import ConfigError, InputError, NoBlobsError
+from thermoswarm.errors import ConfigError, InputError
 from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detect.blobs import (
     _Blobs,
@@ -75,7 +74,6 @@ from thermoswarm.tracking.detect.blobs import (
     blob_pixels,
     measure_singles,
     measure_splits,
-    median_length,
     split_counts,
     typical_area,
 )
@@ -110,8 +108,6 @@ __all__ = [
     "load_checked",
     "ClassicalConfig",
     "ClassicalDetector",
-    "SizeEstimate",
-    "estimate_length_px",
     "typical_area",
     "NOTHING_FOUND_HINT",
 ]
@@ -464,180 +460,6 @@ class ClassicalDetector:
         return FrameDetections(
             b.points, scores, None, b.head_conf, b.hint if hints is not None else None
         )
-
-
-#: Smallest blob (working px) that counts when the animals' size is unknown.
-_MIN_BLOB = 4.0
-
-
-@dataclass(frozen=True)
-class SizeEstimate:
-    """The animals' size measured from a video (:func:`estimate_length_px`).
-
-    ``length_px``: body length (px, full resolution); ``n_blobs``: blobs measured;
-    ``n_single``: blobs within a factor 2.5 of the typical area (taken as single
-    animals); ``threshold``: the relative contrast used; ``fill``: the median share of
-    its span squared that a single blob covers (rendered ants 0.26-0.48 from 36 to 7
-    px long; a drawn line about 0.04); ``clear``: the blobs' typical peak contrast
-    (area-weighted median) over the noise threshold, NaN with a user's ``threshold``
-    (real animals 6.6-8.9: beelab's ants, SLEAP's flies; compression specks of a clip
-    whose animals stand still, 1.7-2.2); ``look_px``: the same single blobs' median
-    length in the picture itself (:func:`_look_length`), 1.07-1.17 times ``length_px``
-    where whole animals moved, twice or more where they stood nearly still and only
-    their moving parts differ from the background.
-    """
-
-    length_px: float
-    n_blobs: int
-    n_single: int
-    threshold: float
-    fill: float = math.nan
-    clear: float = math.nan
-    look_px: float = math.nan
-
-
-def estimate_length_px(
-    frames: Iterable[np.ndarray], options: Mapping[str, Any] | None = None, source: str = "video"
-) -> SizeEstimate:
-    """Measure the animals' body length (px) from a video's first frames, without a scale.
-
-    The classical detector's background (the ``bg_quantile`` of the frames) and
-    automatic threshold give the foreground blobs of up to 8 frames; the typical
-    single animal is the mode of the blob areas, found by trimming to a factor 2.5
-    around the median until it settles, starting from the area-weighted median (so
-    that specks of texture or noise do not outvote a few animals, and clumps of
-    touching animals or clutter fall outside).  The body length is the median of those
-    blobs' lengths from their contrast-weighted second moments (:func:`~.blobs.axis_lengths`).
-    Animals small enough for a finer working resolution (unless ``downsample`` is
-    given; :meth:`~.config.ClassicalConfig.for_animals`) are measured again at it,
-    unless that finds under 3/4 of the length: ants split at the waist there, as
-    separate halves (most of the ants split), and the coarser measurement stands.
-
-    Parameters
-    ----------
-    frames
-        Frames (RGB or grey uint8) spanning a few seconds, in time order.
-    options
-        Classical detector options (:class:`ClassicalConfig`: ``polarity``,
-        ``channel``, ``threshold``, ...).
-    source
-        Name of the video, for error messages.
-
-    Raises
-    ------
-    InputError
-        When fewer than 3 blobs are found (no moving animals, too little contrast).
-    """
-    try:
-        cfg = from_mapping(ClassicalConfig, dict(options or {}), source="detector options")
-    except ConfigError as exc:
-        raise InputError(str(exc)) from None
-    det = ClassicalDetector(1.0, cfg)  # the scale is unused: background and blobs only
-    grays = det._background(frames)
-    est = _size(det, grays, source)
-    fine = cfg.for_animals(est.length_px / cfg.ant_length_mm)
-    if fine.downsample < cfg.downsample and "downsample" not in (options or {}):
-        det = ClassicalDetector(1.0, fine)
-        det._background(grays)
-        again = _size(det, grays, source)
-        est = again if again.length_px > 0.75 * est.length_px else est
-    return est
-
-
-def _size(det: ClassicalDetector, grays: list[np.ndarray], source: str) -> SizeEstimate:
-    """:func:`estimate_length_px` on the full frames ``grays``, background learned."""
-    cfg = det.config
-    smalls = [det._small(g) for g in grays]
-    gm = [(g, det._contrast_map(s)) for g, s in zip(grays, smalls, strict=True)]
-    thr = det._noise_threshold(smalls)
-
-    def blobs(t: float) -> list[_Blobs]:
-        return [det._measure(g, *m, t, _MIN_BLOB, split=False) for g, m in gm]
-
-    clear = math.nan
-    if cfg.threshold is not None:
-        thr = cfg.threshold
-    else:
-        first = blobs(thr)
-        peaks = np.concatenate([b.peak for b in first])
-        if peaks.size >= 3:
-            w = np.concatenate([b.area for b in first])
-            peak = _weighted_median(peaks, w)
-            clear = peak / thr if thr > 0 else math.inf  # thr: the noise threshold still
-            thr = max(thr, cfg.peak_fraction * peak)
-    found = blobs(thr)
-    area = np.concatenate([b.area for b in found])
-    span = np.concatenate([b.span for b in found])
-    if area.size < 3:
-        raise NoBlobsError(
-            f"{source}: cannot measure the animals' size: {area.size} moving blob(s) in "
-            f"the first {len(grays)} sampled frames; {NOTHING_FOUND_HINT}"
-        )
-    ref = typical_area(area)
-    sel = (area > ref / 2.5) & (area < ref * 2.5)
-    # The same blobs again, weighted by their contrast alone (peak_fraction 0).
-    px = (blob_pixels(g, *m, thr, _MIN_BLOB, cfg.downsample, det._offsets, 0.0, det._contrast)
-          for g, m in gm)  # fmt: skip
-    length = median_length(px, (ref / 2.5, ref * 2.5))
-    fill = float(np.median(area[sel] * cfg.downsample**2 / np.maximum(span[sel], 1.0) ** 2))
-    singles = [b.points[(b.area > ref / 2.5) & (b.area < ref * 2.5), 1] for b in found]
-    look = _look_length(smalls, singles, length, cfg)
-    return SizeEstimate(
-        length, int(area.size), int(sel.sum()), float(thr), fill, float(clear), look
-    )
-
-
-#: Grey levels by which blobs must stand out of their spatial background (median at
-#: their centres) to be measured in the picture (:func:`_look_length`): below it the
-#: mask at half their response is the floor's texture.
-_LOOK_MIN_GREY = 4.0
-
-
-def _look_length(
-    smalls: list[np.ndarray], centres: list[np.ndarray], length: float, cfg: ClassicalConfig
-) -> float:
-    """The median length (px, full resolution) in the picture itself of the blobs whose
-    body centres (full-resolution px) are ``centres`` in the working-resolution frames
-    ``smalls``: against a spatial background (a grey opening for light animals, a
-    closing for dark ones, over a disc of 3 ``length``), which holds no animal whether
-    it moves or not, the connected pixels above half the centres' median response that
-    hold each centre, 4 standard deviations along their major axis.  Hand-written: no
-    library measures a blob's length in a picture from a point inside it.
-
-    NaN when no centre is found, or none stands out of the picture by
-    :data:`_LOOK_MIN_GREY`.  Measured (the ratio to the length from the background):
-    SLEAP's flies walking, beelab's ants, drawn and rendered ants, 1.07-1.17; SLEAP's
-    flies standing nearly still for 6 s (their moving wings and legs were the blobs:
-    32.5 px against 70 px), 2.0-2.6."""
-    import cv2
-
-    # At most a 41-px disc: the frames shrunk further for large animals (the cost of a
-    # grey opening grows with the disc).
-    if not (math.isfinite(length) and length > 0):
-        return math.nan
-    f = cfg.downsample * max(1.0, 3 * length / cfg.downsample / 41)
-    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(3 * length / f) | 1,) * 2)
-    op = cv2.MORPH_TOPHAT if cfg.polarity == "light" else cv2.MORPH_BLACKHAT
-    lengths = []
-    for small, c in zip(smalls, centres, strict=True):
-        if not len(c):
-            continue
-        shrink = cfg.downsample / f
-        if shrink < 1:
-            small = cv2.resize(small, None, fx=shrink, fy=shrink, interpolation=cv2.INTER_AREA)
-        resp = cv2.morphologyEx(small.astype(np.float32), op, k)
-        at = np.clip((c / f).astype(int), 0, np.array(resp.shape[::-1]) - 1)
-        own = float(np.median(resp[at[:, 1], at[:, 0]]))
-        if own < _LOOK_MIN_GREY:  # blobs that do not stand out in the picture: no look
-            continue
-        mask = (resp > 0.5 * own).astype(np.uint8)
-        _, lab = cv2.connectedComponents(mask, connectivity=8)
-        for label in np.unique(lab[at[:, 1], at[:, 0]]):
-            ys, xs = np.nonzero(lab == label) if label else ((), ())
-            if len(xs) >= 5:
-                top = np.linalg.eigvalsh(np.cov(np.stack([xs, ys]).astype(float)))[-1]
-                lengths.append(4.0 * f * np.sqrt(top))
-    return float(np.median(lengths)) if lengths else math.nan
 
 
 #: The likely reasons when nothing is detected (appended to the one-line error).

@@ -17,7 +17,7 @@ written are the detections' own, the tracker's unit of length is the objects' si
 measured from the boxes, and the frames keep the input's numbering.
 
 Without a scale ``px_per_mm`` the animals' body length is measured from the video
-(:func:`~thermoswarm.tracking.detect.classical.estimate_length_px`); the tracker works in body
+(:func:`~thermoswarm.tracking.detect.size.estimate_length_px`); the tracker works in body
 lengths either way.  :func:`detect_inputs` runs the same detectors without the tracker
 and writes COCO keypoints and MOTChallenge detections (``thermoswarm detect``).
 

@@ -16,10 +16,10 @@ from thermoswarm.errors import InputError, NoBlobsError
 from thermoswarm.tracking import anatomy
 from thermoswarm.tracking.detect.classical import (
     NOTHING_FOUND_HINT,
-    estimate_length_px,
     make_detector,
 )
 from thermoswarm.tracking.detect.register import RegisteredSource
+from thermoswarm.tracking.detect.size import estimate_length_px
 from thermoswarm.tracking.track.tracker import TrackerConfig, TrackResult
 
 #: Smallest share of its length squared that a single animal's blob fills (lines below).
@@ -235,7 +235,7 @@ def build_detector(
     that does (:func:`_samples`).
 
     Without a scale the animals' body length is measured first from the same frames
-    (:func:`~thermoswarm.tracking.detect.classical.estimate_length_px`, with the classical
+    (:func:`~thermoswarm.tracking.detect.size.estimate_length_px`, with the classical
     detector's options when the detector is the classical one) and the detector is
     built at the scale that makes the paper's ant that long.  Returns the detector
     and ``{"px_per_mm", "length_px", "scale_source", "n_blobs", "prepare_frames"}``

@@ -52,7 +52,7 @@ import numpy as np
 
 from thermoswarm.errors import InputError
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.detect.classical import estimate_length_px
+from thermoswarm.tracking.detect.size import estimate_length_px
 from thermoswarm.tracking.pipeline.common import build_detector
 
 __all__ = [

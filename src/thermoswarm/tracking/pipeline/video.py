@@ -111,7 +111,7 @@ def track_video(
         Output folder (created with its parents).
     px_per_mm, length_px
         Image scale (px per mm); ``None``: the animals' body length is ``length_px``, or
-        measured from the video (:func:`~.detect.classical.estimate_length_px`), and
+        measured from the video (:func:`~.detect.size.estimate_length_px`), and
         ``tracks.nc`` is written in px (``space_unit = "px"``).
     fps
         Frame rate (frames/s); default the video's own (required for folders of frames).
