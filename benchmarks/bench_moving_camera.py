@@ -8,7 +8,8 @@ compared with the truth (the still clip's own tracks, mapped into the first fram
 Writes OUT_DIR/moved.mp4, OUT_DIR/still/ and OUT_DIR/moved/ (``track_video``
 outputs) and prints the path error (px at the frame corners), and for the still
 clip's tracked body points in the view: the share within half a body length of a
-moved-clip track point, and the median distance.
+moved-clip track point, and the median distance; each run's body length, the same
+blobs' length in the picture and its number of warnings.
 """
 
 from __future__ import annotations
@@ -125,6 +126,9 @@ def main() -> None:
         "within_half_body": float(np.mean(near)),
         "median_px": float(np.median(dist)),
         "length_px": fmt,
+        # The same blobs measured in the picture itself, and the runs' warnings.
+        "picture_length_px": {k: r.get("picture_length_px") for k, r in runs.items()},
+        "warnings": {k: len(r["warnings"]) for k, r in runs.items()},
     }
     print(json.dumps(res, indent=1))
 

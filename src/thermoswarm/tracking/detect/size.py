@@ -179,18 +179,18 @@ def _look_length(
     32.5 px against 70 px), 2.0-2.6."""
     import cv2
 
-    # At most a 41-px disc: the frames shrunk further for large animals (the cost of a
-    # grey opening grows with the disc).
     if not (math.isfinite(length) and length > 0):
         return math.nan
+    # At most a 41-px disc: the frames shrunk further for large animals (the cost of a
+    # grey opening grows with the disc).  ``f``: full-resolution px per px measured.
     f = cfg.downsample * max(1.0, 3 * length / cfg.downsample / 41)
+    shrink = cfg.downsample / f
     k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(3 * length / f) | 1,) * 2)
     op = cv2.MORPH_TOPHAT if cfg.polarity == "light" else cv2.MORPH_BLACKHAT
     lengths = []
     for small, c in zip(smalls, centres, strict=True):
         if not len(c):
             continue
-        shrink = cfg.downsample / f
         if shrink < 1:
             small = cv2.resize(small, None, fx=shrink, fy=shrink, interpolation=cv2.INTER_AREA)
         resp = cv2.morphologyEx(small.astype(np.float32), op, k)

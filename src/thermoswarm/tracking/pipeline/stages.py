@@ -307,12 +307,12 @@ def _warnings(
         (out / "WARNING.txt").unlink(missing_ok=True)  # an earlier run's
         return [], add_warning(out, series["note"])
     warned = warn_no_track(result.n_tracks, per_frame, rate, tracker, out)
-    if still_bg and result.n_tracks:
+    if not still_bg:
+        return [], warned
+    if result.n_tracks:
         det = result.scores > 0  # tracked and detected there
         per = np.bincount(result.frames[det], minlength=result.n_frames)
         ins = inner_ends(result.ids[det], result.frames[det], result.points[det, 1],
                          run["src"].size, length)  # fmt: skip
         warned += add_warning(out, few_found_warning(per, ins))
-    if still_bg:
-        warned += add_warning(out, still_look_warning(run["scale"]))
-    return [], warned
+    return [], warned + add_warning(out, still_look_warning(run["scale"]))
