@@ -19,7 +19,7 @@ import numpy as np
 
 from thermoswarm.tracking import anatomy
 
-__all__ = ["typical_area", "axis_lengths", "median_length"]
+__all__ = ["typical_area", "axis_lengths", "median_length", "spatial_response", "parts_at"]
 
 #: One measured part: points, head confidence, span, area, peak, split flag, hint.
 Part = tuple[np.ndarray, ...]
@@ -492,3 +492,25 @@ def _from_free_end(
             body = hi - (anatomy.FRONT * length + widen)
         out[j] = p[j, 1] + (body + offsets) * u
     return out
+
+
+def spatial_response(grey: np.ndarray, diameter: float, light: bool) -> np.ndarray:
+    """How far each pixel of ``grey`` (float32) stands out of its own surroundings: a
+    grey top-hat (``light`` animals) or black-hat (dark ones) over a disc of
+    ``diameter`` px, i.e. the frame against a spatial background, which holds no animal
+    whether it moves or not (unlike a background learned over time)."""
+    import cv2
+
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(diameter) | 1,) * 2)
+    return cv2.morphologyEx(grey, cv2.MORPH_TOPHAT if light else cv2.MORPH_BLACKHAT, k)
+
+
+def parts_at(resp: np.ndarray, at: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """The connected parts (8-connected) of ``resp`` above half its median at the pixels
+    ``at`` ``(n, 2)`` (x, y; inside the image): OpenCV's ``(n, labels, stats,
+    centroids)``, label 0 the rest."""
+    import cv2
+
+    own = float(np.median(resp[at[:, 1], at[:, 0]]))
+    mask = (resp > 0.5 * own).astype(np.uint8)
+    return cv2.connectedComponentsWithStats(mask, connectivity=8)

@@ -26,6 +26,8 @@ from thermoswarm.tracking.detect.blobs import (
     _weighted_median,
     blob_pixels,
     median_length,
+    parts_at,
+    spatial_response,
     typical_area,
 )
 from thermoswarm.tracking.detect.classical import NOTHING_FOUND_HINT, ClassicalDetector
@@ -169,8 +171,9 @@ def _look_length(
     ``smalls``: against a spatial background (a grey opening for light animals, a
     closing for dark ones, over a disc of 3 ``length``), which holds no animal whether
     it moves or not, the connected pixels above half the centres' median response that
-    hold each centre, 4 standard deviations along their major axis.  Hand-written: no
-    library measures a blob's length in a picture from a point inside it.
+    hold each centre (:func:`~.blobs.spatial_response`, :func:`~.blobs.parts_at`), 4
+    standard deviations along their major axis.  Hand-written: no library measures a
+    blob's length in a picture from a point inside it.
 
     NaN when no centre is found, or none stands out of the picture by
     :data:`_LOOK_MIN_GREY`.  Measured (the ratio to the length from the background):
@@ -185,21 +188,17 @@ def _look_length(
     # grey opening grows with the disc).  ``f``: full-resolution px per px measured.
     f = cfg.downsample * max(1.0, 3 * length / cfg.downsample / 41)
     shrink = cfg.downsample / f
-    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(3 * length / f) | 1,) * 2)
-    op = cv2.MORPH_TOPHAT if cfg.polarity == "light" else cv2.MORPH_BLACKHAT
     lengths = []
     for small, c in zip(smalls, centres, strict=True):
         if not len(c):
             continue
         if shrink < 1:
             small = cv2.resize(small, None, fx=shrink, fy=shrink, interpolation=cv2.INTER_AREA)
-        resp = cv2.morphologyEx(small.astype(np.float32), op, k)
+        resp = spatial_response(small.astype(np.float32), 3 * length / f, cfg.polarity == "light")
         at = np.clip((c / f).astype(int), 0, np.array(resp.shape[::-1]) - 1)
-        own = float(np.median(resp[at[:, 1], at[:, 0]]))
-        if own < _LOOK_MIN_GREY:  # blobs that do not stand out in the picture: no look
+        if np.median(resp[at[:, 1], at[:, 0]]) < _LOOK_MIN_GREY:  # not seen in the picture
             continue
-        mask = (resp > 0.5 * own).astype(np.uint8)
-        _, lab = cv2.connectedComponents(mask, connectivity=8)
+        lab = parts_at(resp, at)[1]
         for label in np.unique(lab[at[:, 1], at[:, 0]]):
             ys, xs = np.nonzero(lab == label) if label else ((), ())
             if len(xs) >= 5:

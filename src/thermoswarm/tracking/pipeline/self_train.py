@@ -24,9 +24,11 @@ detector does see:
 A re-run into the same ``OUT`` whose classical pass gives the same labels (frames,
 animals, length) with the same steps and seed uses the model there (``reused``).
 
-Animals the classical pass never tracks are unlabelled in the label frames, which
-teaches "no animal" there: the label frames are those with the most animals found,
-so that in a clip where every animal moves at some time they hold every animal.
+Animals the classical pass never tracks are unlabelled in the label frames: the label
+frames are those with the most animals found, so that in a clip where every animal
+moves at some time they hold every animal, and blobs that stand out of their own
+surroundings as the labelled animals do but hold no label (an animal that never moves)
+are left out of training's "no animal" (:func:`_unlabelled_spots`).
 """
 
 from __future__ import annotations
@@ -104,16 +106,15 @@ def _unlabelled_spots(frame: np.ndarray, points: np.ndarray) -> np.ndarray:
     animals) is the one on which the labelled body points stand out more."""
     import cv2
 
+    from thermoswarm.tracking.detect.blobs import parts_at, spatial_response
+
     length = anatomy.ANT_LENGTH_MM * MODEL_PX_PER_MM
     grey = frame.astype(np.float32).mean(-1)
-    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(1.5 * length) | 1,) * 2)
-    light = cv2.morphologyEx(grey, cv2.MORPH_TOPHAT, k)
-    dark = cv2.morphologyEx(grey, cv2.MORPH_BLACKHAT, k)
+    light, dark = (spatial_response(grey, 1.5 * length, side) for side in (True, False))
     body = np.clip(points[:, 1].round().astype(int), 0, np.array(grey.shape[::-1]) - 1)
     at = [r[body[:, 1], body[:, 0]] for r in (light, dark)]
-    resp, own = (light, at[0]) if np.median(at[0]) >= np.median(at[1]) else (dark, at[1])
-    mask = (resp > 0.5 * float(np.median(own))).astype(np.uint8)
-    n, lab, stats, cents = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    resp = light if np.median(at[0]) >= np.median(at[1]) else dark
+    n, lab, stats, cents = parts_at(resp, body)
     labelled = np.unique(lab[body[:, 1], body[:, 0]])
     area = np.median(stats[labelled[labelled > 0], cv2.CC_STAT_AREA]) if labelled.any() else 0
     keep = [
