@@ -13,11 +13,8 @@ from thermoswarm.cli import cli
 from thermoswarm.errors import InputError
 from thermoswarm.io import read_tracks
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.detect.classical import (
-    ClassicalConfig,
-    ClassicalDetector,
-    estimate_length_px,
-)
+from thermoswarm.tracking.detect.classical import ClassicalConfig, ClassicalDetector
+from thermoswarm.tracking.detect.size import estimate_length_px
 from thermoswarm.tracking.synth.clip import write_sequence
 
 
