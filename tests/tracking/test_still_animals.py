@@ -239,25 +239,84 @@ def _creeping(path: Path, amp: float, walk: bool) -> Path:
     return path
 
 
+def _near_truth(amp: float, out: Path) -> float:
+    """The share of the two creeping ellipses' frames (centres known) with a tracked
+    body point within a quarter of their 40-px length."""
+    from thermoswarm.io.mot import read_mot_table
+
+    t = read_mot_table(out / "tracks_mot.txt")
+    hit = 0
+    for k in range(60):
+        rows = t[t[:, 0] == k + 1]
+        c = rows[:, 2:4] + rows[:, 4:6] / 2
+        for y, phase in ((60, 0.0), (140, 2.0)):
+            x = 60 + amp * np.sin(k / 2 + phase)
+            hit += bool(len(c)) and np.hypot(c[:, 0] - x, c[:, 1] - y).min() <= 10
+    return hit / 120
+
+
 @pytest.mark.parametrize("amp", [3.0, 5.0])
-def test_animals_that_stood_nearly_still_are_named(tmp_path, amp):
+def test_animals_that_stood_nearly_still_are_found_in_the_picture(tmp_path, amp):
     """Animals that only creep in the frames the background is learned from are partly
     background: only their moving ends are blobs (about 16-18 px of a 40 px body).  In
-    the picture itself they are 40 px long, and the run says so (SLEAP's two flies
-    standing nearly still for 6 s: 32.5 px measured, 65 px in the picture, 6 tracks);
-    walking animals get no such warning.  At 5 px of creep the clip was refused before
-    as a camera that "moved up to 611 px and turned up to 131.5 deg": a path measured
-    from the two animals on the plain floor, now checked against a still camera first."""
-    from thermoswarm.tracking.pipeline.flood import STILL_LOOK
+    the picture itself they are 40 px long, so the run compares each frame with its own
+    surroundings instead (``background`` ``"picture"``), finds both whole, and says so
+    (SLEAP's two flies standing nearly still for 6 s: 32.5 px moved, 65 px in the
+    picture; 6 tracks of pieces before, 2 tracks and every labelled fly point found
+    now).  ``--set detector.background=time`` keeps the pieces, and the warning names
+    the option; walking animals get neither.  At 5 px of creep the clip was refused
+    before as a camera that "moved up to 611 px and turned up to 131.5 deg": a path
+    measured from the two animals on the plain floor, now checked against a still
+    camera first."""
+    from thermoswarm.tracking.detect.size import STILL_LOOK
 
-    s = track_video(_creeping(tmp_path / "creep.mp4", amp, False), tmp_path / "c",
-                    overlay=False)  # fmt: skip
-    assert s["length_px"] < 0.6 * 40, s["length_px"]  # pieces: what moved
+    clip = _creeping(tmp_path / "creep.mp4", amp, False)
+    s = track_video(clip, tmp_path / "c", overlay=False)
+    assert s["background"] == "picture"
+    assert abs(s["moved_length_px"] - 40) > 0.4 * 40, s["moved_length_px"]  # pieces moved
     assert abs(s["picture_length_px"] - 40) <= 4, s["picture_length_px"]
-    assert s["moved_length_px"] == s["length_px"]  # no scale: the length is what moved
-    said = [w for w in s["warnings"] if "look" in w and "stood nearly still" in w]
-    assert len(said) == 1 and said[0] in (tmp_path / "c" / "WARNING.txt").read_text()
+    assert s["length_px"] == s["picture_length_px"]  # no scale: the length in the picture
+    assert s["n_tracks"] == 2
+    assert _near_truth(amp, tmp_path / "c") == 1.0
+    said = [w for w in s["warnings"] if "stood nearly still" in w]
+    assert len(said) == 1 and "background=picture" in said[0], said
+    assert said[0] in (tmp_path / "c" / "WARNING.txt").read_text()
+    # Kept over time: what moved is the animals' ends, and the warning says what to try.
+    kept = track_video(clip, tmp_path / "t", overlay=False,
+                       detector_options={"background": "time"})  # fmt: skip
+    assert kept["background"] == "time" and kept["length_px"] == kept["moved_length_px"]
+    assert kept["length_px"] < 0.6 * 40, kept["length_px"]
+    said = [w for w in kept["warnings"] if "stood nearly still" in w]
+    assert len(said) == 1 and "--set detector.background=picture" in said[0], said
     walking = track_video(_creeping(tmp_path / "walk.mp4", 0.0, True), tmp_path / "w",
                           overlay=False)  # fmt: skip
     assert walking["picture_length_px"] < STILL_LOOK * walking["moved_length_px"]
+    assert walking["background"] == "time"
     assert not any("stood nearly still" in w for w in walking["warnings"]), walking["warnings"]
+
+
+@pytest.mark.parametrize("length", [10.0, 40.0])
+def test_picture_background_holds_no_animal_and_keeps_steps(length):
+    """The spatial background (a grey closing over a disc of 3 body lengths; for a
+    40-px animal over a frame shrunk to keep the disc 41 px) holds none of a still dark
+    animal, and a wide step in the floor stays background along its whole edge: no
+    pixel there differs from it by the relative contrast of a faint animal (0.1; the
+    step's own is 0.5)."""
+    import cv2
+
+    from thermoswarm.tracking.detect.blobs import picture_background
+
+    left = np.broadcast_to(np.arange(300)[None, :] < 150, (300, 300))
+    floor = np.where(left, 180.0, 90.0).astype(np.float32)  # a wide step: two floors
+    body = np.zeros((300, 300), np.uint8)
+    ax = (int(length / 2), max(int(length * 0.15), 2))
+    cv2.ellipse(body, (70, 150), ax, 30, 0, 360, 1, -1)
+    cv2.ellipse(body, (230, 150), ax, -30, 0, 360, 1, -1)
+    on = body > 0
+    img = np.where(on, np.where(left, 60.0, 30.0), floor).astype(np.float32)
+    bg = picture_background(img, 3 * length, light=False)
+    assert np.abs(bg[on] - floor[on]).max() <= 0.05 * 180, "an animal in the background"
+    rel = (bg - img) / np.maximum(bg, 8.0)
+    edge = ~on & (np.abs(np.arange(300)[None, :] - 149.5) < 12)
+    assert rel[edge].max() < 0.1, rel[edge].max()
+    assert rel[on].min() > 0.5  # the animals stand out of it

@@ -12,6 +12,7 @@ short where it touches another ant from its whole end: :func:`_from_free_end`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
@@ -19,7 +20,14 @@ import numpy as np
 
 from thermoswarm.tracking import anatomy
 
-__all__ = ["typical_area", "axis_lengths", "median_length", "spatial_response", "parts_at"]
+__all__ = [
+    "typical_area",
+    "axis_lengths",
+    "median_length",
+    "spatial_response",
+    "picture_background",
+    "parts_at",
+]
 
 #: One measured part: points, head confidence, span, area, peak, split flag, hint.
 Part = tuple[np.ndarray, ...]
@@ -503,6 +511,34 @@ def spatial_response(grey: np.ndarray, diameter: float, light: bool) -> np.ndarr
 
     k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(diameter) | 1,) * 2)
     return cv2.morphologyEx(grey, cv2.MORPH_TOPHAT if light else cv2.MORPH_BLACKHAT, k)
+
+
+#: The widest disc (px) a grey opening or closing is computed over: larger ones on a
+#: frame shrunk to keep it this wide (the cost grows with the disc).
+_MAX_DISC = 41
+
+
+def picture_background(grey: np.ndarray, diameter: float, light: bool) -> np.ndarray:
+    """The spatial background of ``grey`` (float32, returned at its size): a grey
+    opening (``light`` animals) or closing (dark ones) over a disc of ``diameter`` px,
+    which removes every brighter (darker) thing narrower than the disc, animals
+    included, moving or not.  Over a frame shrunk (area averaging) to keep the disc at
+    most :data:`_MAX_DISC` px, then enlarged back (bilinear) and widened by a
+    shrunk pixel toward the animals' side (a dilation for light animals, an erosion
+    for dark ones), so that the steps it blurred are not foreground along their edge."""
+    import cv2
+
+    shrink = min(1.0, _MAX_DISC / max(diameter, 1.0))
+    small = grey
+    if shrink < 1:
+        small = cv2.resize(grey, None, fx=shrink, fy=shrink, interpolation=cv2.INTER_AREA)
+    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(diameter * shrink) | 1,) * 2)
+    bg = cv2.morphologyEx(small, cv2.MORPH_OPEN if light else cv2.MORPH_CLOSE, k)
+    if shrink < 1:
+        bg = cv2.resize(bg, grey.shape[::-1], interpolation=cv2.INTER_LINEAR)
+        r = math.ceil(1 / shrink)
+        bg = (cv2.dilate if light else cv2.erode)(bg, np.ones((2 * r + 1,) * 2, np.uint8))
+    return bg.astype(np.float32, copy=False)
 
 
 def parts_at(resp: np.ndarray, at: np.ndarray) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:

@@ -74,6 +74,7 @@ from thermoswarm.tracking.detect.blobs import (
     blob_pixels,
     measure_singles,
     measure_splits,
+    picture_background,
     split_counts,
     typical_area,
 )
@@ -275,6 +276,11 @@ class ClassicalDetector:
     ) -> tuple[np.ndarray, np.ndarray]:
         import cv2
 
+        if self.config.background == "picture":
+            expected = picture_background(
+                small, 3 * self._length / self.config.downsample, self.config.polarity == "light"
+            )
+            return self._contrast(small, expected), expected
         expected = (self._bg * self._gain(small, self._bg)).astype(np.float32)
         r = self.config.shift_px if shift else 0
         if r:
@@ -450,7 +456,7 @@ class ClassicalDetector:
         small = self._small(gray)
         con, expected = self._contrast_map(small)
         b = self._measure(gray, con, expected, self._thr, c.min_area * self._area1, hints=hints)
-        if c.bg_rate > 0:
+        if c.bg_rate > 0 and c.background == "time":
             fg = (con > 0.5 * self._thr).view(np.uint8)
             fg = cv2.dilate(fg, np.ones((5, 5), np.uint8))
             cv2.accumulateWeighted(small, self._bg, c.bg_rate, mask=1 - fg)

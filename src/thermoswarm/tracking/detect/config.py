@@ -47,6 +47,15 @@ class ClassicalConfig:
     jitter between photos or video frames does not turn its edges into blobs.
     ``join_split``: join two blobs that are the two ends of one body split at its
     waist into one detection (:mod:`~.join`).
+    ``background``: what each frame is compared with: ``"time"``, the background
+    learned over the prepared frames (what moves); ``"picture"``, the frame's own
+    spatial background, a grey closing (dark animals) or opening (light ones) over a
+    disc of 3 body lengths, which holds no animal whether it moves or not, nor
+    anything else narrower than that disc that stands out of its surroundings
+    (specks, thin lines, small objects are found with the animals; wide areas and
+    the steps between them are background).  The pipeline chooses ``"picture"`` itself where
+    the animals stood nearly still while the background was learned
+    (:attr:`~.size.SizeEstimate.stood_still`).
     """
 
     ant_length_mm: float = anatomy.ANT_LENGTH_MM
@@ -68,6 +77,7 @@ class ClassicalConfig:
     gain_grid: int = 24
     shift_px: int = 0
     join_split: bool = True
+    background: Literal["time", "picture"] = "time"
 
     def __post_init__(self) -> None:
         for name in ("ant_length_mm", "ant_width_mm", "threshold_sigmas", "split_area"):

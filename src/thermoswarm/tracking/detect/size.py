@@ -65,6 +65,20 @@ class SizeEstimate:
     clear: float = math.nan
     look_px: float = math.nan
 
+    @property
+    def stood_still(self) -> bool:
+        """Whether the blobs look more than :data:`STILL_LOOK` times longer in the
+        picture than what moved: the animals stood nearly still where the background
+        was learned, and only their moving parts differ from it."""
+        return bool(self.look_px > STILL_LOOK * self.length_px)
+
+
+#: How many times longer than what moved the animals may look in the picture before
+#: they count as standing still where the background was learned (whole animals that
+#: moved: 1.07-1.17 on SLEAP's flies, beelab's ants, drawn and rendered ants; SLEAP's
+#: flies standing nearly still for 6 s, their wings and legs the moving blobs, 2.0-2.6).
+STILL_LOOK = 1.5
+
 
 def estimate_length_px(
     frames: Iterable[np.ndarray], options: Mapping[str, Any] | None = None, source: str = "video"

@@ -283,6 +283,16 @@ def build_detector(
             est, sample = _measure_size(src, samples, total, n_prep, options, keep, expect)
     if est is not None and classical:  # what moved, and the same blobs in the picture
         info.update(moved_length_px=est.length_px, picture_length_px=est.look_px)
+        if est.stood_still and "background" not in (options or {}):
+            # Only the still animals' moving parts differ from a background learned
+            # over time; each frame's own surroundings hold none of them (SLEAP's
+            # flies nearly still for 6 s: 2 tracks, every fly point found, against 6
+            # tracks of pieces).  The body length is then the one in the picture.
+            options = {**(options or {}), "background": "picture"}
+            if info["scale_source"] == "measured":
+                px_per_mm = est.look_px / anatomy.ANT_LENGTH_MM
+    if classical:
+        info["background"] = (options or {}).get("background", "time")
     det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
     prepare = getattr(det, "prepare", None)
     if prepare is not None:

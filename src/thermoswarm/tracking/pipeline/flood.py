@@ -30,6 +30,10 @@ tracks hold, on average over the frames, under ``FEW_FOUND`` of the most animals
 tracked at once (:func:`few_found_warning`), and the tracks begin and end inside the
 picture (not animals walking through it), the animals may have stood still part of the time;
 the warning names ``--detector self-trained``, which finds them by their look.
+Where they stood nearly still in the very frames the background was learned from (they
+look much longer in the picture than what moved), the pipeline compares each frame with
+its own spatial background instead, and :func:`still_look_warning` says so; the
+flicker check is then skipped (such a detector finds what stands still).
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ import numpy as np
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_text
 from thermoswarm.tracking import anatomy
+from thermoswarm.tracking.detect.size import STILL_LOOK
 
 __all__ = [
     "flood_reasons",
@@ -227,30 +232,37 @@ def add_warning(out: Path, text: str | None) -> list[str]:
     return [text]
 
 
-#: How many times longer than what moved the animals may look in the picture before a
-#: run says they stood still where the background was learned (whole animals that
-#: moved: 1.07-1.17 on SLEAP's flies, beelab's ants, drawn and rendered ants; SLEAP's
-#: flies standing nearly still for 6 s, their wings and legs the moving blobs, 2.0-2.6).
-STILL_LOOK = 1.5
-
-
 def still_look_warning(scale: dict[str, Any]) -> str | None:
-    """The warning for a background-subtracting detector's run whose animals look more
-    than :data:`STILL_LOOK` times longer in the picture (``scale["picture_length_px"]``)
-    than what moved in the frames its background was learned from
-    (``scale["moved_length_px"]``, ``scale["prepare_frames"]``); ``None`` otherwise."""
+    """The warning for a classical detector's run whose animals look more than
+    :data:`~thermoswarm.tracking.detect.size.STILL_LOOK` times longer in the picture
+    (``scale["picture_length_px"]``) than what moved in the frames its background was
+    learned from (``scale["moved_length_px"]``, ``scale["prepare_frames"]``): what was
+    done about it (``scale["background"]``, ``"picture"`` when the pipeline compared
+    each frame with its own surroundings instead), or what to do; ``None`` otherwise."""
     moved, look = scale.get("moved_length_px"), scale.get("picture_length_px")
     if not moved or not look or not look > STILL_LOOK * moved:
         return None
     first, last = scale.get("prepare_frames") or ("?", "?")
-    return (
+    said = (
         f"the animals look {look:.0f} px long in the picture, {look / moved:.1f} times the "
         f"{moved:.1f} px of what moved in frames {first}-{last}, where the background was "
         "learned: they stood nearly still there, so only their moving parts (legs, "
-        "wings, antennae) differ from it, and the body length, the detections and the "
-        "tracks may be pieces of animals. Track a stretch where they walk, or a longer "
-        "clip (the background is then learned from frames spread over its first minute); "
-        "--px-per-mm sets the length but not the pieces"
+        "wings, antennae) differ from it"
+    )
+    if scale.get("background") == "picture":
+        return (
+            f"{said}. So each frame was compared with its own surroundings instead "
+            f"(detector.background=picture, body length {scale['length_px']:.0f} px): "
+            "animals are found whether they move or not, and so is any still thing of "
+            "their size that stands out of its surroundings (specks, small objects); "
+            "check the overlay. --set detector.background=time keeps the background "
+            "learned over time"
+        )
+    return (
+        f"{said}, and the body length, the detections and the tracks may be pieces of "
+        "animals. --set detector.background=picture compares each frame with its own "
+        "surroundings instead (animals found whether they move or not); or track a "
+        "stretch where they walk"
     )
 
 

@@ -270,6 +270,7 @@ def write_video_outputs(
         scale_source=scale["scale_source"],
         prepare_frames=scale.get("prepare_frames"),
         prepare_step=scale.get("prepare_step"),
+        background=scale.get("background"),
         moved_length_px=scale.get("moved_length_px"),
         picture_length_px=scale.get("picture_length_px"),
         space_unit="mm" if px_per_mm is not None else "px",
@@ -296,7 +297,12 @@ def _warnings(
     check compares detections one second apart, which photos far apart are not."""
     dets, rate, series = run["dets"], run["rate"], run.get("series")
     per_frame = np.bincount(dets[:, 0].astype(np.int64) - 1, minlength=result.n_frames)
-    still_bg = det_name == "classical" and series is None  # finds what moves
+    # Finds what moves (the classical detector against a background learned over time).
+    still_bg = (
+        det_name == "classical"
+        and series is None
+        and (run["scale"].get("background", "time") == "time")
+    )
     length = run["scale"]["length_px"]
     reasons = flood_reasons(
         per_frame, run["src"].size, length, dets if still_bg else None, fps=rate
@@ -307,8 +313,9 @@ def _warnings(
         (out / "WARNING.txt").unlink(missing_ok=True)  # an earlier run's
         return [], add_warning(out, series["note"])
     warned = warn_no_track(result.n_tracks, per_frame, rate, tracker, out)
-    if not still_bg:
-        return [], warned
+    if not still_bg:  # the classical detector on the picture says what it did
+        look = still_look_warning(run["scale"]) if series is None else None
+        return [], warned + add_warning(out, look)
     if result.n_tracks:
         det = result.scores > 0  # tracked and detected there
         per = np.bincount(result.frames[det], minlength=result.n_frames)
