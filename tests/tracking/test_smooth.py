@@ -68,3 +68,29 @@ def test_too_few_rows_or_no_noise_leave_the_boxes_as_detected(rng):
 
 def test_the_pedestrians_preset_writes_the_detections_boxes():
     assert preset("ants").smooth and not preset("pedestrians").smooth
+
+
+def test_each_track_is_smoothed_with_its_own_acceleration(rng):
+    """A colony of calm walkers (acceleration sd 100 px/s^2) and a few runners that
+    turn hard (1,600 px/s^2), all detected with the same 2-px noise.  With the
+    colony's acceleration for every track the runners' turns are cut (their smoothed
+    centres end up farther from the truth than their detections) and the walkers,
+    smoothed for the runners' turns, gain less; measured on each track (shrunk toward
+    the colony's), both gain.  RMS error smoothed / detected over 20 seeds of this
+    generator, mean +- sd: runners 0.857 +- 0.010 (before 1.107 +- 0.026), walkers
+    0.571 +- 0.005 (before 0.647 +- 0.005); the bounds sit over 5 sds above now and
+    below before."""
+    calm = _tracks(rng, n_tracks=180, accel=100.0)
+    fast = _tracks(rng, n_tracks=20, accel=1600.0)
+    frames = np.r_[calm[0], fast[0]]
+    ids = np.r_[calm[1], fast[1] + 180]
+    boxes = np.r_[calm[2], fast[2]]
+    truth = np.r_[calm[3], fast[3]]
+    out = smooth_boxes(frames, ids, boxes, np.zeros(ids.size, bool), fps=FPS, speed_px_s=50)
+
+    def rms(b, sel):
+        return np.sqrt(np.mean((b[sel, :2] + 10 - truth[sel]) ** 2))
+
+    runners = ids >= 180
+    assert rms(out, runners) < 0.95 * rms(boxes, runners)
+    assert rms(out, ~runners) < 0.62 * rms(boxes, ~runners)
