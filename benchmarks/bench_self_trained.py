@@ -1,5 +1,9 @@
 """``track --detector self-trained`` beside the classical detector, on real pixels.
 
+Three rows each: the classical detector (its background learned over time), the same
+with ``detector.background=picture`` (each frame against its own surroundings) and
+the self-trained U-Net.
+
 ``frozen``: SLEAP's two-fly clip as shipped in ``tests/data/sleap_fly_clip`` (500
 frames, 10 frames/s, 256 x 256), with fly 1 frozen where it stood in frame 1
 (``tests/tracking/test_self_trained.py``'s clip): the classical detector, which finds
@@ -54,19 +58,26 @@ def _run(video: Path, out: Path, truth: np.ndarray, overlay: bool = False, **kw)
 
 
 def both(video: Path, truth: np.ndarray, tmp: Path, **kw) -> dict:
-    """The classical detector's row and the self-trained one's."""
+    """The classical detector's row, the same with the picture background (each frame
+    against its own surroundings: ``detector.background=picture``) and the self-trained
+    one's."""
+    pic = {
+        **kw,
+        "detector_options": {**(kw.get("detector_options") or {}), "background": "picture"},
+    }
     return {
         "classical": _run(video, tmp / "c", truth, **kw),
+        "classical, picture background": _run(video, tmp / "p", truth, **pic),
         "self-trained": _run(video, tmp / "s", truth, detector="self-trained", **kw),
     }
 
 
 def figure(tmp: Path, path: Path, frame: int = 200, scale: int = 2) -> None:
-    """Frame ``frame`` of both runs' overlays side by side, enlarged ``scale`` times."""
+    """Frame ``frame`` of the three runs' overlays side by side, enlarged ``scale`` times."""
     import cv2
 
     panels = []
-    for sub, title in (("c", "classical"), ("s", "self-trained")):
+    for sub, title in (("c", "classical"), ("p", "picture bg"), ("s", "self-trained")):
         cap = cv2.VideoCapture(str(tmp / sub / "overlay.mp4"))
         cap.set(cv2.CAP_PROP_POS_FRAMES, frame - 1)
         ok, img = cap.read()
@@ -76,7 +87,7 @@ def figure(tmp: Path, path: Path, frame: int = 200, scale: int = 2) -> None:
                     (255, 255, 255), 2, cv2.LINE_AA)  # fmt: skip
         panels.append(img)
     gap = np.full((panels[0].shape[0], 8, 3), 255, np.uint8)
-    cv2.imwrite(str(path), np.hstack([panels[0], gap, panels[1]]))
+    cv2.imwrite(str(path), np.hstack([panels[0], gap, panels[1], gap, panels[2]]))
 
 
 def moved(video: Path, truth: np.ndarray, out: Path) -> tuple[Path, np.ndarray]:

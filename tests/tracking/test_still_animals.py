@@ -223,14 +223,20 @@ def test_with_a_scale_a_faint_animal_that_fits_beats_specks_that_do_not(tmp_path
     assert _measure_size(src, samples, 160, 30, None, None, 40.0)[1] == (120, 150, 1)
 
 
-def _creeping(path: Path, amp: float, walk: bool) -> Path:
+def _creeping(path: Path, amp: float, walk: bool, specks: int = 0) -> Path:
     """Two dark 40 x 12 px ellipses on a light floor, 60 frames at 10 frames/s: walking
-    2 px a frame, or creeping back and forth by ``amp`` px in place."""
+    2 px a frame, or creeping back and forth by ``amp`` px in place; ``specks`` still
+    dark dots 9 px wide on the floor, away from the ellipses."""
     import cv2
 
+    floor = np.full((200, 200, 3), 180, np.uint8)
+    pts = np.random.default_rng(0).uniform(5, 195, (4 * specks, 2)).astype(int)
+    far = np.minimum(abs(pts[:, 1] - 60), abs(pts[:, 1] - 140)) > 14
+    for x, y in pts[far][:specks]:
+        cv2.circle(floor, (int(x), int(y)), 4, (60, 60, 60), -1)
     w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 10, (200, 200))
     for k in range(60):
-        img = np.full((200, 200, 3), 180, np.uint8)
+        img = floor.copy()
         for y, phase in ((60, 0.0), (140, 2.0)):
             x = 60 + (2 * k if walk else 0) + amp * np.sin(k / 2 + phase)
             cv2.ellipse(img, (int(round(x)), y), (20, 6), 0, 0, 360, (40, 40, 40), -1)
@@ -320,3 +326,39 @@ def test_picture_background_holds_no_animal_and_keeps_steps(length):
     edge = ~on & (np.abs(np.arange(300)[None, :] - 149.5) < 12)
     assert rel[edge].max() < 0.1, rel[edge].max()
     assert rel[on].min() > 0.5  # the animals stand out of it
+
+
+def test_picture_background_asked_for_without_a_scale_measures_what_moves(tmp_path):
+    """``--set detector.background=picture`` without a scale: the body length is that of
+    what moved, measured in the picture (40 px, the creeping ellipses), not the typical
+    blob of the picture itself (here 30 still 9-px specks, every frame's most common
+    blob: 5.0 px and 103 tracks when measured so)."""
+    clip = _creeping(tmp_path / "specks.mp4", 3.0, False, specks=30)
+    s = track_video(clip, tmp_path / "p", overlay=False,
+                    detector_options={"background": "picture"})  # fmt: skip
+    assert s["background"] == "picture"
+    assert abs(s["length_px"] - 40) <= 4, s["length_px"]
+
+
+def test_top_variance_is_each_parts_covariance():
+    """The major-axis variance of many parts at once equals NumPy's sample covariance's
+    largest eigenvalue, part by part."""
+    import cv2
+
+    from thermoswarm.tracking.detect.size import _top_variance
+
+    rng = np.random.default_rng(3)
+    img = np.zeros((200, 200), np.uint8)
+    for _ in range(30):
+        c = (int(rng.uniform(10, 190)), int(rng.uniform(10, 190)))
+        ax = (int(rng.uniform(2, 12)), int(rng.uniform(1, 5)))
+        cv2.ellipse(img, c, ax, float(rng.uniform(0, 180)), 0, 360, 1, -1)
+    n, lab = cv2.connectedComponents(img)
+    held = np.ones(n, bool)
+    held[[0, 3]] = False
+    want = []
+    for label in np.flatnonzero(held):
+        ys, xs = np.nonzero(lab == label)
+        if len(xs) >= 5:
+            want.append(np.linalg.eigvalsh(np.cov(np.stack([xs, ys]).astype(float)))[-1])
+    np.testing.assert_allclose(_top_variance(lab, held), want, rtol=1e-9)

@@ -29,7 +29,8 @@ Nor animals quietly lost in the background: where a background-subtracting detec
 tracks hold, on average over the frames, under ``FEW_FOUND`` of the most animals
 tracked at once (:func:`few_found_warning`), and the tracks begin and end inside the
 picture (not animals walking through it), the animals may have stood still part of the time;
-the warning names ``--detector self-trained``, which finds them by their look.
+the warning names ``--set detector.background=picture`` (each frame against its own
+surroundings) and ``--detector self-trained``, which find them moving or not.
 Where they stood nearly still in the very frames the background was learned from (they
 look much longer in the picture than what moved), the pipeline compares each frame with
 its own spatial background instead, and :func:`still_look_warning` says so; the
@@ -304,7 +305,10 @@ def few_found_warning(per_frame: np.ndarray, inner: float = 1.0) -> str | None:
         f"the tracks hold {mean:.2f} animals a frame on average, while up to {top} "
         f"were tracked at once ({mean / top:.0%}): the detector finds what moves, so "
         "animals that stood still part of the time became the background then (the "
-        "tracks begin and end inside the picture). If they were there, `--detector "
-        "self-trained` learns their look from the frames where they moved and finds them "
-        "still too (a U-Net trained on this video; about a minute of training on 2 cores)"
+        "tracks begin and end inside the picture). If they were there, `--set "
+        "detector.background=picture` compares each frame with its own surroundings "
+        "instead and finds them moving or not, in about the same time (and any still "
+        "thing of their size that stands out of its surroundings: check the overlay); "
+        "`--detector self-trained` learns their look from the frames where they moved "
+        "(a U-Net trained on this video; about a minute of training on 2 cores)"
     )
