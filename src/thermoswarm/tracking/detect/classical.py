@@ -475,7 +475,9 @@ NOTHING_FOUND_HINT = (
     "differ from the background: try --set detector.polarity=light for light "
     "animals on a dark ground, or --set detector.channel=gray), animals that do not "
     "move (the background is learned from frames spread over the clip's first minute"
-    "), or a --model not trained on such footage"
+    "; --set detector.background=picture with --px-per-mm finds animals that never "
+    "move, by their contrast to their surroundings), or a --model not trained on such "
+    "footage"
 )
 
 

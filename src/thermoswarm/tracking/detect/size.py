@@ -22,6 +22,7 @@ import numpy as np
 from thermoswarm.config import from_mapping
 from thermoswarm.errors import ConfigError, InputError, NoBlobsError
 from thermoswarm.tracking.detect.blobs import (
+    _MAX_DISC,
     _Blobs,
     _weighted_median,
     blob_pixels,
@@ -33,7 +34,7 @@ from thermoswarm.tracking.detect.blobs import (
 from thermoswarm.tracking.detect.classical import NOTHING_FOUND_HINT, ClassicalDetector
 from thermoswarm.tracking.detect.config import ClassicalConfig
 
-__all__ = ["SizeEstimate", "estimate_length_px"]
+__all__ = ["SizeEstimate", "estimate_length_px", "looks_still"]
 
 
 #: Smallest blob (working px) that counts when the animals' size is unknown.
@@ -68,9 +69,21 @@ class SizeEstimate:
     @property
     def stood_still(self) -> bool:
         """Whether the blobs look more than :data:`STILL_LOOK` times longer in the
-        picture than what moved: the animals stood nearly still where the background
-        was learned, and only their moving parts differ from it."""
-        return bool(self.look_px > STILL_LOOK * self.length_px)
+        picture than what moved (:func:`looks_still`): the animals stood nearly still
+        where the background was learned, and only their moving parts differ from it."""
+        return looks_still(self.look_px, self.length_px)
+
+    def length_for(self, background: str) -> float:
+        """The body length (px) for a classical detector whose ``background`` is
+        ``"time"`` (what moved: ``length_px``) or ``"picture"`` (the same blobs in the
+        picture, ``look_px``, where it was measured)."""
+        return self.look_px if background == "picture" and self.look_px > 0 else self.length_px
+
+
+def looks_still(look_px: float | None, moved_px: float | None) -> bool:
+    """Whether blobs that moved ``moved_px`` long look more than :data:`STILL_LOOK`
+    times longer in the picture (``look_px``); false where either is unknown."""
+    return bool(look_px and moved_px and look_px > STILL_LOOK * moved_px)
 
 
 #: How many times longer than what moved the animals may look in the picture before
@@ -112,15 +125,19 @@ def estimate_length_px(
     InputError
         When fewer than 3 blobs are found (no moving animals, too little contrast).
     """
+    # Always against the background learned over time: what moves is the measurement,
+    # the picture only its look (a picture background at this unknown scale would
+    # take every speck of the floor for an animal).
+    opts = {k: v for k, v in (options or {}).items() if k != "background"}
     try:
-        cfg = from_mapping(ClassicalConfig, dict(options or {}), source="detector options")
+        cfg = from_mapping(ClassicalConfig, opts, source="detector options")
     except ConfigError as exc:
         raise InputError(str(exc)) from None
     det = ClassicalDetector(1.0, cfg)  # the scale is unused: background and blobs only
     grays = det._background(frames)
     est = _size(det, grays, source)
     fine = cfg.for_animals(est.length_px / cfg.ant_length_mm)
-    if fine.downsample < cfg.downsample and "downsample" not in (options or {}):
+    if fine.downsample < cfg.downsample and "downsample" not in opts:
         det = ClassicalDetector(1.0, fine)
         det._background(grays)
         again = _size(det, grays, source)
@@ -198,9 +215,10 @@ def _look_length(
 
     if not (math.isfinite(length) and length > 0):
         return math.nan
-    # At most a 41-px disc: the frames shrunk further for large animals (the cost of a
-    # grey opening grows with the disc).  ``f``: full-resolution px per px measured.
-    f = cfg.downsample * max(1.0, 3 * length / cfg.downsample / 41)
+    # At most a _MAX_DISC-px disc: the frames shrunk further for large animals (the
+    # cost of a grey opening grows with the disc).  ``f``: full-resolution px per px
+    # measured.
+    f = cfg.downsample * max(1.0, 3 * length / cfg.downsample / _MAX_DISC)
     shrink = cfg.downsample / f
     lengths = []
     for small, c in zip(smalls, centres, strict=True):

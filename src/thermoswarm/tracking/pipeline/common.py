@@ -244,7 +244,7 @@ def build_detector(
     ``prepare_step`` the frames between them; for the classical detector, where the
     size was measured, ``moved_length_px`` and ``picture_length_px``: what moved, and
     the same blobs in the picture, :class:`SizeEstimate`'s ``length_px`` and
-    ``look_px``).
+    ``look_px``; and ``background``: :func:`_choose_background`).
     """
     step = step or (2 if n_prep >= 32 else 1)
     info: dict[str, Any] = {"scale_source": "user", "n_blobs": None}
@@ -262,55 +262,62 @@ def build_detector(
     # scratch run, 0.999 from the spread sample: benchmarks/bench_registration.py whole).
     at = int(registered)
     samples, total = _samples(src, n_prep, step, max_frames, reach, at)
-    picture = classical and (options or {}).get("background") == "picture"
-    if picture and px_per_mm is not None:
-        # Each frame against its own surroundings: no search for frames where animals
-        # move (the first 400 frames of SLEAP's fly clip, the flies still: 19 s of a
-        # 22-s run searched every window for moving blobs).
-        samples = samples[:1]
     sample, keep = samples[0], {}  # keep: the measured sample's frames, decoded once
     est = None
     if px_per_mm is None:
         opts = options if classical else None
-        if picture:  # what moves, then its length in the picture (not every speck's)
-            opts = {k: v for k, v in (options or {}).items() if k != "background"}
         est, sample = _measure_size(src, samples, total, n_prep, opts, keep)
         _not_lines(src, est, registered)
-        length = est.look_px if picture and est.look_px > 0 else est.length_px
-        px_per_mm = length / anatomy.ANT_LENGTH_MM
         info.update(scale_source="measured", n_blobs=est.n_blobs)
     elif not (px_per_mm > 0 and np.isfinite(px_per_mm)):
         raise InputError(f"px_per_mm must be a positive number, got {px_per_mm!r}")
-    elif classical and len(samples) > 1:
+    elif classical and len(samples) > 1 and (options or {}).get("background") != "picture":
         # With a scale too, the background comes from the first sample where animals
         # move: from frames without one the threshold comes from the floor's noise
         # alone (beelab ROI_1 at 0.94 px/mm, its first ant after 11 s: 64 tracks from
         # the first 3 s, 1 from the spread sample, 4 from the window where ants walk).
         # ... and moving specks are not animals where the scale says how long they are.
+        # Not for a picture background, which needs no moving animal (19 s of 22 here).
         expect = anatomy.ANT_LENGTH_MM * px_per_mm
         with contextlib.suppress(InputError):  # nothing moves anywhere: detect says so
             est, sample = _measure_size(src, samples, total, n_prep, options, keep, expect)
-    if est is not None and classical:  # what moved, and the same blobs in the picture
+    if classical:
+        options, px_per_mm = _choose_background(est, options, px_per_mm, info)
+    elif est is not None and px_per_mm is None:
+        px_per_mm = est.length_px / anatomy.ANT_LENGTH_MM
+    det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
+    if hasattr(det, "prepare"):
+        det.prepare(_read(src, sample, keep))
+    info.update(px_per_mm=float(px_per_mm), length_px=float(anatomy.ANT_LENGTH_MM * px_per_mm))
+    start, stop, every = sample
+    info.update(prepare_frames=[start + 1, stop], prepare_step=every)
+    return det, info
+
+
+def _choose_background(
+    est: Any, options: dict[str, Any] | None, px_per_mm: float | None, info: dict[str, Any]
+) -> tuple[dict[str, Any], float]:
+    """The classical detector's options and scale after the size measurement ``est``
+    (None where none was made; then ``px_per_mm`` is the user's): ``background``
+    ``"picture"`` where the animals stood nearly still in the measured frames
+    (:attr:`~thermoswarm.tracking.detect.size.SizeEstimate.stood_still`) and the user
+    did not choose; without a scale, the body length for that background
+    (:meth:`~thermoswarm.tracking.detect.size.SizeEstimate.length_for`).  ``info``
+    gets ``background``, ``moved_length_px`` and ``picture_length_px``."""
+    opts = dict(options or {})
+    if est is not None:  # what moved, and the same blobs in the picture
         info.update(moved_length_px=est.length_px, picture_length_px=est.look_px)
-        if est.stood_still and "background" not in (options or {}):
+        if est.stood_still and "background" not in opts:
             # Only the still animals' moving parts differ from a background learned
             # over time; each frame's own surroundings hold none of them (SLEAP's
             # flies nearly still for 6 s: 2 tracks, every fly point found, against 6
-            # tracks of pieces).  The body length is then the one in the picture.
-            options = {**(options or {}), "background": "picture"}
-            if info["scale_source"] == "measured":
-                px_per_mm = est.look_px / anatomy.ANT_LENGTH_MM
-    if classical:
-        info["background"] = (options or {}).get("background", "time")
-    det = make_detector(detector, px_per_mm=px_per_mm, model=model, options=options)
-    prepare = getattr(det, "prepare", None)
-    if prepare is not None:
-        prepare(_read(src, sample, keep))
-    info.update(px_per_mm=float(px_per_mm), length_px=float(anatomy.ANT_LENGTH_MM * px_per_mm))
-    start, stop, every = sample
-    info["prepare_frames"] = [start + 1, stop]
-    info["prepare_step"] = every
-    return det, info
+            # tracks of pieces).
+            opts["background"] = "picture"
+        if px_per_mm is None:
+            px_per_mm = est.length_for(opts.get("background", "time")) / anatomy.ANT_LENGTH_MM
+    info["background"] = opts.get("background", "time")
+    assert px_per_mm is not None
+    return opts, px_per_mm
 
 
 def _detector_info(det: Any, options: dict[str, Any] | None) -> dict[str, Any]:

@@ -47,7 +47,7 @@ import numpy as np
 from thermoswarm.errors import InputError
 from thermoswarm.fsutil import atomic_write_text
 from thermoswarm.tracking import anatomy
-from thermoswarm.tracking.detect.size import STILL_LOOK
+from thermoswarm.tracking.detect.size import looks_still
 
 __all__ = [
     "flood_reasons",
@@ -241,7 +241,7 @@ def still_look_warning(scale: dict[str, Any]) -> str | None:
     done about it (``scale["background"]``, ``"picture"`` when the pipeline compared
     each frame with its own surroundings instead), or what to do; ``None`` otherwise."""
     moved, look = scale.get("moved_length_px"), scale.get("picture_length_px")
-    if not moved or not look or not look > STILL_LOOK * moved:
+    if not looks_still(look, moved):
         return None
     first, last = scale.get("prepare_frames") or ("?", "?")
     said = (
@@ -252,7 +252,7 @@ def still_look_warning(scale: dict[str, Any]) -> str | None:
     )
     if scale.get("background") == "picture":
         return (
-            f"{said}. So each frame was compared with its own surroundings instead "
+            f"{said}. Each frame was compared with its own surroundings "
             f"(detector.background=picture, body length {scale['length_px']:.0f} px): "
             "animals are found whether they move or not, and so is any still thing of "
             "their size that stands out of its surroundings (specks, small objects); "

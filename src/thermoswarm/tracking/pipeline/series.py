@@ -280,7 +280,9 @@ def detect_series(
     if px_per_mm is None:
         first = VideoSource.from_images(files[:90], "series")
         est = estimate_length_px(first.frames(90, step=2), opts if classical else None)
-        px_per_mm = est.length_px / anatomy.ANT_LENGTH_MM
+        # With a picture background: what moved, measured in the picture.
+        bg = (opts or {}).get("background", "time") if classical else "time"
+        px_per_mm = est.length_for(bg) / anatomy.ANT_LENGTH_MM
         source = "measured"
     dets: list[Any] = []
     w = window if window > 0 else len(files)
