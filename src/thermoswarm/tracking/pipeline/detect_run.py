@@ -238,13 +238,17 @@ def _detect_source(
         "px_per_mm": px_per_mm,
         "length_px": scale["length_px"],
         "scale_source": scale["scale_source"],
-        **{k: scale.get(k) for k in ("prepare_frames", "prepare_step", "background")},
-        **{k: scale.get(k) for k in ("moved_length_px", "picture_length_px")},
+        **{k: scale.get(k) for k in _SCALE_KEYS},
         "seconds": time.perf_counter() - t0,
         "outputs": written,
         "camera": camera_summary(path, isinstance(src, RegisteredSource)),
         "photo_series": scale.get("photo_series"),
     }
+
+
+#: What ``build_detector`` says of the frames and the background it chose, as written.
+_SCALE_KEYS = ("prepare_frames", "prepare_step", "background", "moved_length_px",
+               "picture_length_px")  # fmt: skip
 
 
 def _coco_images(src: Any, files: list[Path] | None, n: int) -> list[dict[str, Any]]:

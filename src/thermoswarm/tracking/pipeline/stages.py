@@ -297,12 +297,10 @@ def _warnings(
     check compares detections one second apart, which photos far apart are not."""
     dets, rate, series = run["dets"], run["rate"], run.get("series")
     per_frame = np.bincount(dets[:, 0].astype(np.int64) - 1, minlength=result.n_frames)
-    # Finds what moves (the classical detector against a background learned over time).
-    still_bg = (
-        det_name == "classical"
-        and series is None
-        and (run["scale"].get("background", "time") == "time")
-    )
+    classical = det_name == "classical" and series is None
+    # Finds what moves (against a background learned over time, not the picture's own).
+    still_bg = classical and run["scale"].get("background", "time") == "time"
+    look = still_look_warning(run["scale"]) if classical else None
     length = run["scale"]["length_px"]
     reasons = flood_reasons(
         per_frame, run["src"].size, length, dets if still_bg else None, fps=rate
@@ -313,13 +311,10 @@ def _warnings(
         (out / "WARNING.txt").unlink(missing_ok=True)  # an earlier run's
         return [], add_warning(out, series["note"])
     warned = warn_no_track(result.n_tracks, per_frame, rate, tracker, out)
-    if not still_bg:  # the classical detector on the picture says what it did
-        look = still_look_warning(run["scale"]) if series is None else None
-        return [], warned + add_warning(out, look)
-    if result.n_tracks:
+    if still_bg and result.n_tracks:
         det = result.scores > 0  # tracked and detected there
         per = np.bincount(result.frames[det], minlength=result.n_frames)
         ins = inner_ends(result.ids[det], result.frames[det], result.points[det, 1],
                          run["src"].size, length)  # fmt: skip
         warned += add_warning(out, few_found_warning(per, ins))
-    return [], warned + add_warning(out, still_look_warning(run["scale"]))
+    return [], warned + add_warning(out, look)
