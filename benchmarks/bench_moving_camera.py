@@ -3,13 +3,15 @@ a turn and a hand's shake), then tracked; the recovered path and the tracks are
 compared with the truth (the still clip's own tracks, mapped into the first frame's px).
 
     python benchmarks/bench_moving_camera.py CLIP.mp4 OUT_DIR [--frames 150] [--start 0]
-        [--view 800] [--px-per-mm S] [--set detector.polarity=light]
+        [--view 800] [--px-per-mm S] [--set detector.polarity=light] [--gt GT.txt]
 
 Writes OUT_DIR/moved.mp4, OUT_DIR/still/ and OUT_DIR/moved/ (``track_video``
 outputs) and prints the path error (px at the frame corners), and for the still
 clip's tracked body points in the view: the share within half a body length of a
 moved-clip track point, and the median distance; each run's body length, the same
-blobs' length in the picture and its number of warnings.
+blobs' length in the picture, its number of warnings and its detector's background;
+with ``--gt`` (the clip's labelled boxes, e.g. ``bench_real_footage.py --gt-mot``), the
+still run scored against the labels of the frames taken.
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ def main() -> None:
     ap.add_argument("--view", type=int, default=800)
     ap.add_argument("--set", dest="sets", action="append", default=[])
     ap.add_argument("--px-per-mm", type=float, default=None)
+    ap.add_argument("--gt", type=Path, help="the clip's labelled boxes (MOTChallenge)")
     a = ap.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -129,8 +132,32 @@ def main() -> None:
         # The same blobs measured in the picture itself, and the runs' warnings.
         "picture_length_px": {k: r.get("picture_length_px") for k, r in runs.items()},
         "warnings": {k: len(r["warnings"]) for k, r in runs.items()},
+        "background": {k: r.get("background") for k, r in runs.items()},
     }
+    if a.gt is not None:
+        res["still_vs_labels"] = against_labels(a.gt, A, a.start, len(frames), L)
     print(json.dumps(res, indent=1))
+
+
+def against_labels(gt: Path, tracks: np.ndarray, start: int, n: int, length: float) -> dict:
+    """The still run's ``tracks`` against the clip's labelled boxes of the frames taken
+    (``start`` + 1 .. ``start`` + ``n``, renumbered from 1): TrackEval's MOTA, IDF1,
+    HOTA at IoU 0.5 (``evaluate_tables``), and the share of labelled boxes whose centre
+    lies within half a body ``length`` of a track box's centre (boxes of another size
+    than the labels' still count: a run without a scale)."""
+    from thermoswarm.tracking.evaluate import evaluate_tables
+
+    truth = np.loadtxt(gt, delimiter=",", ndmin=2)
+    truth = truth[(truth[:, 0] > start) & (truth[:, 0] <= start + n)].copy()
+    truth[:, 0] -= start
+    m = evaluate_tables(truth, tracks)
+    found = 0
+    for t in truth:
+        at = tracks[tracks[:, 0] == t[0]]
+        d = np.hypot(*(at[:, 2:4] + at[:, 4:6] / 2 - t[2:4] - t[4:6] / 2).T)
+        found += bool(at.size) and d.min() <= 0.5 * length
+    out = {k: float(m[k]) for k in ("mota", "idf1", "hota", "idsw", "fp", "fn")}
+    return out | {"labels": len(truth), "within_half_body": found / max(len(truth), 1)}
 
 
 if __name__ == "__main__":
