@@ -94,3 +94,17 @@ def test_each_track_is_smoothed_with_its_own_acceleration(rng):
     runners = ids >= 180
     assert rms(out, runners) < 0.95 * rms(boxes, runners)
     assert rms(out, ~runners) < 0.62 * rms(boxes, ~runners)
+    # The colony's acceleration for every track (TrackerConfig.smooth_weight very large):
+    # the runners' turns cut again, as before.
+    colony = smooth_boxes(frames, ids, boxes, np.zeros(ids.size, bool), fps=FPS,
+                          speed_px_s=50, own_weight=1e12)  # fmt: skip
+    assert rms(colony, runners) > rms(boxes, runners)
+
+
+def test_smooth_weight_is_checked():
+    from thermoswarm.errors import ConfigError
+    from thermoswarm.tracking.track.config import TrackerConfig
+
+    assert TrackerConfig().smooth_weight == 10.0
+    with pytest.raises(ConfigError, match="smooth_weight"):
+        TrackerConfig(smooth_weight=-1.0)

@@ -84,7 +84,9 @@ class TrackerConfig:
     Output: ``smooth`` smooths each finished track's box centres
     (:mod:`~thermoswarm.tracking.track.smooth`: a fixed-interval Kalman smoother whose
     noises are measured on the tracks); false writes the detections' boxes.  The body
-    points are never smoothed.
+    points are never smoothed.  ``smooth_weight``: the weight, in second differences, of
+    the colony's acceleration in each track's own (a very large one gives every track
+    the colony's).
     """
 
     confirm_s: float = 0.2
@@ -120,6 +122,7 @@ class TrackerConfig:
     shape_weight: float = 1.0
     width_bl: float = anatomy.ANT_WIDTH_MM / anatomy.ANT_LENGTH_MM
     smooth: bool = True
+    smooth_weight: float = 10.0
 
     def __post_init__(self) -> None:
         for name in (
@@ -149,6 +152,12 @@ class TrackerConfig:
             v = getattr(self, name)
             check(math.isfinite(v) and v > 0, name, "a positive number", v)
         check(self.adapt_range >= 1, "adapt_range", "at least 1", self.adapt_range)
+        check(
+            math.isfinite(self.smooth_weight) and self.smooth_weight >= 0,
+            "smooth_weight",
+            "a non-negative number (second differences)",
+            self.smooth_weight,
+        )
         for name in (
             "iou_weight",
             "distance_weight",

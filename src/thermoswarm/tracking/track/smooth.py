@@ -119,18 +119,26 @@ def _rts_axis(
         z[i] = xs[i, 0]
 
 
-#: The weight, in second differences, of the colony's acceleration in each track's
-#: own (:func:`_own_accel`): a track measured over 10 of them is half its own, half
-#: the colony's.  Tuning half of the real ant boxes (``post09``, 15, 7.5, 5 fps), MOTA
-#: + IDF1 + HOTA: the colony's for every track 4.208; 3, 10, 20, 40 second differences
-#: 4.232, 4.238, 4.234, 4.232; a window of 1 s or 2 s about each row instead of the
-#: whole track, 4.225 and 4.212.
+#: The default weight, in second differences, of the colony's acceleration in each
+#: track's own (:func:`_own_accel`; ``TrackerConfig.smooth_weight``): a track measured
+#: over 10 of them is half its own, half the colony's.  Tuning half of the real ant boxes
+#: (``post09``, 15, 7.5, 5 fps), MOTA + IDF1 + HOTA (``bench_ant_boxes.py --parts tune
+#: --dets post09 --no-peers --set smooth_weight=W``): the colony's for every track (W
+#: 1e9) 4.209 (4.208 before per-track accelerations); W 3, 10, 20, 40: 4.232, 4.238,
+#: 4.234, 4.232.  A window of 1 s or 2 s about each row instead of the whole track (a
+#: scratch run, not kept): 4.225, 4.212.
 OWN_WEIGHT = 10.0
 
 
 @njit(cache=True)
 def _own_accel(
-    frames: np.ndarray, boxes: np.ndarray, interp: np.ndarray, q: float, r: float, fps: float
+    frames: np.ndarray,
+    boxes: np.ndarray,
+    interp: np.ndarray,
+    q: float,
+    r: float,
+    fps: float,
+    weight: float,
 ) -> float:
     """One track's acceleration sd (px/s^2): the moment estimate of
     :func:`measure_noise` on its own second differences (the noise ``r`` px the
@@ -152,7 +160,7 @@ def _own_accel(
     a2 = (q / (fps * fps)) ** 2
     if nk:
         own = max(2 * (g0 / (2 * nk) - 6 * r * r), r * r / 4)
-        a2 = (nk * own + OWN_WEIGHT * a2) / (nk + OWN_WEIGHT)
+        a2 = (nk * own + weight * a2) / (nk + weight)
     return np.sqrt(a2) * fps * fps
 
 
@@ -166,6 +174,7 @@ def _smooth_runs(
     q: float,
     r: float,
     v0: float,
+    weight: float,
 ) -> None:
     n = ids.size
     start = 0
@@ -176,7 +185,9 @@ def _smooth_runs(
         if end - start >= 3:
             t = frames[start:end].astype(np.float64) / fps
             meas = ~interp[start:end]
-            qk = _own_accel(frames[start:end], boxes[start:end], interp[start:end], q, r, fps)
+            qk = _own_accel(
+                frames[start:end], boxes[start:end], interp[start:end], q, r, fps, weight
+            )
             for ax in range(2):
                 c0 = boxes[start:end, ax] + boxes[start:end, ax + 2] / 2
                 c = c0.copy()
@@ -225,9 +236,11 @@ def smooth_boxes(
     *,
     fps: float,
     speed_px_s: float,
+    own_weight: float = OWN_WEIGHT,
 ) -> np.ndarray:
     """The boxes with each track's centres smoothed (sizes unchanged), with the noises
-    :func:`measure_noise` finds (the boxes as given where it finds none).
+    :func:`measure_noise` finds (the boxes as given where it finds none), each track
+    with its own acceleration (:func:`_own_accel`).
 
     Parameters
     ----------
@@ -241,6 +254,8 @@ def smooth_boxes(
         Frames per second.
     speed_px_s : float
         The sd of a track's unknown first velocity (px/s).
+    own_weight : float
+        The colony's acceleration's weight in each track's own, in second differences.
 
     Returns
     -------
@@ -260,5 +275,6 @@ def smooth_boxes(
             accel_px_s2,
             noise_px,
             float(speed_px_s),
+            float(own_weight),
         )
     return out

@@ -569,7 +569,8 @@ class Tracker:
         pts = orient_tracks(self.config, frames, ids, pts, hc, self.motion_px)
         if self.config.smooth:
             v0 = self.config.birth_speed_bl_s * self.length_px
-            boxes = smooth_boxes(frames, ids, boxes, interp, fps=self.fps, speed_px_s=v0)
+            boxes = smooth_boxes(frames, ids, boxes, interp, fps=self.fps, speed_px_s=v0,
+                                 own_weight=self.config.smooth_weight)  # fmt: skip
         order = np.lexsort((ids, frames))
         return TrackResult(
             frames[order],
