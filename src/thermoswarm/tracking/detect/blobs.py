@@ -503,14 +503,12 @@ def _from_free_end(
 
 
 def spatial_response(grey: np.ndarray, diameter: float, light: bool) -> np.ndarray:
-    """How far each pixel of ``grey`` (float32) stands out of its own surroundings: a
-    grey top-hat (``light`` animals) or black-hat (dark ones) over a disc of
-    ``diameter`` px, i.e. the frame against a spatial background, which holds no animal
-    whether it moves or not (unlike a background learned over time)."""
-    import cv2
-
-    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(diameter) | 1,) * 2)
-    return cv2.morphologyEx(grey, cv2.MORPH_TOPHAT if light else cv2.MORPH_BLACKHAT, k)
+    """How far each pixel of ``grey`` (float32) stands out of its own surroundings: the
+    frame against its :func:`picture_background` (a grey top-hat for ``light``
+    animals, a black-hat for dark ones, over a disc of ``diameter`` px), which holds no
+    animal whether it moves or not (unlike a background learned over time)."""
+    bg = picture_background(grey, diameter, light)
+    return grey - bg if light else bg - grey
 
 
 #: The widest disc (px) a grey opening or closing is computed over: larger ones on a
@@ -528,7 +526,9 @@ def picture_background(grey: np.ndarray, diameter: float, light: bool) -> np.nda
     for dark ones), so that the steps it blurred are not foreground along their edge."""
     import cv2
 
-    shrink = min(1.0, _MAX_DISC / max(diameter, 1.0))
+    # Shrunk only where the disc's kernel would be wider than _MAX_DISC px: a diameter
+    # a hair over it (a float's rounding) is not worth a resampled frame.
+    shrink = _MAX_DISC / diameter if int(diameter) > _MAX_DISC else 1.0
     small = grey
     if shrink < 1:
         small = cv2.resize(grey, None, fx=shrink, fy=shrink, interpolation=cv2.INTER_AREA)
