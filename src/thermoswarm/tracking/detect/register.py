@@ -409,7 +409,7 @@ def _measured_path(src: Any, max_frames: int | None) -> CameraPath:
     key: tuple[Any, ...] | None = None
     # Video files only: a list of images (or a folder of them) is named by a folder, or
     # by a made-up name, whose mtime does not follow its frames.
-    if getattr(src, "_files", None) is None and os.path.isfile(getattr(src, "path", "")):
+    if getattr(src, "files", None) is None and os.path.isfile(getattr(src, "path", "")):
         st = os.stat(src.path)
         key = (os.path.realpath(src.path), st.st_mtime_ns, st.st_size, max_frames)
     if key is not None and key in _LAST_PATH:
