@@ -54,7 +54,7 @@ def main() -> int:
     ap.add_argument("--only", nargs="*", default=list(SPACE))
     a = ap.parse_args()
     names = ["post09", "320_raw"]
-    data = {"gt": bab.load(a.data / bab.GT), **{n: bab.load(a.data / bab.DETS[n]) for n in names}}
+    data = bab.load_data(a.data, names)
     best: dict = {}
     top, parts = objective(data, preset("ants"), a.steps)
     print(f"start {top:.3f} {parts}", flush=True)
