@@ -29,6 +29,9 @@ SPACE = {
     "max_gap_s": [0.5, 2.0],
     "min_score": [0.5],
     "distance_weight": [0.5],
+    "smooth": [False],
+    "size_band": [0.0, 2.0],
+    "max_cost": [2.0],
 }
 
 

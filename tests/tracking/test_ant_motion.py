@@ -163,3 +163,89 @@ def test_presets_and_their_cli_option(tmp_path):
     assert used["min_iou"] == 0.3 and used["max_gap_s"] == 0.7
     r = CliRunner().invoke(cli, [*base, "--out", str(tmp_path / "p"), "--preset", "cars"])
     assert r.exit_code == 2 and "unknown preset 'cars'" in r.output
+
+
+def _views(fps: float, scale: dict[int, float]):
+    """One ant walking at 6 body lengths a second for 4 s (true boxes), and its
+    detector boxes, those of frames in ``scale`` scaled in area by that factor about
+    the box's centre, each side by its square root (the part of the ant a detector
+    sees as it leaves a hole, or two ants in one box: IoU with the true box ``a`` or
+    ``1 / a``)."""
+    xy, h = _walk(fps, 4.0, 6.0, 0.3, (100, 100))
+    gt = _boxes(xy, h)
+    det = gt.copy()
+    for k, a in scale.items():
+        c = det[k, :2] + det[k, 2:] / 2
+        det[k, 2:] *= np.sqrt(a)
+        det[k, :2] = c - det[k, 2:] / 2
+    return gt, det
+
+
+@pytest.mark.parametrize("fps", [5.0, 30.0])
+def test_partial_and_merged_views_keep_the_identity_but_are_not_written(fps):
+    # A box with a third of the area of the ant's usual one (the ant half in a hole)
+    # or 2.5-3 times it (two ants in one box) overlaps the ant's true box by IoU < 0.5:
+    # writing it is a false box and a miss; not writing it, a miss.  The track keeps
+    # its identity across those frames.  (Its longer side: 0.55-0.63 or 1.58-1.73 of
+    # the usual one; the default band is 1.5.)
+    from thermoswarm.tracking.track.config import TrackerConfig
+
+    odd = {5: 0.3, 6: 0.4, 12: 2.5, 13: 3.0}
+    gt, det = _views(fps, odd)
+    T = len(gt)
+    gt_rows = np.c_[np.arange(1, T + 1), np.ones(T), gt, np.ones((T, 4))]
+    pts = np.full((T, 1, 3, 2), np.nan)
+    pts[:, 0, 1] = det[:, :2] + det[:, 2:] / 2
+    dets = [FrameDetections(pts[k], np.full(1, 0.8), boxes=det[k : k + 1]) for k in range(T)]
+    m_all = {}
+    for band in (1.5, 0.0):
+        res = track_detections(dets, fps=fps, length_px=L, config=TrackerConfig(size_band=band))
+        t = res.mot_table()
+        m_all[band] = evaluate_tables(gt_rows, t)
+        assert m_all[band]["idsw"] == 0 and m_all[band]["n_pred_ids"] == 1, m_all[band]
+        written = set(t[:, 0].astype(int) - 1)
+        assert written.isdisjoint(odd) == (band > 0), sorted(written)
+    assert m_all[0.0]["fp"] == len(odd) and m_all[1.5]["fp"] == 0
+    assert m_all[1.5]["mota"] - m_all[0.0]["mota"] == pytest.approx(len(odd) / T)
+    assert TrackerConfig().size_band == 1.5
+
+
+@pytest.mark.parametrize("fps", [5.0, 30.0])
+def test_a_turning_ants_boxes_are_all_written(fps):
+    # An ant walking along the image's x axis that turns onto the diagonal for 1 s and
+    # back: its axis-aligned box's area grows 2.6-fold there, its longer side by under
+    # 5 %.  Every box is its own; none may be judged a partial or merged view.
+    t = np.arange(int(4 * fps)) / fps
+    h = np.interp(t, [0, 1.5, 1.75, 2.25, 2.5, 4], [0, 0, 1, 1, 0, 0]) * np.pi / 4
+    step = 3.0 * L / fps * np.c_[np.cos(h), np.sin(h)]
+    xy = 100 + np.cumsum(step, 0)
+    area = np.prod(_boxes(xy, h)[:, 2:], 1)
+    assert area.max() / area.min() > 2.5
+    m = _run(xy[:, None], h[:, None], fps)
+    _check(m, 1, min_mota=1.0)
+
+
+def test_pose_boxes_are_written_whatever_their_size():
+    # Pose detections (body points, no detector box): a body measured short (an ant
+    # curled up) is still written; size_band judges only a detector's own boxes.
+    fps = 10.0
+    xy, h = _walk(fps, 3.0, 3.0, 0.0, (100, 100))
+    T = len(xy)
+    half = np.where(np.isin(np.arange(T), [8, 9, 10]), 0.2, 0.5) * L
+    pts = np.stack([xy + np.c_[half, 0 * half], xy, xy - np.c_[half, 0 * half]], 1)
+    dets = [FrameDetections(pts[k : k + 1], np.full(1, 0.8)) for k in range(T)]
+    res = track_detections(dets, fps=fps, length_px=L)
+    assert res.n_tracks == 1 and res.frames.size == T
+
+
+def test_size_outliers_are_judged_against_each_tracks_own_median():
+    from thermoswarm.tracking.track.result import size_outliers
+
+    # Longer sides: track 1: 100 (x5), 45, 210; track 2 (a larger ant): 400 (x4),
+    # 190, 790.
+    ids = np.r_[np.ones(7), np.full(6, 2)]
+    side = np.r_[[100] * 5, 45, 210, [400] * 4, 190, 790]
+    boxes = np.c_[np.zeros((13, 2)), np.ones(13), side]
+    assert np.flatnonzero(size_outliers(ids, boxes, 2.0)).tolist() == [5, 6, 11]
+    assert np.flatnonzero(size_outliers(ids, boxes, 2.3)).tolist() == []
+    assert not size_outliers(ids, boxes, 0.0).any()

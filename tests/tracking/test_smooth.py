@@ -108,3 +108,29 @@ def test_smooth_weight_is_checked():
     assert TrackerConfig().smooth_weight == 10.0
     with pytest.raises(ConfigError, match="smooth_weight"):
         TrackerConfig(smooth_weight=-1.0)
+
+
+def test_a_detectors_own_boxes_are_written_as_detected_unless_asked(rng):
+    """The tracker smooths boxes it built from body points; a detector's own boxes
+    (YOLO's: on real ant boxes smoothing them lowered HOTA) are written as detected
+    unless ``smooth_given`` is set."""
+    from thermoswarm.tracking.detection import FrameDetections
+    from thermoswarm.tracking.track.config import TrackerConfig
+    from thermoswarm.tracking.track.tracker import track_detections
+
+    frames, ids, boxes, _ = _tracks(rng, n_tracks=3, n=60, accel=40.0, noise=1.0)
+    dets = []
+    for k in range(60):
+        b = boxes[frames == k]
+        pts = np.full((len(b), 3, 2), np.nan)
+        pts[:, 1] = b[:, :2] + b[:, 2:] / 2
+        dets.append(FrameDetections(pts, np.full(len(b), 0.9), boxes=b))
+    ours = track_detections(dets, fps=FPS, length_px=20.0)
+    assert ours.n_tracks == 3 and ours.frames.size == boxes.shape[0]
+    got = {tuple(np.round(r, 6)) for r in ours.boxes}
+    assert got == {tuple(np.round(r, 6)) for r in boxes}
+    asked = track_detections(
+        dets, fps=FPS, length_px=20.0, config=TrackerConfig(smooth_given=True)
+    )
+    moved = {tuple(np.round(r, 6)) for r in asked.boxes} - got
+    assert len(moved) > 0.9 * boxes.shape[0]

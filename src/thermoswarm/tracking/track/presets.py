@@ -10,7 +10,8 @@
   Faster R-CNN boxes (issue 26, docs/tracking.md "Real detector boxes"): 4 detections
   without a miss to confirm, 0.5 s coasting, ``min_iou`` 0.3 on a detector's own boxes,
   duplicates judged by box overlap (0.3 of the smaller box), slow process noise, the
-  detections' boxes written as detected (no smoothing).  Those
+  detections' boxes written as detected (no smoothing, every box written: a
+  pedestrian's box grows as they walk toward the camera).  Those
   were tuned in frames (4 detections, no miss); here they are seconds at 15 fps (the
   tuning sequences' rates were 7-30 fps, median 14), so at other frame rates the frame
   counts differ from the ones tuned.
@@ -47,6 +48,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         duplicate_body=0.0,
         duplicate_overlap=0.3,
         smooth=False,
+        size_band=0.0,
     ),
 }
 

@@ -41,10 +41,12 @@ Each frame:
 
 7. **At the end** (:meth:`Tracker.finish`): motion no ant can make is removed (a
    single misplaced row is interpolated; after a jump that stays, the first row is
-   dropped so that no speed spans it; ``fix_jumps``), and each track's head-tail
-   order is chosen over its whole life (Viterbi;
+   dropped so that no speed spans it; ``fix_jumps``), a detector's boxes much shorter
+   or longer than their track's usual one are not written (partial or merged views;
+   ``size_band``, :func:`~thermoswarm.tracking.track.result.size_outliers`), and each
+   track's head-tail order is chosen over its whole life (Viterbi;
    :func:`~thermoswarm.tracking.track.result.orient_tracks`).
-   Neither changes identities.
+   None of these changes identities.
 
 Online output is final with a fixed lag (``Tracker.lag`` frames): identities and rows
 of frame ``k`` never change once frame ``k + lag`` has been processed, so overlays can
@@ -78,7 +80,12 @@ from thermoswarm.tracking.track import association, kalman, speed
 from thermoswarm.tracking.track import bank as track_bank
 from thermoswarm.tracking.track.bank import TrackBank
 from thermoswarm.tracking.track.config import TrackerConfig
-from thermoswarm.tracking.track.result import TrackResult, fix_jumps, orient_tracks
+from thermoswarm.tracking.track.result import (
+    TrackResult,
+    fix_jumps,
+    orient_tracks,
+    size_outliers,
+)
 from thermoswarm.tracking.track.smooth import smooth_boxes
 
 __all__ = ["TrackerConfig", "Tracker", "TrackResult", "track_detections", "estimate_length_px"]
@@ -163,6 +170,7 @@ class Tracker:
         self._pending: dict[int, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
         self._popped = -1
         self._hinted = np.zeros(0, np.int64)  # keys of the tracks given as hints
+        self._given_boxes = False  # a detector gave its own boxes (size_band applies)
         self.length_px: float | None = None
         if length_px is None and px_per_mm is not None:
             length_px = anatomy.ANT_LENGTH_MM * px_per_mm
@@ -219,6 +227,7 @@ class Tracker:
                 return  # nothing to track yet, and no size to measure it by
             self._set_length(est)
         pts = dets.points
+        self._given_boxes |= n > 0 and dets.boxes is not None
         hc = dets.head_confidence if dets.head_confidence is not None else np.ones(n)
         boxes = dets.box_array(self.pad) if n else np.zeros((0, 4))
         b = self._bank
@@ -559,15 +568,17 @@ class Tracker:
             np.concatenate(col) for col in zip(*self._blocks, strict=True)
         )
         order = np.lexsort((frames, ids))
-        frames, ids, pts, boxes = frames[order], ids[order], pts[order], boxes[order]
-        scores, interp, hc = scores[order], interp[order], hc[order]
+        rows = [col[order] for col in (frames, ids, pts, boxes, scores, interp, hc)]
+        frames, ids, pts, boxes, scores, interp, hc = rows
+        keep = np.ones(ids.size, bool)
         if self.config.fix_jumps:
             lim = speed.track_limits(frames, ids, pts[:, 1], self.step_px)
-            keep = ~fix_jumps(frames, ids, pts, boxes, scores, interp, lim)
-            frames, ids, pts, boxes = frames[keep], ids[keep], pts[keep], boxes[keep]
-            scores, interp, hc = scores[keep], interp[keep], hc[keep]
+            keep &= ~fix_jumps(frames, ids, pts, boxes, scores, interp, lim)  # in place
+        if self._given_boxes and self.config.size_band:
+            keep &= ~size_outliers(ids, boxes, self.config.size_band)
+        frames, ids, pts, boxes, scores, interp, hc = (col[keep] for col in rows)
         pts = orient_tracks(self.config, frames, ids, pts, hc, self.motion_px)
-        if self.config.smooth:
+        if self.config.smooth and (self.config.smooth_given or not self._given_boxes):
             v0 = self.config.birth_speed_bl_s * self.length_px
             boxes = smooth_boxes(frames, ids, boxes, interp, fps=self.fps, speed_px_s=v0,
                                  own_weight=self.config.smooth_weight)  # fmt: skip
