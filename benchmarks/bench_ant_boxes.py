@@ -73,10 +73,17 @@ DET_FRAME_OFFSET = 1
 #: The peers' main thresholds searched on the tuning part; their defaults are in it.
 PEER_GRID = {
     "ByteTrack": dict(
-        track_activation_threshold=[0.3, 0.5, 0.7], minimum_consecutive_frames=[1, 2],
+        track_activation_threshold=[0.05, 0.1, 0.2, 0.3, 0.5, 0.7],
+        minimum_consecutive_frames=[1, 2], high_conf_det_threshold=[0.4, 0.5, 0.6],
     ),
-    "OC-SORT": dict(minimum_iou_threshold=[0.1, 0.3], minimum_consecutive_frames=[1, 3]),
-    "SORT": dict(minimum_iou_threshold=[0.1, 0.3], minimum_consecutive_frames=[1, 3]),
+    "OC-SORT": dict(
+        minimum_iou_threshold=[0.01, 0.03, 0.05, 0.1, 0.3], minimum_consecutive_frames=[1, 3],
+        high_conf_det_threshold=[0.4, 0.5, 0.6],
+    ),
+    "SORT": dict(
+        minimum_iou_threshold=[0.01, 0.03, 0.05, 0.1, 0.3], minimum_consecutive_frames=[1, 3],
+        track_activation_threshold=[0.25, 0.5, 0.6],
+    ),
 }  # fmt: skip
 
 
