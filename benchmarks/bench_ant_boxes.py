@@ -286,8 +286,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tune-peers", type=Path, help="search PEER_GRID, write JSON here")
     ap.add_argument("--check-trackeval", action="store_true")
     ap.add_argument("--speed", action="store_true", help="only the speed ratio")
-    ap.add_argument("--det-offset", type=int, default=DET_FRAME_OFFSET,
-                    help="detection frame k + OFFSET is ground-truth frame k (0: as read)")
+    ap.add_argument(
+        "--det-offset",
+        type=int,
+        default=DET_FRAME_OFFSET,
+        help="detection frame k + OFFSET is ground-truth frame k (0: as read)",
+    )
     ap.add_argument("--alignment", action="store_true",
                     help="only how well each detection set lines up with the ground truth "
                     "at frame offsets -1..2 around --det-offset (tuning part)")  # fmt: skip

@@ -86,14 +86,15 @@ class TrackerConfig:
     noises are measured on the tracks); false writes the detections' boxes.  A
     detector's own boxes are smoothed only with ``smooth_given`` as well (off: on real
     YOLO ant boxes it lowered HOTA and left MOTA unchanged, docs/tracking.md); boxes
-    built from body points are.  The body points are never smoothed.  ``smooth_weight``: the weight, in second differences, of
-    the colony's acceleration in each track's own (a very large one gives every track
-    the colony's).  ``size_band``: a detector's own boxes are written only where their
-    longer side is within this factor of their track's median longer side (0: all
-    written).  A box much shorter or longer than its ant's usual one is a partial or
-    merged view (an ant at the frame's edge or half in a hole, two ants end to end in
-    one box): the track keeps its identity across it, the box is not written.  Pose
-    boxes (built from the body points) are always written.
+    built from body points are.  The body points are never smoothed.
+    ``smooth_weight``: the weight, in second differences, of the colony's acceleration
+    in each track's own (a very large one gives every track the colony's).
+    ``size_band``: a detector's own boxes are written only where their longer side is
+    within this factor of their track's median longer side (0: all written).  A box
+    much shorter or longer than its ant's usual one is a partial or merged view (an ant
+    at the frame's edge or half in a hole, two ants end to end in one box): the track
+    keeps its identity across it, the box is not written.  Pose boxes (built from the
+    body points) are always written.
     """
 
     confirm_s: float = 0.2
@@ -180,7 +181,8 @@ class TrackerConfig:
             v = getattr(self, name)
             check(math.isfinite(v) and v >= 0, name, "a non-negative number", v)
         v = self.size_band
-        check(v == 0 or (math.isfinite(v) and v > 1), "size_band", "0 (off) or a factor above 1", v)
+        ok = v == 0 or (math.isfinite(v) and v > 1)
+        check(ok, "size_band", "0 (off) or a factor above 1", v)
         check(0 <= self.min_score <= 1, "min_score", "in [0, 1]", self.min_score)
         check(0 <= self.min_iou < 1, "min_iou", "in [0, 1)", self.min_iou)
         v = self.duplicate_overlap
