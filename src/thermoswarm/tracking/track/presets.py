@@ -3,7 +3,8 @@
 - ``ants`` (the defaults of :class:`~thermoswarm.tracking.track.config.TrackerConfig`):
   tuned on real ant boxes, the tuning half (frames 3558-9860) of AntTracking's
   ``output_4`` colony video with its three YOLO detection sets, at 15, 7.5 and 5
-  frames per second (``benchmarks/bench_ant_boxes.py``; the second half is held out),
+  frames per second, the detections' frames aligned to the ground truth's
+  (``benchmarks/bench_ant_boxes.py``; the second half is held out),
   and checked on ant motion from anTraX's JS16 trajectories at 10 and 5 fps and on the
   synthetic 1080p video (docs/tracking.md, "Real ant boxes").
 - ``pedestrians``: the values tuned on the MOT15 pedestrian sequences with SORT's

@@ -26,11 +26,11 @@ The detector's noise is one for all tracks; the acceleration is each track's own
 (:func:`_own_accel`: its own second differences, shrunk toward the colony's), since
 running ants turn harder than resting ones.
 
-On real ant boxes (AntTracking's ``output_4``, tuning half, YOLO ``post09``) the
-measured noise is 0.046-0.074 body lengths and the smoothed centres raise MOTA by
-0.020-0.030 and IDF1 by 0.011-0.016 at 15, 7.5 and 5 fps (with the colony's
-acceleration for every track: 0.016-0.022 and 0.007-0.012; docs/tracking.md, "Real
-ant boxes").
+The tracker smooths the boxes it builds from body points (its own detectors'); a
+detector's own boxes only with ``smooth_given``.  On real ant boxes (AntTracking's
+``output_4``, tuning half, YOLO ``post09``, with the detections' frames aligned to the
+ground truth's) smoothing them left MOTA unchanged (+0.000 / -0.001 / +0.002 at 15,
+7.5 and 5 fps) and lowered HOTA by 0.016-0.024 (docs/tracking.md, "Real ant boxes").
 """
 
 from __future__ import annotations
