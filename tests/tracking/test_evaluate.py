@@ -247,3 +247,36 @@ def test_huge_frame_numbers_are_refused_not_allocated(tmp_path):
         evaluate_tables(
             np.array([[1, 1, 0, 0, 10, 10], [1e11, 1, 0, 0, 10, 10]]), np.zeros((0, 6))
         )
+
+
+def test_files_that_count_frames_from_different_origins_are_named(tmp_path):
+    """Ground truth counting frames from 0 and tracks from 1 (AntTracking's files): two
+    walkers moving 8 px a frame (boxes 10 px) match one frame later only.  `evaluate`
+    warns on stderr, names --frame-offset 1, and with it scores every box; a still scene
+    matches at every offset alike and gets no warning."""
+    from click.testing import CliRunner
+
+    from thermoswarm.cli import cli
+    from thermoswarm.tracking.evaluate import frame_offsets, offset_warning
+
+    gt = np.array([_row(f, i, 8.0 * f, 40.0 * i) for f in range(0, 30) for i in (1, 2)])
+    pred = gt.copy()
+    pred[:, 0] += 1  # the same boxes, numbered from 1
+    shares = frame_offsets(gt, pred)
+    assert shares[1] == 1.0 and shares[0] == 0.0 and shares[2] == 0.0
+    assert "--frame-offset 1 scores PRED's frame k + 1" in offset_warning(shares)
+    assert evaluate_tables(gt, pred)["mota"] < 0
+    still = gt.copy()
+    still[:, 2] = 0.0
+    moved = still.copy()
+    moved[:, 0] += 1
+    assert offset_warning(frame_offsets(still, moved)) is None
+    g, p = tmp_path / "gt.txt", tmp_path / "pred.txt"
+    write_mot_table(g, gt)
+    write_mot_table(p, pred)
+    r = CliRunner().invoke(cli, ["evaluate", str(g), str(p)])
+    assert r.exit_code == 0 and "warning: PRED matches GT best 1 frame(s) later" in r.stderr
+    assert '"mota"' in r.stdout and "warning" not in r.stdout
+    r = CliRunner().invoke(cli, ["evaluate", str(g), str(p), "--frame-offset", "1"])
+    assert r.exit_code == 0 and "warning" not in r.stderr
+    assert '"mota": 1.0' in r.stdout

@@ -422,13 +422,22 @@ def _run_batch(
 @click.option(
     "--iou", type=float, default=0.5, show_default=True, help="IoU threshold of a match."
 )
-def evaluate(gt: Path, pred: Path, iou: float) -> None:
+@click.option(
+    "--frame-offset",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Score PRED's frame k + N as GT's frame k (files that count frames from "
+    "different origins).",
+)
+def evaluate(gt: Path, pred: Path, iou: float, frame_offset: int) -> None:
     """Compare tracks PRED with ground truth GT (MOTChallenge files); print JSON.
 
     Keys: mota, motp, idf1, idp, idr, idsw, idsw_rate, fp, fn, tp, n_gt, n_pred,
     n_gt_ids, n_pred_ids, n_frames, precision, recall, mt, pt, ml, frag, iou_threshold,
     and hota, deta, assa, loca (means over IoU thresholds 0.05..0.95, as TrackEval).
-    Frames may count from 0 or 1.
+    Frames may count from 0 or 1.  When PRED matches GT clearly better one or two
+    frames off, a warning on stderr says so and names the --frame-offset to pass.
     """
     from thermoswarm.fsutil import require_input
 
@@ -436,4 +445,7 @@ def evaluate(gt: Path, pred: Path, iou: float) -> None:
     from thermoswarm.fsutil import dumps_json
     from thermoswarm.tracking.evaluate import evaluate_files
 
-    click.echo(dumps_json(evaluate_files(gt, pred, iou=iou)))
+    result, warning = evaluate_files(gt, pred, iou=iou, frame_offset=frame_offset, check=True)
+    if warning:
+        click.echo(f"warning: {warning}", err=True)
+    click.echo(dumps_json(result))

@@ -46,7 +46,14 @@ from scipy.optimize import linear_sum_assignment
 
 from thermoswarm.errors import InputError
 
-__all__ = ["evaluate_tables", "evaluate_files", "METRIC_KEYS", "HOTA_ALPHAS"]
+__all__ = [
+    "evaluate_tables",
+    "evaluate_files",
+    "frame_offsets",
+    "offset_warning",
+    "METRIC_KEYS",
+    "HOTA_ALPHAS",
+]
 
 #: The keys of the result of :func:`evaluate_tables`.
 METRIC_KEYS = (
@@ -402,12 +409,20 @@ def evaluate_tables(
 
 
 def evaluate_files(
-    gt_path: str | os.PathLike, pred_path: str | os.PathLike, *, iou: float = 0.5
-) -> dict[str, Any]:
+    gt_path: str | os.PathLike,
+    pred_path: str | os.PathLike,
+    *,
+    iou: float = 0.5,
+    frame_offset: int = 0,
+    check: bool = False,
+) -> Any:
     """:func:`evaluate_tables` of two MOTChallenge text files.
 
     An empty prediction file is allowed (everything is a false negative); an empty or
     malformed ground-truth file is an :class:`~thermoswarm.errors.InputError`.
+    ``frame_offset``: the prediction's frame ``k + frame_offset`` is scored as the
+    ground truth's frame ``k``.  ``check``: return ``(metrics, warning)``, the warning
+    (or None) from :func:`frame_offsets` at offsets -2..2 about that alignment.
     """
     from thermoswarm.io.mot import read_mot_table
 
@@ -416,4 +431,58 @@ def evaluate_files(
     pred = read_mot_table(pred_path, allow_empty=True, min_frame=0)
     if np.any(pred[:, 1] < 0):
         raise InputError(f"{pred_path}: rows with id -1 are detections, not tracks")
-    return evaluate_tables(gt, pred, iou=iou, gt_name=str(gt_path), pred_name=str(pred_path))
+    if frame_offset:
+        pred = pred.copy()
+        pred[:, 0] -= frame_offset
+        pred = pred[pred[:, 0] >= 0]
+    m = evaluate_tables(gt, pred, iou=iou, gt_name=str(gt_path), pred_name=str(pred_path))
+    if not check:
+        return m
+    return m, offset_warning(frame_offsets(gt, pred, iou=iou), iou=iou, given=frame_offset)
+
+
+def frame_offsets(
+    gt: np.ndarray, pred: np.ndarray, offsets=(-2, -1, 0, 1, 2), *, iou: float = 0.5
+) -> dict[int, float]:
+    """For each ``offset``: the share of ground-truth boxes of frame ``f`` that some
+    predicted box of frame ``f + offset`` overlaps by IoU >= ``iou``.
+
+    Where the two files count frames from different origins (one from 0, the other
+    from 1, as AntTracking's ground truth and its detections do), the prediction
+    matches best one frame off, and every score of :func:`evaluate_tables` is
+    measured against the wrong frame: for animals that walk, badly (docs/tracking.md,
+    "Real ant boxes").  A scene that does not move matches equally at every offset."""
+    gt, pred = _as_table(gt, "gt"), _as_table(pred, "pred")
+    out: dict[int, float] = {}
+    if not len(gt):
+        return {int(o): 0.0 for o in offsets}
+    frames = np.unique(gt[:, 0].astype(np.int64))
+    g_rows = _frames(gt, frames)
+    for o in offsets:
+        p_rows = _frames(pred, frames + int(o))
+        hit = 0
+        for g, p in zip(g_rows, p_rows, strict=True):
+            if g.size and p.size:
+                hit += int(np.count_nonzero(_iou(gt[g, 2:6], pred[p, 2:6]).max(1) >= iou))
+        out[int(o)] = hit / len(gt)
+    return out
+
+
+def offset_warning(shares: dict[int, float], *, iou: float = 0.5, given: int = 0) -> str | None:
+    """A one-line warning when the prediction matches the ground truth clearly better
+    at a frame offset other than 0 (1.25 times the boxes, and 0.1 of all ground-truth
+    boxes more), naming the ``--frame-offset`` to pass (``given``: the one already
+    applied); None otherwise."""
+    at0 = shares.get(0, 0.0)
+    best = max(shares, key=lambda o: (shares[o], -abs(o)))
+    if best == 0 or shares[best] < 1.25 * at0 or shares[best] - at0 < 0.1:
+        return None
+    side = "later" if best > 0 else "earlier"
+    n = given + best
+    shift = f" + {n}" if n > 0 else f" - {-n}" if n < 0 else ""
+    return (
+        f"PRED matches GT best {abs(best)} frame(s) {side}: {shares[best]:.2f} of the true "
+        f"boxes at IoU >= {iou:g} against {at0:.2f} in the same frame; the files may count "
+        f"frames from different origins (0 and 1): --frame-offset {n} scores PRED's frame "
+        f"k{shift} as GT's frame k"
+    )
