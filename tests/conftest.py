@@ -19,7 +19,7 @@ HEAVY = (
     "tests/analysis/test_calibration.py::test_lr_and_one_phase_gof_are_calibrated_under_one_phase",
     "tests/robot/test_closed_loop.py::test_transport_free_boards_push_the_object_as_simulated_robots_do",
     "tests/docs/test_examples.py::test_every_example_runs_as_written[reproduce.md]",
-    "tests/docs/test_examples.py::test_python_examples_run[tracking.md:297]",
+    "tests/docs/test_examples.py::test_python_examples_run[tracking.md:308]",
     "tests/scenarios/test_transport_free.py::test_default_reaches_the_target_in_ten_of_ten_seeds",
     "tests/docs/test_examples.py::test_every_example_runs_as_written[scenarios_transport.md]",
     "tests/tracking/test_unet.py::test_briefly_trained_model_finds_the_ants",
