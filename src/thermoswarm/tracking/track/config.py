@@ -97,7 +97,7 @@ class TrackerConfig:
     body points) are always written.
     """
 
-    confirm_s: float = 0.2
+    confirm_s: float = 0.1
     tentative_gap_s: float = 0.0
     max_gap_s: float = 0.5
     max_speed_bl_s: float = 14.0
