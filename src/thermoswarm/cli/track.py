@@ -445,7 +445,8 @@ def evaluate(gt: Path, pred: Path, iou: float, frame_offset: int) -> None:
     from thermoswarm.fsutil import dumps_json
     from thermoswarm.tracking.evaluate import evaluate_files
 
-    result, warning = evaluate_files(gt, pred, iou=iou, frame_offset=frame_offset, check=True)
-    if warning:
-        click.echo(f"warning: {warning}", err=True)
+    warnings: list[str] = []
+    result = evaluate_files(gt, pred, iou=iou, frame_offset=frame_offset, warnings=warnings)
+    for line in warnings:
+        click.echo(f"warning: {line}", err=True)
     click.echo(dumps_json(result))

@@ -414,15 +414,16 @@ def evaluate_files(
     *,
     iou: float = 0.5,
     frame_offset: int = 0,
-    check: bool = False,
-) -> Any:
+    warnings: list[str] | None = None,
+) -> dict[str, Any]:
     """:func:`evaluate_tables` of two MOTChallenge text files.
 
     An empty prediction file is allowed (everything is a false negative); an empty or
     malformed ground-truth file is an :class:`~thermoswarm.errors.InputError`.
     ``frame_offset``: the prediction's frame ``k + frame_offset`` is scored as the
-    ground truth's frame ``k``.  ``check``: return ``(metrics, warning)``, the warning
-    (or None) from :func:`frame_offsets` at offsets -2..2 about that alignment.
+    ground truth's frame ``k``.  ``warnings``: where given, the files' alignment is
+    checked at offsets -2..2 (:func:`frame_offsets`) and :func:`offset_warning`'s
+    line, if any, is appended to it.
     """
     from thermoswarm.io.mot import read_mot_table
 
@@ -436,9 +437,10 @@ def evaluate_files(
         pred[:, 0] -= frame_offset
         pred = pred[pred[:, 0] >= 0]
     m = evaluate_tables(gt, pred, iou=iou, gt_name=str(gt_path), pred_name=str(pred_path))
-    if not check:
-        return m
-    return m, offset_warning(frame_offsets(gt, pred, iou=iou), iou=iou, given=frame_offset)
+    if warnings is not None:
+        line = offset_warning(frame_offsets(gt, pred, iou=iou), iou=iou, given=frame_offset)
+        warnings += [line] if line else []
+    return m
 
 
 def frame_offsets(
