@@ -157,11 +157,17 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--ants", type=int, default=40)
     ap.add_argument("--cache", type=Path, default=Path("bench-out/tracking"))
     ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.add_argument("--set", dest="overrides", nargs="*", default=[], metavar="KEY=VALUE",
+                    help="tracker options over the ants preset (e.g. confirm_s=0.2)")  # fmt: skip
     args = ap.parse_args(argv)
 
+    from thermoswarm.config import parse_overrides
     from thermoswarm.tracking.evaluate import evaluate_files
     from thermoswarm.tracking.pipeline import track_video
     from thermoswarm.tracking.synth.clip import SynthConfig
+    from thermoswarm.tracking.track.presets import preset
+
+    tracker = preset("ants", **parse_overrides(args.overrides))
 
     args.cache.mkdir(parents=True, exist_ok=True)
     runs = []
@@ -171,9 +177,11 @@ def main(argv: list[str] | None = None) -> dict:
         decode = _decode_fps(video)
         with tempfile.TemporaryDirectory() as tmp:
             c0 = _cpu_seconds()
-            s_no = track_video(video, Path(tmp) / "a", px_per_mm=3.04, overlay=False)
+            s_no = track_video(video, Path(tmp) / "a", px_per_mm=3.04, overlay=False,
+                               tracker_config=tracker)  # fmt: skip
             c1 = _cpu_seconds()
-            s = track_video(video, Path(tmp) / "b", px_per_mm=3.04, overlay=True)
+            s = track_video(video, Path(tmp) / "b", px_per_mm=3.04, overlay=True,
+                            tracker_config=tracker)  # fmt: skip
             c2 = _cpu_seconds()
             m = evaluate_files(seq / "gt" / "gt.txt", Path(tmp) / "b" / "tracks_mot.txt")
             kp = _keypoint_errors(seq / "gt_tracks.nc", Path(tmp) / "b" / "tracks.nc")
