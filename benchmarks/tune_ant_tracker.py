@@ -29,7 +29,7 @@ SPACE = {
     "max_gap_s": [0.5, 2.0],
     "min_score": [0.5],
     "distance_weight": [0.5],
-    "smooth": [False],
+    "smooth_given": [True],
     "size_band": [0.0, 2.0],
     "max_cost": [2.0],
 }
