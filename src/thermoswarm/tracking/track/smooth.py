@@ -121,12 +121,15 @@ def _rts_axis(
 
 #: The default weight, in second differences, of the colony's acceleration in each
 #: track's own (:func:`_own_accel`; ``TrackerConfig.smooth_weight``): a track measured
-#: over 10 of them is half its own, half the colony's.  Tuning half of the real ant boxes
-#: (``post09``, 15, 7.5, 5 fps), MOTA + IDF1 + HOTA (``bench_ant_boxes.py --parts tune
-#: --dets post09 --no-peers --set smooth_weight=W``): the colony's for every track (W
-#: 1e9) 4.209 (4.208 before per-track accelerations); W 3, 10, 20, 40: 4.232, 4.238,
-#: 4.234, 4.232.  A window of 1 s or 2 s about each row instead of the whole track (a
-#: scratch run, not kept): 4.225, 4.212.
+#: over 10 of them is half its own, half the colony's.  Chosen on the tuning half of the
+#: real ant boxes scored one frame off (docs/tracking.md, "Before the alignment": 4.238
+#: against the colony's 4.209); with the frames aligned those boxes are no longer
+#: smoothed (``smooth_given``).  On the boxes it smooths now, those built from body
+#: points, the weight makes no measurable difference: the synthetic 1080p video, MOTA at
+#: seeds 1-3, 0.9760 / 0.9575 / 0.9607 against 0.9758 / 0.9580 / 0.9619 with the
+#: colony's for every track (``bench_tracking.py --set smooth_weight=1e9``); SLEAP's fly
+#: clip HOTA 0.8372 against 0.8375 (``thermoswarm track ... --set
+#: tracker.smooth_weight=1e9``).
 OWN_WEIGHT = 10.0
 
 
@@ -144,9 +147,9 @@ def _own_accel(
     :func:`measure_noise` on its own second differences (the noise ``r`` px the
     detector's, measured on all tracks), shrunk toward the colony's ``q`` with the
     weight of :data:`OWN_WEIGHT` second differences.  Ants run, turn and rest, each
-    its own way: a smoother with the colony's acceleration cut the turns of running
-    ants (tuning half of the real ant boxes, 15 fps: rows of tracks faster than 2 body
-    lengths/s, 1,556 in its densest quarter, 115 boxes lost at IoU 0.5 and 45 won)."""
+    its own way: on drawn hard-turning runners the colony's acceleration smooths their
+    turns away (``test_each_track_is_smoothed_with_its_own_acceleration``); the real-box
+    evidence that chose it was scored one frame off (:data:`OWN_WEIGHT`)."""
     g0 = 0.0
     nk = 0
     for i in range(2, frames.size):
