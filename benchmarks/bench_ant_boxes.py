@@ -108,7 +108,10 @@ def load_data(folder: Path, names: list[str], offset: int = DET_FRAME_OFFSET) ->
 def alignment(data: dict, name: str, offsets=(-1, 0, 1, 2)) -> list[tuple[int, float, float]]:
     """For each extra frame offset ``o`` of the detections (after the one applied at
     load): the median distance (px) from each true box's centre in the tuning part to
-    the nearest box of ``name`` in frame ``f + o``, and the share within 10 px."""
+    the nearest box of ``name`` in frame ``f + o``, and the share within 10 px.
+    Centres, not the IoU share of :func:`thermoswarm.tracking.evaluate.frame_offsets`
+    (what ``thermoswarm evaluate`` checks): ``320_raw``'s half-size boxes match no
+    true box at IoU 0.5 in any frame, but their centres still say which frame."""
     lo, hi = PARTS["tune"]
     gt, det = data["gt"], data[name]
     gt = gt[(gt[:, 0] >= lo) & (gt[:, 0] <= hi)]

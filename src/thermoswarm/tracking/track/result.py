@@ -120,9 +120,8 @@ def size_outliers(ids: np.ndarray, boxes: np.ndarray, band: float) -> np.ndarray
     longer side within 5 % of its body length at every heading, so a turning ant is
     never judged a partial view.  Each track's median is taken in one pass over the
     rows sorted by track, then by side."""
-    out = np.zeros(ids.size, bool)
     if ids.size == 0 or band <= 0:
-        return out
+        return np.zeros(ids.size, bool)
     side = np.max(boxes[:, 2:4], axis=1)
     starts, ends = _track_bounds(ids)
     srt = side[np.lexsort((side, ids))]
@@ -130,8 +129,7 @@ def size_outliers(ids: np.ndarray, boxes: np.ndarray, band: float) -> np.ndarray
     med = np.repeat(0.5 * (srt[lo] + srt[hi]), ends - starts)
     with np.errstate(invalid="ignore", divide="ignore"):
         r = side / med
-    out[:] = (r < 1.0 / band) | (r > band)
-    return out
+    return (r < 1.0 / band) | (r > band)
 
 
 def fix_jumps(
